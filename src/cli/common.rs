@@ -1,0 +1,109 @@
+//! What every subcommand shares: reading inputs, atomic writes, JSON on
+//! stdout, and the mapping from errors to exit codes.
+
+use crate::io::InputError;
+use anyhow::Context;
+use std::io::Write;
+use std::path::Path;
+
+/// A bad-usage or bad-input error (exit code 2) that is not an [`InputError`].
+#[derive(Debug)]
+pub struct BadInput(pub String);
+
+impl std::fmt::Display for BadInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BadInput {}
+
+/// Shorthand: an exit-2 error with this message.
+pub fn bad(message: impl Into<String>) -> anyhow::Error {
+    anyhow::Error::new(BadInput(message.into()))
+}
+
+/// Exit code 2 when any error in the chain is about the input, otherwise 1.
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    if e.chain()
+        .any(|c| c.is::<BadInput>() || c.is::<InputError>())
+    {
+        2
+    } else {
+        1
+    }
+}
+
+/// The error and its causes on one line.
+pub fn one_line(e: &anyhow::Error) -> String {
+    e.chain()
+        .map(|c| c.to_string().replace('\n', " "))
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// Reads a whole input file; a missing or unreadable input is bad input.
+pub fn read_input(path: &Path) -> anyhow::Result<String> {
+    std::fs::read_to_string(path).map_err(|e| bad(format!("{}: cannot read: {e}", path.display())))
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder,
+/// flushed and synced, then renamed over the target. On any error the target
+/// is untouched and the temporary file is removed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".fts-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .with_context(|| {
+            format!(
+                "{}: cannot create a temporary file in {}",
+                path.display(),
+                dir.display()
+            )
+        })?;
+    tmp.write_all(bytes)
+        .and_then(|_| tmp.as_file().sync_all())
+        .with_context(|| format!("{}: write failed", path.display()))?;
+    tmp.persist(path).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: cannot move the result into place: {}",
+            path.display(),
+            e.error
+        )
+    })?;
+    Ok(())
+}
+
+/// Prints exactly one JSON object on stdout (the `--json` contract).
+pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    serde_json::to_writer_pretty(&mut out, value)?;
+    writeln!(out)?;
+    Ok(())
+}
+
+/// `[re, im]` pairs, the JSON form of complex numbers in summaries.
+pub fn complex_pairs<'a>(
+    values: impl IntoIterator<Item = &'a crate::lti::c64>,
+) -> serde_json::Value {
+    serde_json::Value::Array(
+        values
+            .into_iter()
+            .map(|z| serde_json::json!([z.re, z.im]))
+            .collect(),
+    )
+}
+
+/// A complex number for people: `0.547500+0.674800j`.
+pub fn fmt_complex(z: crate::lti::c64) -> String {
+    if z.im == 0.0 {
+        format!("{:.6}", z.re)
+    } else {
+        format!("{:.6}{:+.6}j", z.re, z.im)
+    }
+}

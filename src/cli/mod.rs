@@ -1,0 +1,61 @@
+//! The `fts` command line. Raw flags are resolved into validated settings
+//! before any work; every error prints on one line on stderr and maps to a
+//! stable exit code:
+//!
+//! | code | meaning |
+//! |---|---|
+//! | 0 | success |
+//! | 1 | any other failure (I/O while writing, numerical breakdown) |
+//! | 2 | bad usage or bad input (the message names the file, line or field) |
+
+mod common;
+mod tf;
+mod zpetc;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+pub use common::BadInput;
+
+/// Identification and control of piezo-driven fast tool servos.
+#[derive(Debug, Parser)]
+#[command(name = "fts", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
+    Zpetc(zpetc::ZpetcArgs),
+    /// Inspect transfer-function files.
+    #[command(subcommand)]
+    Tf(tf::TfCommand),
+}
+
+/// Runs the command line and returns the process exit code.
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // clap prints help/version on stdout (exit 0) and usage errors on stderr (exit 2).
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("fts: error: {}", common::one_line(&e));
+            ExitCode::from(common::exit_code(&e))
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Zpetc(args) => zpetc::run(args),
+        Command::Tf(cmd) => tf::run(cmd),
+    }
+}

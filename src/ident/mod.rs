@@ -1,0 +1,3 @@
+//! Identification from measured data.
+
+pub mod metrics;

@@ -1,0 +1,12 @@
+//! File contracts (`shared/spec/interfaces.md`): every reader here parses text
+//! it is handed together with a *source name* (normally the file's path) so that
+//! each error can name the file, the line and the field. Nothing in this module
+//! touches the file system; the CLI reads and writes the bytes.
+
+mod error;
+pub mod tf_json;
+pub mod timeseries;
+
+pub use error::InputError;
+pub mod plot;
+pub mod zpetc_json;

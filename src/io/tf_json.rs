@@ -1,0 +1,278 @@
+//! The `fts.tf/1` transfer-function file (interfaces.md).
+//!
+//! Floats are written by `serde_json` (shortest representation that parses
+//! back to the same `f64`, via `ryu`) and read with its `float_roundtrip`
+//! parser, so a write/read cycle is bit-exact.
+
+use super::InputError;
+use crate::lti::{ContinuousTf, DiscreteTf, TfError, TransferFunction};
+use serde::Serialize;
+use serde_json::{Map, Value};
+
+/// The format tag this module reads and writes.
+pub const TF_FORMAT: &str = "fts.tf/1";
+
+/// Parses an `fts.tf/1` document. Unknown fields are ignored; an unknown
+/// `format` is an error.
+pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError> {
+    let value: Value = serde_json::from_str(text)
+        .map_err(|e| InputError::new(source, format!("invalid JSON: {e}")).at_line(e.line()))?;
+    let obj = value
+        .as_object()
+        .ok_or_else(|| InputError::new(source, "expected a JSON object"))?;
+    check_format(obj, source, TF_FORMAT)?;
+    let var = get_str(obj, source, "var")?;
+    let num = get_f64_array(obj, source, "num")?;
+    let den = get_f64_array(obj, source, "den")?;
+    let tf_err = |e: TfError| {
+        let field = match &e {
+            TfError::BadDenominator(_) => "den",
+            TfError::NonFinite { which, .. } => which,
+            TfError::BadSampleTime(_) => "ts",
+            TfError::ZeroNumerator => "num",
+        };
+        InputError::new(source, e.to_string()).in_field(field)
+    };
+    match var {
+        "z^-1" => {
+            let ts = match obj.get("ts") {
+                Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
+                Some(_) => return Err(field_err(source, "ts", "expected a number of seconds")),
+                None => {
+                    return Err(field_err(
+                        source,
+                        "ts",
+                        "missing: a discrete transfer function (\"var\": \"z^-1\") needs its sample time",
+                    ));
+                }
+            };
+            let delay = match obj.get("delay") {
+                None | Some(Value::Null) => 0,
+                Some(Value::Number(n)) => n.as_u64().ok_or_else(|| {
+                    field_err(
+                        source,
+                        "delay",
+                        "expected a non-negative whole number of samples",
+                    )
+                })? as usize,
+                Some(_) => {
+                    return Err(field_err(
+                        source,
+                        "delay",
+                        "expected a non-negative whole number of samples",
+                    ));
+                }
+            };
+            DiscreteTf::new(num, den, delay, ts)
+                .map(TransferFunction::Discrete)
+                .map_err(tf_err)
+        }
+        "s" => {
+            if let Some(Value::Number(n)) = obj.get("delay")
+                && n.as_f64() != Some(0.0)
+            {
+                return Err(field_err(
+                    source,
+                    "delay",
+                    "a continuous transfer function (\"var\": \"s\") has no sample delay",
+                ));
+            }
+            ContinuousTf::new(num, den)
+                .map(TransferFunction::Continuous)
+                .map_err(tf_err)
+        }
+        other => Err(field_err(
+            source,
+            "var",
+            &format!("expected \"z^-1\" (discrete) or \"s\" (continuous), found {other:?}"),
+        )),
+    }
+}
+
+#[derive(Serialize)]
+struct DiscreteDoc<'a> {
+    format: &'static str,
+    var: &'static str,
+    ts: f64,
+    num: &'a [f64],
+    den: &'a [f64],
+    delay: usize,
+}
+
+#[derive(Serialize)]
+struct ContinuousDoc<'a> {
+    format: &'static str,
+    var: &'static str,
+    num: &'a [f64],
+    den: &'a [f64],
+}
+
+/// The `fts.tf/1` document for `g` as a JSON value (keys in the documented order).
+pub fn tf_to_value(g: &TransferFunction) -> Value {
+    let result = match g {
+        TransferFunction::Discrete(d) => serde_json::to_value(DiscreteDoc {
+            format: TF_FORMAT,
+            var: "z^-1",
+            ts: d.ts(),
+            num: d.num().coeffs(),
+            den: d.den().coeffs(),
+            delay: d.delay(),
+        }),
+        TransferFunction::Continuous(c) => serde_json::to_value(ContinuousDoc {
+            format: TF_FORMAT,
+            var: "s",
+            num: c.num(),
+            den: c.den(),
+        }),
+    };
+    result.expect("plain numbers and strings always serialise")
+}
+
+/// The `fts.tf/1` file text (pretty JSON with a trailing newline).
+pub fn tf_to_string(g: &TransferFunction) -> String {
+    let mut s = serde_json::to_string_pretty(&tf_to_value(g)).expect("JSON value serialises");
+    s.push('\n');
+    s
+}
+
+fn field_err(source: &str, field: &str, message: &str) -> InputError {
+    InputError::new(source, message).in_field(field)
+}
+
+/// Checks the `format` field against `expected` (shared by every fts JSON reader).
+pub fn check_format(
+    obj: &Map<String, Value>,
+    source: &str,
+    expected: &str,
+) -> Result<(), InputError> {
+    match obj.get("format") {
+        Some(Value::String(f)) if f == expected => Ok(()),
+        Some(Value::String(f)) => Err(field_err(
+            source,
+            "format",
+            &format!("unsupported format {f:?}; this fts reads {expected:?}"),
+        )),
+        Some(_) => Err(field_err(source, "format", "expected a string")),
+        None => Err(field_err(
+            source,
+            "format",
+            &format!("missing; expected \"format\": {expected:?}"),
+        )),
+    }
+}
+
+/// A required string field.
+pub fn get_str<'a>(
+    obj: &'a Map<String, Value>,
+    source: &str,
+    key: &str,
+) -> Result<&'a str, InputError> {
+    match obj.get(key) {
+        Some(Value::String(s)) => Ok(s),
+        Some(_) => Err(field_err(source, key, "expected a string")),
+        None => Err(field_err(source, key, "missing")),
+    }
+}
+
+/// A required array of finite numbers.
+pub fn get_f64_array(
+    obj: &Map<String, Value>,
+    source: &str,
+    key: &str,
+) -> Result<Vec<f64>, InputError> {
+    let arr = match obj.get(key) {
+        Some(Value::Array(a)) => a,
+        Some(_) => return Err(field_err(source, key, "expected an array of numbers")),
+        None => return Err(field_err(source, key, "missing")),
+    };
+    if arr.is_empty() {
+        return Err(field_err(source, key, "must not be empty"));
+    }
+    arr.iter()
+        .enumerate()
+        .map(|(i, v)| match v.as_f64() {
+            Some(x) if x.is_finite() => Ok(x),
+            _ => Err(field_err(
+                source,
+                &format!("{key}[{i}]"),
+                &format!("expected a finite number, found {v}"),
+            )),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LI21: &str = r#"{
+      "format": "fts.tf/1", "var": "z^-1", "ts": 0.0001,
+      "num": [4.154, -9.631, 10.23, -5.511, 1.154],
+      "den": [1, -0.7852, 0.7299, -0.614, 0.05156, 0.03447],
+      "delay": 5, "comment": "ignored"
+    }"#;
+
+    #[test]
+    fn reads_interfaces_example() {
+        let TransferFunction::Discrete(g) = parse_tf(LI21, "p.json").unwrap() else {
+            panic!("discrete expected")
+        };
+        assert_eq!(g.delay(), 5);
+        assert_eq!(g.ts(), 1e-4);
+        assert_eq!(g.num().coeffs()[2], 10.23);
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let g = DiscreteTf::new(
+            vec![0.1 + 0.2, 1.0 / 3.0, -2.0f64.sqrt(), 1e-300, 5e-324],
+            vec![1.0, std::f64::consts::PI, f64::MAX],
+            3,
+            1e-4,
+        )
+        .unwrap();
+        let text = tf_to_string(&TransferFunction::Discrete(g.clone()));
+        let TransferFunction::Discrete(back) = parse_tf(&text, "x").unwrap() else {
+            panic!()
+        };
+        for (a, b) in g.num().coeffs().iter().zip(back.num().coeffs()) {
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+        for (a, b) in g.den().coeffs().iter().zip(back.den().coeffs()) {
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+        assert_eq!(tf_to_string(&TransferFunction::Discrete(back)), text);
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let e = parse_tf(r#"{"format":"fts.tf/2"}"#, "p.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("format"));
+        let e = parse_tf(
+            r#"{"format":"fts.tf/1","var":"z^-1","num":[1],"den":[1]}"#,
+            "p.json",
+        )
+        .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("ts"));
+        let e = parse_tf(
+            r#"{"format":"fts.tf/1","var":"z^-1","ts":1,"num":[1,"x"],"den":[1]}"#,
+            "p.json",
+        )
+        .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("num[1]"));
+        let e = parse_tf(
+            r#"{"format":"fts.tf/1","var":"z^-1","ts":1,"num":[1],"den":[0,1]}"#,
+            "p.json",
+        )
+        .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("den"));
+        let e = parse_tf("{\n\"format\": ", "p.json").unwrap_err();
+        assert_eq!(e.line, Some(2));
+        let e = parse_tf(
+            r#"{"format":"fts.tf/1","var":"z^-1","ts":1,"num":[1],"den":[1],"delay":-1}"#,
+            "p.json",
+        )
+        .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("delay"));
+    }
+}

@@ -1,0 +1,16 @@
+//! Linear time-invariant systems: polynomials in `z^-1`, roots, transfer
+//! functions, frequency response and filtering.
+
+pub mod filter;
+pub mod poly;
+pub mod roots;
+pub mod tf;
+
+/// Complex double, the same type faer uses (`faer::c64`).
+#[allow(non_camel_case_types)]
+pub type c64 = num_complex::Complex<f64>;
+
+pub use filter::{TdfFilter, lsim};
+pub use poly::Poly;
+pub use roots::{RootsError, roots_descending};
+pub use tf::{Bode, ContinuousTf, DiscreteTf, TfError, TransferFunction, linspace, logspace};

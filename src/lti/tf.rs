@@ -1,0 +1,446 @@
+//! Transfer functions: discrete `z^-d B(z^-1)/A(z^-1)` with sample time, and
+//! continuous `N(s)/D(s)` in descending powers of `s` (MATLAB order).
+
+use super::poly::Poly;
+use super::roots::{RootsError, roots_descending};
+use crate::lti::c64;
+use std::f64::consts::PI;
+
+/// Why a transfer function is not well formed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TfError {
+    /// The denominator is identically zero, or its constant term (`a0`,
+    /// discrete) / leading coefficient (continuous) is zero.
+    #[error("{0}")]
+    BadDenominator(String),
+    /// A coefficient is NaN or infinite.
+    #[error("{which} coefficient {index} is not finite")]
+    NonFinite {
+        /// `num` or `den`.
+        which: &'static str,
+        /// Position of the coefficient.
+        index: usize,
+    },
+    /// The sample time is not a positive finite number.
+    #[error("sample time must be a positive number of seconds, got {0}")]
+    BadSampleTime(f64),
+    /// The numerator is identically zero.
+    #[error("numerator is identically zero")]
+    ZeroNumerator,
+}
+
+fn check_finite(which: &'static str, c: &[f64]) -> Result<(), TfError> {
+    match c.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(TfError::NonFinite { which, index }),
+        None => Ok(()),
+    }
+}
+
+/// A discrete SISO transfer function `G(z) = z^-delay num(z^-1) / den(z^-1)`.
+///
+/// Invariants (enforced by [`DiscreteTf::new`]): `den[0] != 0`, `num[0] != 0`
+/// unless the numerator is zero (leading zeros of `num` are moved into
+/// `delay`), all coefficients finite, `ts > 0`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiscreteTf {
+    num: Poly,
+    den: Poly,
+    delay: usize,
+    ts: f64,
+}
+
+impl DiscreteTf {
+    /// Builds and validates. Trailing exact zeros are trimmed from both
+    /// polynomials; leading zeros of the numerator become delay.
+    pub fn new(num: Vec<f64>, den: Vec<f64>, delay: usize, ts: f64) -> Result<Self, TfError> {
+        check_finite("num", &num)?;
+        check_finite("den", &den)?;
+        if !(ts.is_finite() && ts > 0.0) {
+            return Err(TfError::BadSampleTime(ts));
+        }
+        let den = Poly::new(den).trimmed(0.0);
+        if den.coeffs()[0] == 0.0 {
+            return Err(TfError::BadDenominator(
+                "den[0] (the z^0 coefficient) must be non-zero: a denominator starting with z^-1 is not causal".into(),
+            ));
+        }
+        let num = Poly::new(num).trimmed(0.0);
+        if num.is_zero() {
+            return Err(TfError::ZeroNumerator);
+        }
+        let lead = num.leading_zeros();
+        let num = Poly::new(num.coeffs()[lead..].to_vec());
+        Ok(Self {
+            num,
+            den,
+            delay: delay + lead,
+            ts,
+        })
+    }
+
+    /// Numerator `B(z^-1)`, ascending powers.
+    pub fn num(&self) -> &Poly {
+        &self.num
+    }
+
+    /// Denominator `A(z^-1)`, ascending powers.
+    pub fn den(&self) -> &Poly {
+        &self.den
+    }
+
+    /// Pure delay in samples.
+    pub fn delay(&self) -> usize {
+        self.delay
+    }
+
+    /// Sample time in seconds.
+    pub fn ts(&self) -> f64 {
+        self.ts
+    }
+
+    /// Nyquist frequency in Hz.
+    pub fn nyquist_hz(&self) -> f64 {
+        0.5 / self.ts
+    }
+
+    /// `G(e^{j omega})` at normalised angular frequency `omega` (rad/sample).
+    pub fn response_at_omega(&self, omega: f64) -> c64 {
+        let delay = c64::from_polar(1.0, -omega * self.delay as f64);
+        delay * self.num.eval_unit_circle(omega) / self.den.eval_unit_circle(omega)
+    }
+
+    /// `G(e^{j 2 pi f ts})` at `f` Hz.
+    pub fn response_at_hz(&self, f: f64) -> c64 {
+        self.response_at_omega(2.0 * PI * f * self.ts)
+    }
+
+    /// Steady-state gain `B(1)/A(1)`; infinite when `A(1) = 0` (integrator).
+    pub fn dc_gain(&self) -> f64 {
+        let a = self.den.sum();
+        if a == 0.0 {
+            f64::INFINITY * self.num.sum().signum()
+        } else {
+            self.num.sum() / a
+        }
+    }
+
+    /// Zeros in the z-plane (roots of `B`); the delay's poles at the origin
+    /// and degree-difference poles/zeros at the origin are not listed.
+    pub fn zeros(&self) -> Result<Vec<c64>, RootsError> {
+        self.num.z_roots()
+    }
+
+    /// Poles in the z-plane (roots of `A`).
+    pub fn poles(&self) -> Result<Vec<c64>, RootsError> {
+        self.den.z_roots()
+    }
+
+    /// All poles strictly inside the unit circle.
+    pub fn is_stable(&self) -> Result<bool, RootsError> {
+        Ok(self.poles()?.iter().all(|p| p.norm() < 1.0))
+    }
+
+    /// `self * other` (the sample times must agree; the caller checks).
+    pub fn series(&self, other: &DiscreteTf) -> DiscreteTf {
+        DiscreteTf {
+            num: self.num.mul(&other.num),
+            den: self.den.mul(&other.den),
+            delay: self.delay + other.delay,
+            ts: self.ts,
+        }
+    }
+
+    /// Negative feedback `G / (1 + G H)` with `self = G` and `h = H`:
+    /// `z^-dG BG AH / (AG AH + z^-(dG+dH) BG BH)`.
+    pub fn feedback(&self, h: &DiscreteTf) -> DiscreteTf {
+        let loop_term = self.num.mul(&h.num).shift(self.delay + h.delay);
+        DiscreteTf {
+            num: self.num.mul(&h.den),
+            den: self.den.mul(&h.den).add(&loop_term),
+            delay: self.delay,
+            ts: self.ts,
+        }
+    }
+}
+
+/// A continuous SISO transfer function `N(s)/D(s)`, coefficients in
+/// descending powers of `s`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContinuousTf {
+    num: Vec<f64>,
+    den: Vec<f64>,
+}
+
+fn strip_leading_zeros(c: Vec<f64>) -> Vec<f64> {
+    let start = c
+        .iter()
+        .position(|&x| x != 0.0)
+        .unwrap_or(c.len().saturating_sub(1));
+    c[start..].to_vec()
+}
+
+fn eval_descending(c: &[f64], s: c64) -> c64 {
+    c.iter().fold(c64::new(0.0, 0.0), |acc, &x| acc * s + x)
+}
+
+impl ContinuousTf {
+    /// Builds and validates; leading zeros are removed.
+    pub fn new(num: Vec<f64>, den: Vec<f64>) -> Result<Self, TfError> {
+        check_finite("num", &num)?;
+        check_finite("den", &den)?;
+        let den = strip_leading_zeros(den);
+        if den.is_empty() || den.iter().all(|&c| c == 0.0) {
+            return Err(TfError::BadDenominator(
+                "denominator is identically zero".into(),
+            ));
+        }
+        let num = strip_leading_zeros(num);
+        if num.is_empty() || num.iter().all(|&c| c == 0.0) {
+            return Err(TfError::ZeroNumerator);
+        }
+        Ok(Self { num, den })
+    }
+
+    /// Numerator, descending powers of `s`.
+    pub fn num(&self) -> &[f64] {
+        &self.num
+    }
+
+    /// Denominator, descending powers of `s`.
+    pub fn den(&self) -> &[f64] {
+        &self.den
+    }
+
+    /// Whether `deg N <= deg D`.
+    pub fn is_proper(&self) -> bool {
+        self.num.len() <= self.den.len()
+    }
+
+    /// `G(j 2 pi f)` at `f` Hz.
+    pub fn response_at_hz(&self, f: f64) -> c64 {
+        let s = c64::new(0.0, 2.0 * PI * f);
+        eval_descending(&self.num, s) / eval_descending(&self.den, s)
+    }
+
+    /// `N(0)/D(0)`; infinite for an integrator.
+    pub fn dc_gain(&self) -> f64 {
+        let n0 = *self.num.last().unwrap_or(&0.0);
+        let d0 = *self.den.last().unwrap_or(&0.0);
+        if d0 == 0.0 {
+            f64::INFINITY * n0.signum()
+        } else {
+            n0 / d0
+        }
+    }
+
+    /// Zeros in the s-plane.
+    pub fn zeros(&self) -> Result<Vec<c64>, RootsError> {
+        roots_descending(&self.num)
+    }
+
+    /// Poles in the s-plane.
+    pub fn poles(&self) -> Result<Vec<c64>, RootsError> {
+        roots_descending(&self.den)
+    }
+
+    /// All poles in the open left half plane.
+    pub fn is_stable(&self) -> Result<bool, RootsError> {
+        Ok(self.poles()?.iter().all(|p| p.re < 0.0))
+    }
+}
+
+/// Either kind, as read from an `fts.tf/1` file.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TransferFunction {
+    /// `"var": "z^-1"`.
+    Discrete(DiscreteTf),
+    /// `"var": "s"`.
+    Continuous(ContinuousTf),
+}
+
+impl TransferFunction {
+    /// Frequency response at `f` Hz.
+    pub fn response_at_hz(&self, f: f64) -> c64 {
+        match self {
+            TransferFunction::Discrete(g) => g.response_at_hz(f),
+            TransferFunction::Continuous(g) => g.response_at_hz(f),
+        }
+    }
+
+    /// Steady-state gain.
+    pub fn dc_gain(&self) -> f64 {
+        match self {
+            TransferFunction::Discrete(g) => g.dc_gain(),
+            TransferFunction::Continuous(g) => g.dc_gain(),
+        }
+    }
+
+    /// Zeros (z-plane or s-plane).
+    pub fn zeros(&self) -> Result<Vec<c64>, RootsError> {
+        match self {
+            TransferFunction::Discrete(g) => g.zeros(),
+            TransferFunction::Continuous(g) => g.zeros(),
+        }
+    }
+
+    /// Poles (z-plane or s-plane).
+    pub fn poles(&self) -> Result<Vec<c64>, RootsError> {
+        match self {
+            TransferFunction::Discrete(g) => g.poles(),
+            TransferFunction::Continuous(g) => g.poles(),
+        }
+    }
+
+    /// Asymptotic stability.
+    pub fn is_stable(&self) -> Result<bool, RootsError> {
+        match self {
+            TransferFunction::Discrete(g) => g.is_stable(),
+            TransferFunction::Continuous(g) => g.is_stable(),
+        }
+    }
+}
+
+/// A Bode table: frequency (Hz), magnitude (linear and dB) and phase
+/// (degrees, unwrapped along the grid so that it is continuous).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bode {
+    /// Frequencies in Hz.
+    pub freq_hz: Vec<f64>,
+    /// `|G|`.
+    pub magnitude: Vec<f64>,
+    /// Phase in degrees, unwrapped.
+    pub phase_deg: Vec<f64>,
+}
+
+impl Bode {
+    /// Evaluates `response` on the grid and unwraps the phase.
+    pub fn from_fn(freq_hz: &[f64], response: impl Fn(f64) -> c64) -> Bode {
+        let values: Vec<c64> = freq_hz.iter().map(|&f| response(f)).collect();
+        let magnitude = values.iter().map(|v| v.norm()).collect();
+        let mut phase_deg = Vec::with_capacity(values.len());
+        let mut offset = 0.0;
+        let mut prev: Option<f64> = None;
+        for v in &values {
+            let raw = v.arg().to_degrees();
+            if let Some(p) = prev {
+                let mut d = raw + offset - p;
+                while d > 180.0 {
+                    offset -= 360.0;
+                    d -= 360.0;
+                }
+                while d < -180.0 {
+                    offset += 360.0;
+                    d += 360.0;
+                }
+            }
+            let unwrapped = raw + offset;
+            phase_deg.push(unwrapped);
+            prev = Some(unwrapped);
+        }
+        Bode {
+            freq_hz: freq_hz.to_vec(),
+            magnitude,
+            phase_deg,
+        }
+    }
+
+    /// Magnitude in dB.
+    pub fn magnitude_db(&self) -> Vec<f64> {
+        self.magnitude.iter().map(|m| 20.0 * m.log10()).collect()
+    }
+}
+
+/// `n` points from `lo` to `hi` inclusive, evenly spaced.
+pub fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    match n {
+        0 => Vec::new(),
+        1 => vec![lo],
+        _ => (0..n)
+            .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+            .collect(),
+    }
+}
+
+/// `n` points from `lo` to `hi` inclusive, evenly spaced in log (both > 0).
+pub fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    linspace(lo.log10(), hi.log10(), n)
+        .into_iter()
+        .map(|e| 10f64.powf(e))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn li21() -> DiscreteTf {
+        // [Li21] Eq. 11, Ts = 1e-4 s (math.md 2).
+        DiscreteTf::new(
+            vec![4.154, -9.631, 10.23, -5.511, 1.154],
+            vec![1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447],
+            5,
+            1e-4,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn validation() {
+        assert!(matches!(
+            DiscreteTf::new(vec![1.0], vec![0.0, 1.0], 0, 1.0),
+            Err(TfError::BadDenominator(_))
+        ));
+        assert!(matches!(
+            DiscreteTf::new(vec![1.0], vec![1.0], 0, 0.0),
+            Err(TfError::BadSampleTime(_))
+        ));
+        assert!(matches!(
+            DiscreteTf::new(vec![f64::NAN], vec![1.0], 0, 1.0),
+            Err(TfError::NonFinite {
+                which: "num",
+                index: 0
+            })
+        ));
+        let g = DiscreteTf::new(vec![0.0, 0.0, 2.0], vec![1.0], 1, 1.0).unwrap();
+        assert_eq!(g.delay(), 3);
+        assert_eq!(g.num().coeffs(), &[2.0]);
+    }
+
+    #[test]
+    fn li21_phase_lag_matches_math_md() {
+        // math.md 2: about -15 deg at 100 Hz, -75 at 500 Hz, -145 at 1 kHz.
+        let g = li21();
+        let grid = linspace(0.0, 1000.0, 1001);
+        let bode = Bode::from_fn(&grid, |f| g.response_at_hz(f));
+        let at = |f: usize| bode.phase_deg[f];
+        assert!((at(100) + 15.0).abs() < 3.0, "{}", at(100));
+        assert!((at(500) + 75.0).abs() < 5.0, "{}", at(500));
+        assert!((at(1000) + 145.0).abs() < 8.0, "{}", at(1000));
+    }
+
+    #[test]
+    fn feedback_closed_form() {
+        // G = 0.5 z^-1 / (1 - 0.5 z^-1), unity feedback:
+        // T = 0.5 z^-1 / (1 - 0.5 z^-1 + 0.5 z^-1) = 0.5 z^-1.
+        let g = DiscreteTf::new(vec![0.5], vec![1.0, -0.5], 1, 1.0).unwrap();
+        let one = DiscreteTf::new(vec![1.0], vec![1.0], 0, 1.0).unwrap();
+        let t = g.feedback(&one);
+        assert_eq!(t.delay(), 1);
+        assert_eq!(t.den().trimmed(1e-15).coeffs(), &[1.0]);
+        assert!((t.dc_gain() - 0.5).abs() < 1e-15);
+        let s = g.series(&g);
+        assert_eq!(s.delay(), 2);
+        assert!((s.dc_gain() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn continuous_basics() {
+        // 1/(s+1): dc 1, pole -1, -45 deg at 1/(2 pi) Hz.
+        let g = ContinuousTf::new(vec![1.0], vec![1.0, 1.0]).unwrap();
+        assert_eq!(g.dc_gain(), 1.0);
+        assert_eq!(g.poles().unwrap(), vec![c64::new(-1.0, 0.0)]);
+        let v = g.response_at_hz(1.0 / (2.0 * PI));
+        assert!((v.arg().to_degrees() + 45.0).abs() < 1e-12);
+        assert!(g.is_stable().unwrap());
+    }
+}

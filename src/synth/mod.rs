@@ -1,0 +1,3 @@
+//! Controller and feedforward synthesis.
+
+pub mod zpetc;
