@@ -1,3 +1,5 @@
 //! Identification from measured data.
 
+pub mod excite;
+pub mod ls;
 pub mod metrics;
