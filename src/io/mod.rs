@@ -8,5 +8,6 @@ pub mod tf_json;
 pub mod timeseries;
 
 pub use error::InputError;
+pub mod controller_file;
 pub mod plot;
 pub mod zpetc_json;

@@ -1,3 +1,4 @@
 //! Controller and feedforward synthesis.
 
+pub mod pid;
 pub mod zpetc;
