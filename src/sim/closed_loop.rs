@@ -1,7 +1,7 @@
-//! Closed-loop runs of a [`RuntimeController`] on a [`VirtualFts`], and the
+//! Closed-loop runs of a [`RuntimeController`] on a [`Plant`], and the
 //! tracking metrics of [Li21] (max and RMS error, error in % of amplitude).
 
-use super::virtual_fts::VirtualFts;
+use super::Plant;
 use crate::runtime::RuntimeController;
 
 /// Everything recorded in a run, one entry per controller sample.
@@ -36,12 +36,12 @@ impl Trace {
 
 /// Runs `controller` on `plant` along `reference`; beyond its end the
 /// reference is held at its last value for the controller's preview.
-pub fn run(plant: &mut VirtualFts, controller: &mut RuntimeController, reference: &[f64]) -> Trace {
+pub fn run<P: Plant>(plant: &mut P, controller: &mut RuntimeController, reference: &[f64]) -> Trace {
     let n = reference.len();
     let preview = controller.preview();
     let last = reference.last().copied().unwrap_or(0.0);
     let mut trace = Trace {
-        ts: plant.params().ts,
+        ts: plant.ts(),
         reference: reference.to_vec(),
         filtered_reference: Vec::with_capacity(n),
         feedforward: Vec::with_capacity(n),
@@ -51,7 +51,7 @@ pub fn run(plant: &mut VirtualFts, controller: &mut RuntimeController, reference
     };
     for k in 0..n {
         let ahead = *reference.get(k + preview).unwrap_or(&last);
-        trace.position.push(plant.true_position());
+        trace.position.push(plant.true_output());
         let y = plant.measure();
         let (rf, uff, u) = controller.step_traced(ahead, y);
         plant.advance(u);

@@ -1,4 +1,5 @@
 //! Controller and feedforward synthesis.
 
+pub mod composite;
 pub mod pid;
 pub mod zpetc;
