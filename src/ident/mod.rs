@@ -1,3 +1,4 @@
 //! Identification from measured data.
 
+pub mod hysteresis;
 pub mod metrics;
