@@ -9,4 +9,5 @@ pub mod timeseries;
 
 pub use error::InputError;
 pub mod plot;
+pub mod hysteresis_json;
 pub mod zpetc_json;

@@ -681,7 +681,7 @@ where
             constraint_active = act_w || act_g;
         }
         // Stop when an alternation no longer improves the cost (relative 1e-12).
-        if previous_cost - cost <= 1e-12 * previous_cost {
+        if previous_cost.is_finite() && previous_cost - cost <= 1e-12 * previous_cost {
             break;
         }
         previous_cost = cost;
