@@ -9,6 +9,7 @@
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
 mod common;
+mod excite;
 mod tf;
 mod zpetc;
 
@@ -27,6 +28,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
+    Excite(excite::ExciteArgs),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
     /// Inspect transfer-function files.
@@ -55,6 +58,7 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Excite(args) => excite::run(args),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
     }
