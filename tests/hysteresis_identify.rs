@@ -33,14 +33,24 @@ fn model(kind: ModelKind, operator: PlayOperator, u: &[f64], n: usize) -> Hyster
     let max_abs = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     // Positive first weight and mixed-sign others, like [Li21] Table 1.
     let weights: Vec<f64> = (0..n)
-        .map(|i| if i == 0 { 0.9 } else { 0.05 * ((i as f64 * 1.7).sin() + 0.3) })
+        .map(|i| {
+            if i == 0 {
+                0.9
+            } else {
+                0.05 * ((i as f64 * 1.7).sin() + 0.3)
+            }
+        })
         .collect();
     HysteresisModel {
         kind,
         operator,
         thresholds: uniform_thresholds(n, max_abs),
         weights,
-        cbrt_gain: if kind == ModelKind::MpiCbrt { 0.37 } else { 0.0 },
+        cbrt_gain: if kind == ModelKind::MpiCbrt {
+            0.37
+        } else {
+            0.0
+        },
         offset: -1.7,
         input_offset: 0.0,
         dead_zone: None,
@@ -50,7 +60,10 @@ fn model(kind: ModelKind, operator: PlayOperator, u: &[f64], n: usize) -> Hyster
 fn assert_close(what: &str, got: &[f64], want: &[f64], tol: f64) {
     assert_eq!(got.len(), want.len(), "{what}: lengths");
     for (i, (a, b)) in got.iter().zip(want).enumerate() {
-        assert!((a - b).abs() <= tol, "{what}[{i}]: got {a}, want {b} (tol {tol})");
+        assert!(
+            (a - b).abs() <= tol,
+            "{what}[{i}]: got {a}, want {b} (tol {tol})"
+        );
     }
 }
 
@@ -79,10 +92,22 @@ fn exact_recovery_for_each_model_and_operator() {
         let got = identify(&u, &y, &params).unwrap();
         let what = format!("{} {}", kind.name(), op.name());
         assert_eq!(got.model.thresholds, truth.thresholds, "{what}");
-        assert_close(&format!("{what} weights"), &got.model.weights, &truth.weights, 1e-9);
-        assert!((got.model.cbrt_gain - truth.cbrt_gain).abs() < 1e-9, "{what}");
+        assert_close(
+            &format!("{what} weights"),
+            &got.model.weights,
+            &truth.weights,
+            1e-9,
+        );
+        assert!(
+            (got.model.cbrt_gain - truth.cbrt_gain).abs() < 1e-9,
+            "{what}"
+        );
         assert!((got.model.offset - truth.offset).abs() < 1e-9, "{what}");
-        assert!(got.info.fit.max_percent < 1e-9, "{what}: {:?}", got.info.fit);
+        assert!(
+            got.info.fit.max_percent < 1e-9,
+            "{what}: {:?}",
+            got.info.fit
+        );
         assert!(got.info.condition_number.is_finite() && got.info.condition_number > 1.0);
     }
 }
@@ -98,12 +123,22 @@ fn gradient_descent_reaches_least_squares_cost() {
         .simulate(&u)
         .into_iter()
         .map(|v| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             v + 0.05 * ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
         })
         .collect();
     for kind in [ModelKind::Pi, ModelKind::MpiCbrt] {
-        let ls = identify(&u, &y, &IdentifyParams { kind, ..Default::default() }).unwrap();
+        let ls = identify(
+            &u,
+            &y,
+            &IdentifyParams {
+                kind,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let gd = identify(
             &u,
             &y,
@@ -192,7 +227,15 @@ fn invertibility_constraint() {
     // A loop that needs negative slopes: y falls with large u. The
     // unconstrained fit has a negative partial sum; the constrained one not.
     let y_bad: Vec<f64> = u.iter().map(|x| x - 0.12 * x * x.abs()).collect();
-    let free = identify(&u, &y_bad, &IdentifyParams { invertible: false, ..params.clone() }).unwrap();
+    let free = identify(
+        &u,
+        &y_bad,
+        &IdentifyParams {
+            invertible: false,
+            ..params.clone()
+        },
+    )
+    .unwrap();
     assert!(free.model.partial_sums().iter().any(|s| *s < 0.0));
     let con = identify(&u, &y_bad, &params).unwrap();
     assert!(con.info.constraint_active);
@@ -214,7 +257,10 @@ fn invertibility_constraint() {
 /// carry 4-5 significant digits (and the thresholds themselves are rounded).
 #[test]
 fn li21_table1_inverse_model_loop() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/li21-inverse-mpi.json");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/li21-inverse-mpi.json"
+    );
     let text = std::fs::read_to_string(path).unwrap();
     let file = parse_model(&text, path).unwrap();
     assert_eq!(file.mapping(), "displacement->voltage");
@@ -279,8 +325,21 @@ fn real_piezo_record() {
     let (u, y) = piezo_record();
     let mut fits = Vec::new();
     for kind in [ModelKind::Pi, ModelKind::MpiCbrt, ModelKind::MpiDeadzone] {
-        let got = identify(&u, &y, &IdentifyParams { kind, ..Default::default() }).unwrap();
-        eprintln!("{}: {:?} cond {:.3e}", kind.name(), got.info.fit, got.info.condition_number);
+        let got = identify(
+            &u,
+            &y,
+            &IdentifyParams {
+                kind,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        eprintln!(
+            "{}: {:?} cond {:.3e}",
+            kind.name(),
+            got.info.fit,
+            got.info.condition_number
+        );
         fits.push(got.info.fit);
     }
     for f in &fits {

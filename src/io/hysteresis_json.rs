@@ -181,7 +181,9 @@ pub fn parse_model(text: &str, source: &str) -> Result<ModelFile, InputError> {
         err(
             source,
             "model",
-            format!("unknown model {kind_name:?}; expected \"pi\", \"mpi-cbrt\" or \"mpi-deadzone\""),
+            format!(
+                "unknown model {kind_name:?}; expected \"pi\", \"mpi-cbrt\" or \"mpi-deadzone\""
+            ),
         )
     })?;
     let op_name = get_str(obj, source, "operator")?;
@@ -308,10 +310,8 @@ mod tests {
 
     #[test]
     fn mismatched_lengths_name_the_field() {
-        let text = model_to_string(&file()).replace(
-            "\"weights\": [\n    0.3333333333333333,",
-            "\"weights\": [",
-        );
+        let text = model_to_string(&file())
+            .replace("\"weights\": [\n    0.3333333333333333,", "\"weights\": [");
         let e = parse_model(&text, "m.json").unwrap_err();
         assert_eq!(e.field.as_deref(), Some("weights"), "{e}");
         assert!(e.to_string().contains("must match"), "{e}");
@@ -322,11 +322,8 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("increase strictly"), "{e}");
-        let e = parse_model(
-            r#"{"format": "fts.hysteresis/2", "model": "pi"}"#,
-            "m.json",
-        )
-        .unwrap_err();
+        let e =
+            parse_model(r#"{"format": "fts.hysteresis/2", "model": "pi"}"#, "m.json").unwrap_err();
         assert_eq!(e.field.as_deref(), Some("format"));
     }
 }

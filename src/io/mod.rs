@@ -8,6 +8,6 @@ pub mod tf_json;
 pub mod timeseries;
 
 pub use error::InputError;
-pub mod plot;
 pub mod hysteresis_json;
+pub mod plot;
 pub mod zpetc_json;
