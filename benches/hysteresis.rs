@@ -1,14 +1,26 @@
 //! Identification cost (regressor + least squares) on long records.
 //!
 //! `cargo bench --bench hysteresis`. Target (issue 3): 1e6 samples x 10
-//! operators in <= 60 ms, scaling linearly in samples.
+//! operators in <= 60 ms, scaling linearly in samples (compare the 250k and
+//! 1M figures).
+//!
+//! * `regressor_qr` — the identification core: play operators streamed into
+//!   the blocked Householder QR and the solve (`Regressor::qr` + `solve_from_r`).
+//! * `identify` — the whole `identify()` call: the core plus a sample-by-sample
+//!   simulation of the identified model for the fit report.
+//! * `rows_into_ident_ls` — for comparison, the same regression pushed row by
+//!   row into the general `ident::ls::StreamingLstsq` (faer QR per block).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fts::ident::hysteresis::{IdentifyParams, ModelKind, identify};
+use fts::ident::hysteresis::identify::Regressor;
+use fts::ident::hysteresis::lsq::solve_from_r;
+use fts::ident::hysteresis::operators::uniform_thresholds;
+use fts::ident::hysteresis::{IdentifyParams, ModelKind, PlayOperator, identify};
+use fts::ident::ls::{LstsqParams, StreamingLstsq};
 use std::hint::black_box;
 
-/// A record from a known MPI-cbrt model driven by a triangle of growing
-/// amplitude (many loops), so every operator is excited.
+/// A triangle of growing amplitude (many loops) through a static nonlinearity:
+/// every operator is excited.
 fn record(n: usize) -> (Vec<f64>, Vec<f64>) {
     let u: Vec<f64> = (0..n)
         .map(|k| {
@@ -30,17 +42,47 @@ fn record(n: usize) -> (Vec<f64>, Vec<f64>) {
 }
 
 fn bench(c: &mut Criterion) {
-    let mut group = c.benchmark_group("identify_ls");
+    let mut group = c.benchmark_group("hysteresis_ls");
     group.sample_size(20);
     for &n in &[250_000usize, 1_000_000] {
         let (u, y) = record(n);
+        let max_abs = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let regressor = Regressor {
+            offset: true,
+            cbrt: true,
+            operator: PlayOperator::Lower,
+            thresholds: uniform_thresholds(10, max_abs),
+        };
+        group.bench_function(format!("regressor_qr/{n}x10"), |b| {
+            b.iter(|| {
+                let acc = regressor.qr(black_box(&u), black_box(&y));
+                solve_from_r(acc.r(), regressor.cols() + 1, regressor.free(), None).unwrap()
+            })
+        });
         let params = IdentifyParams {
             kind: ModelKind::MpiCbrt,
             operators: 10,
             ..Default::default()
         };
-        group.bench_function(format!("mpi_cbrt_10ops_{n}"), |b| {
-            b.iter(|| identify(black_box(&u), black_box(&y), &params).expect("identifies"))
+        group.bench_function(format!("identify/{n}x10"), |b| {
+            b.iter(|| identify(black_box(&u), black_box(&y), &params).unwrap())
+        });
+        group.bench_function(format!("rows_into_ident_ls/{n}x10"), |b| {
+            b.iter(|| {
+                let mut ls = StreamingLstsq::new(regressor.cols(), &LstsqParams::default());
+                let mut states = vec![0.0; 10];
+                let mut row = vec![0.0; regressor.cols()];
+                for (&x, &yk) in u.iter().zip(&y) {
+                    row[0] = 1.0;
+                    row[1] = x.cbrt();
+                    for (i, (s, &r)) in states.iter_mut().zip(&regressor.thresholds).enumerate() {
+                        *s = PlayOperator::Lower.step(r, x, *s);
+                        row[2 + i] = *s;
+                    }
+                    ls.push_row(&row, yk);
+                }
+                ls.finish().unwrap()
+            })
         });
     }
     group.finish();

@@ -64,9 +64,9 @@ impl ColMajor {
     }
 }
 
-/// Rows per block: the block (`BLOCK_ROWS x p+1` doubles, 50 KiB for p = 11)
-/// stays in L2 cache while the reflectors sweep it.
-pub const BLOCK_ROWS: usize = 512;
+/// Rows per block: the block (`BLOCK_ROWS x p+1` doubles, 26 KiB for p = 12)
+/// stays in L1 cache while the reflectors sweep it.
+pub const BLOCK_ROWS: usize = 256;
 
 /// Accumulates the R factor of a tall matrix fed in row blocks.
 #[derive(Debug, Clone)]
@@ -172,17 +172,19 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
     let mut acc = [0.0f64; 4];
-    let chunks = n / 4;
-    for c in 0..chunks {
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in ca.zip(cb) {
         for t in 0..4 {
-            acc[t] += a[4 * c + t] * b[4 * c + t];
+            acc[t] += x[t] * y[t];
         }
     }
-    let mut s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    for k in 4 * chunks..n {
-        s += a[k] * b[k];
-    }
-    s
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 #[inline]

@@ -46,9 +46,17 @@ impl PlayOperator {
     /// `F(k) = max(u(k) - r, min(u(k) + r_up, F(k-1)))` with `r_up = 0` for the
     /// lower play ([Li21] Eq. 3) and `r_up = r` for the symmetric play
     /// ([Tang17] Eq. 38).
+    ///
+    /// Written with plain comparisons rather than `f64::max/min`: those handle
+    /// NaN specially and cost extra instructions on this critical recursion
+    /// (inputs are checked finite before identification; a NaN input leaves
+    /// the state unchanged here).
     #[inline(always)]
     pub fn step(self, r: f64, u: f64, previous: f64) -> f64 {
-        (u - r).max((u + self.upper_offset(r)).min(previous))
+        let upper = u + self.upper_offset(r);
+        let clipped = if upper < previous { upper } else { previous };
+        let lower = u - r;
+        if lower > clipped { lower } else { clipped }
     }
 
     /// The state before the first sample: the operators start demagnetised
