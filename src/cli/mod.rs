@@ -8,8 +8,12 @@
 //! | 1 | any other failure (I/O while writing, numerical breakdown) |
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
+mod columns;
 mod common;
 mod excite;
+mod hysteresis;
+mod identify;
+mod identify_hysteresis;
 mod tf;
 mod zpetc;
 
@@ -30,6 +34,12 @@ pub struct Cli {
 enum Command {
     /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
     Excite(excite::ExciteArgs),
+    /// Identify a model from measured data.
+    #[command(subcommand)]
+    Identify(identify::IdentifyCommand),
+    /// Use hysteresis models: analytic inverse, run on a signal.
+    #[command(subcommand)]
+    Hysteresis(hysteresis::HysteresisCommand),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
     /// Inspect transfer-function files.
@@ -59,6 +69,8 @@ pub fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Excite(args) => excite::run(args),
+        Command::Identify(cmd) => identify::run(cmd),
+        Command::Hysteresis(cmd) => hysteresis::run(cmd),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
     }

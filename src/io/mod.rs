@@ -9,5 +9,6 @@ pub mod timeseries;
 
 pub use error::InputError;
 pub mod controller_file;
+pub mod hysteresis_json;
 pub mod plot;
 pub mod zpetc_json;

@@ -36,7 +36,11 @@ impl Trace {
 
 /// Runs `controller` on `plant` along `reference`; beyond its end the
 /// reference is held at its last value for the controller's preview.
-pub fn run<P: Plant>(plant: &mut P, controller: &mut RuntimeController, reference: &[f64]) -> Trace {
+pub fn run<P: Plant>(
+    plant: &mut P,
+    controller: &mut RuntimeController,
+    reference: &[f64],
+) -> Trace {
     let n = reference.len();
     let preview = controller.preview();
     let last = reference.last().copied().unwrap_or(0.0);

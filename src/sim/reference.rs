@@ -48,7 +48,12 @@ impl Default for ReferenceTiming {
     }
 }
 
-fn with_lead_in(signal: Vec<f64>, timing: &ReferenceTiming, skip: usize, label: String) -> Reference {
+fn with_lead_in(
+    signal: Vec<f64>,
+    timing: &ReferenceTiming,
+    skip: usize,
+    label: String,
+) -> Reference {
     let ramp = (timing.ramp / timing.ts).round() as usize;
     let hold = (timing.hold / timing.ts).round() as usize;
     let first = signal.first().copied().unwrap_or(0.0);
@@ -81,9 +86,18 @@ pub fn sine(
     })?;
     // Skip the first 20 % (at least one period) so integrators and the
     // hysteresis memory have settled.
-    let period = if freq_hz > 0.0 { (1.0 / (freq_hz * timing.ts)).round() as usize } else { 0 };
+    let period = if freq_hz > 0.0 {
+        (1.0 / (freq_hz * timing.ts)).round() as usize
+    } else {
+        0
+    };
     let skip = (s.len() / 5).max(period).min(s.len());
-    Ok(with_lead_in(s, timing, skip, format!("sine {amplitude} um at {freq_hz} Hz")))
+    Ok(with_lead_in(
+        s,
+        timing,
+        skip,
+        format!("sine {amplitude} um at {freq_hz} Hz"),
+    ))
 }
 
 /// Linear sine sweep `f0..f1` Hz, evaluated over the whole sweep.
@@ -104,11 +118,21 @@ pub fn sweep(
         ts: timing.ts,
         spacing: excite::SweepSpacing::Linear,
     })?;
-    Ok(with_lead_in(s, timing, 0, format!("sweep {amplitude} um, {f0}-{f1} Hz")))
+    Ok(with_lead_in(
+        s,
+        timing,
+        0,
+        format!("sweep {amplitude} um, {f0}-{f1} Hz"),
+    ))
 }
 
 /// The five-leaved trajectory of [Li21] Eq. 13 times `scale`, plus `offset`.
-pub fn five_leaf(scale: f64, offset: f64, duration: f64, timing: &ReferenceTiming) -> Result<Reference, ExciteError> {
+pub fn five_leaf(
+    scale: f64,
+    offset: f64,
+    duration: f64,
+    timing: &ReferenceTiming,
+) -> Result<Reference, ExciteError> {
     let s = excite::five_leaf(&excite::FiveLeafParams {
         duration,
         scale,
@@ -136,7 +160,11 @@ mod tests {
         assert!((r.samples[1000] - 6.0).abs() < 1e-12);
         // 20 % of 1000 sine samples skipped (more than one 100-sample period).
         assert_eq!(r.evaluate_from, 1200);
-        let max_step = r.samples.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+        let max_step = r
+            .samples
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
         assert!(max_step < 0.32, "{max_step}");
     }
 }

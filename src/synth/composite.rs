@@ -47,7 +47,9 @@ impl Stages {
         }
         if ranks.windows(2).any(|w| w[0] >= w[1]) {
             return Err(StageError {
-                message: format!("stages in {text:?} are repeated or out of order (pid, then hc, then zpec)"),
+                message: format!(
+                    "stages in {text:?} are repeated or out of order (pid, then hc, then zpec)"
+                ),
             });
         }
         Ok(Stages {
@@ -80,8 +82,18 @@ mod tests {
         let e = Stages::parse("hc+pid").unwrap_err();
         assert!(e.to_string().contains("must start"), "{e}");
         assert!(e.to_string().contains("pid+hc+zpec"), "{e}");
-        assert!(Stages::parse("pid+zpec+hc").unwrap_err().to_string().contains("out of order"));
-        assert!(Stages::parse("pid+ilc").unwrap_err().to_string().contains("unknown stage"));
+        assert!(
+            Stages::parse("pid+zpec+hc")
+                .unwrap_err()
+                .to_string()
+                .contains("out of order")
+        );
+        assert!(
+            Stages::parse("pid+ilc")
+                .unwrap_err()
+                .to_string()
+                .contains("unknown stage")
+        );
         assert!(Stages::parse("pid+hc+hc").is_err());
     }
 }

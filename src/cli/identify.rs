@@ -1,0 +1,17 @@
+//! `fts identify <model>`: identification subcommands. Each variant's code
+//! lives in its own file (`identify_<variant>.rs`).
+
+use super::identify_hysteresis;
+use clap::Subcommand;
+
+#[derive(Debug, Subcommand)]
+pub enum IdentifyCommand {
+    /// Identify a PI / MPI hysteresis model (or its inverse) from voltage/displacement data.
+    Hysteresis(identify_hysteresis::HysteresisArgs),
+}
+
+pub fn run(cmd: IdentifyCommand) -> anyhow::Result<()> {
+    match cmd {
+        IdentifyCommand::Hysteresis(args) => identify_hysteresis::run(args),
+    }
+}
