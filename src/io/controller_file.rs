@@ -95,6 +95,38 @@ pub struct HysteresisBlock {
     pub dead_zone_weights: Vec<f64>,
 }
 
+impl ZpetcBlock {
+    /// The block of a designed ZPETC filter.
+    pub fn from_zpetc(z: &crate::synth::zpetc::Zpetc) -> Self {
+        Self {
+            preview: z.preview,
+            num: z.num.coeffs().to_vec(),
+            den: z.den.coeffs().to_vec(),
+        }
+    }
+}
+
+impl HysteresisBlock {
+    /// The block of an (inverse) hysteresis model.
+    pub fn from_model(m: &crate::ident::hysteresis::HysteresisModel) -> Self {
+        use crate::ident::hysteresis::PlayOperator;
+        Self {
+            model: m.kind.name().to_owned(),
+            operator: match m.operator {
+                PlayOperator::Lower => PlayForm::Lower,
+                PlayOperator::Symmetric => PlayForm::Symmetric,
+            },
+            thresholds: m.thresholds.clone(),
+            weights: m.weights.clone(),
+            cbrt_gain: m.cbrt_gain,
+            offset: m.offset,
+            input_offset: m.input_offset,
+            dead_zone_thresholds: m.dead_zone.as_ref().map(|d| d.thresholds.clone()).unwrap_or_default(),
+            dead_zone_weights: m.dead_zone.as_ref().map(|d| d.weights.clone()).unwrap_or_default(),
+        }
+    }
+}
+
 /// A whole controller as written to and read from the file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControllerFile {
