@@ -8,7 +8,9 @@
 //! | 1 | any other failure (I/O while writing, numerical breakdown) |
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
+mod bode;
 mod common;
+mod identify_linear;
 mod tf;
 mod zpetc;
 
@@ -29,6 +31,11 @@ pub struct Cli {
 enum Command {
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
+    /// Identify linear models (ARX, OE, IV, structure selection) from input/output data.
+    #[command(subcommand)]
+    Identify(identify_linear::IdentifyLinear),
+    /// Empirical frequency response (Welch with coherence, or ETFE) of input/output data.
+    Bode(bode::BodeArgs),
     /// Inspect transfer-function files.
     #[command(subcommand)]
     Tf(tf::TfCommand),
@@ -57,5 +64,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
+        Command::Identify(cmd) => identify_linear::run(cmd),
+        Command::Bode(args) => bode::run(args),
     }
 }
