@@ -10,6 +10,7 @@
 
 mod bode;
 mod common;
+mod excite;
 mod identify_linear;
 mod tf;
 mod zpetc;
@@ -29,6 +30,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
+    Excite(excite::ExciteArgs),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
     /// Identify linear models (ARX, OE, IV, structure selection) from input/output data.
@@ -62,6 +65,7 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Excite(args) => excite::run(args),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
         Command::Identify(cmd) => identify_linear::run(cmd),

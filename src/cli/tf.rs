@@ -18,8 +18,8 @@ pub struct InfoArgs {
     /// The transfer function (`fts.tf/1`).
     #[arg(value_name = "PLANT.json")]
     tf: PathBuf,
-    /// Frequencies (Hz) at which to print the response; default: a few up to Nyquist (discrete) or 1 kHz.
-    #[arg(long = "freq", value_name = "HZ", num_args = 1..)]
+    /// Frequencies (Hz, comma-separated or repeated) at which to print the response; default: a few up to Nyquist (discrete) or 1 kHz.
+    #[arg(long = "freq", value_name = "HZ", value_delimiter = ',')]
     freq: Vec<f64>,
     /// Write a Bode table (freq_hz, magnitude, magnitude_db, phase_deg, re, im) to this CSV.
     #[arg(long, value_name = "OUT.csv")]

@@ -152,7 +152,7 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
             out.copy_from_slice(&y[k0..k0 + len]);
         }
     });
-    let sol = solve_triangle(&tri).map_err(|(rank, _, cond)| IdentError::Singular {
+    let sol = solve_triangle(&tri).map_err(|(rank, cond)| IdentError::Singular {
         rank,
         params: d,
         cond,

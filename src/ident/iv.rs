@@ -136,15 +136,24 @@ fn iv_step(
     let sv = m.singular_values().unwrap_or_else(|_| vec![0.0; d]);
     let smax = sv.first().copied().unwrap_or(0.0);
     let smin = sv.last().copied().unwrap_or(0.0);
-    // MATLAB `rank` tolerance for a d x d matrix.
-    let rank = sv
-        .iter()
-        .filter(|&&s| s > d as f64 * f64::EPSILON * smax)
-        .count();
     let cond = if smin > 0.0 {
         smax / smin
     } else {
         f64::INFINITY
+    };
+    // Rank policy of `ident::ls`: the condition number with unit-norm
+    // columns must stay below 1 / rank_tol.
+    let rank_tol = crate::ident::ls::LstsqParams::default().rank_tol;
+    let norms: Vec<f64> = (0..d)
+        .map(|j| (0..d).map(|i| m[(i, j)].powi(2)).sum::<f64>().sqrt())
+        .collect();
+    let rank = if norms.iter().all(|&n| n > 0.0 && n.is_finite()) {
+        let scaled = Mat::<f64>::from_fn(d, d, |i, j| m[(i, j)] / norms[j]);
+        let ssv = scaled.singular_values().unwrap_or_else(|_| vec![0.0; d]);
+        let top = ssv.first().copied().unwrap_or(0.0);
+        ssv.iter().filter(|&&s| s > rank_tol * top).count()
+    } else {
+        0
     };
     if rank < d || !smax.is_finite() {
         return Err(IdentError::Singular {

@@ -30,7 +30,7 @@ pub enum IdentError {
     },
     /// The regressor matrix is rank deficient.
     #[error(
-        "singular regression: the regressor matrix has rank {rank} < {params} parameters (condition number {cond:.3e}); {hint}"
+        "singular regression: the regressor matrix has numerical rank {rank} < {params} parameters (condition number {cond:.3e} after column scaling); {hint}"
     )]
     Singular {
         /// Numerical rank.

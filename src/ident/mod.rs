@@ -9,9 +9,11 @@
 
 pub mod arx;
 pub mod data;
+pub mod excite;
 pub mod freq;
 pub mod iv;
 pub mod linear;
+pub mod ls;
 pub mod metrics;
 pub mod oe;
 pub mod regress;

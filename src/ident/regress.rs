@@ -173,36 +173,56 @@ pub struct TriangleSolution {
     pub singular_values: Vec<f64>,
     /// `sigma_max / sigma_min` (infinite when singular).
     pub condition_number: f64,
-    /// Numerical rank with MATLAB's `rank` tolerance `max(m, n) eps sigma_max`.
-    pub rank: usize,
+    /// Condition number of `Phi` with unit-norm columns (decides rank).
+    pub scaled_condition_number: f64,
     /// `R11^-1`, for the covariance `lambda R11^-1 R11^-T`.
     pub r_inv: Mat<f64>,
 }
 
 /// Solves `R11 theta = r12` from the factor of `[Phi y]` (last column `y`).
-/// Returns `None` for the solution parts when `Phi` is rank deficient; the
-/// rank and singular values are always reported.
-pub fn solve_triangle(tri: &Triangle) -> Result<TriangleSolution, (usize, Vec<f64>, f64)> {
+///
+/// Rank is judged as in [`crate::ident::ls`]: on the singular values of `Phi`
+/// with unit-norm columns (those of `R11 D^-1`, `D` the column norms), so that
+/// units (volts vs micrometres) do not decide solvability; the regression is
+/// singular when that scaled condition number exceeds `1 / rank_tol`
+/// (`LstsqParams::default().rank_tol` = 1e-12). On failure returns the
+/// numerical rank and the scaled condition number.
+pub fn solve_triangle(tri: &Triangle) -> Result<TriangleSolution, (usize, f64)> {
+    let rank_tol = crate::ident::ls::LstsqParams::default().rank_tol;
     let p = tri.r.ncols();
     let d = p - 1;
     let r11: MatRef<'_, f64> = tri.r.as_ref().submatrix(0, 0, d, d);
-    let sv = if d == 0 {
-        Vec::new()
-    } else {
-        r11.singular_values().unwrap_or_else(|_| vec![0.0; d])
+    let svd_of = |m: MatRef<'_, f64>| {
+        if d == 0 {
+            Vec::new()
+        } else {
+            m.singular_values().unwrap_or_else(|_| vec![0.0; d])
+        }
     };
-    let smax = sv.first().copied().unwrap_or(0.0);
-    let smin = sv.last().copied().unwrap_or(0.0);
-    let tol = tri.rows.max(d) as f64 * f64::EPSILON * smax;
-    let rank = sv.iter().filter(|&&s| s > tol).count();
-    let cond = if smin > 0.0 {
-        smax / smin
-    } else {
-        f64::INFINITY
-    };
-    if rank < d || !smax.is_finite() {
-        return Err((rank, sv, cond));
+    let norms: Vec<f64> = (0..d)
+        .map(|j| (0..=j).map(|i| r11[(i, j)].powi(2)).sum::<f64>().sqrt())
+        .collect();
+    if norms.iter().any(|&n| n == 0.0 || !n.is_finite()) {
+        let rank = norms.iter().filter(|&&n| n > 0.0 && n.is_finite()).count();
+        return Err((rank.min(d.saturating_sub(1)), f64::INFINITY));
     }
+    let scaled = Mat::<f64>::from_fn(d, d, |i, j| r11[(i, j)] / norms[j]);
+    let ssv = svd_of(scaled.as_ref());
+    let smax_s = ssv.first().copied().unwrap_or(0.0);
+    let rank = ssv.iter().filter(|&&s| s > rank_tol * smax_s).count();
+    let scaled_cond = match ssv.last() {
+        Some(&m) if m > 0.0 => smax_s / m,
+        _ => f64::INFINITY,
+    };
+    if rank < d || !smax_s.is_finite() {
+        return Err((rank, scaled_cond));
+    }
+    let sv = svd_of(r11);
+    let smax = sv.first().copied().unwrap_or(0.0);
+    let cond = match sv.last() {
+        Some(&m) if m > 0.0 => smax / m,
+        _ => f64::INFINITY,
+    };
     // Back substitution on the small triangle; R11^-1 column by column.
     let mut r_inv = Mat::<f64>::zeros(d, d);
     for c in 0..d {
@@ -222,7 +242,7 @@ pub fn solve_triangle(tri: &Triangle) -> Result<TriangleSolution, (usize, Vec<f6
         residual_norm: tri.r[(d, d)].abs(),
         singular_values: sv,
         condition_number: cond,
-        rank,
+        scaled_condition_number: scaled_cond,
         r_inv,
     })
 }
@@ -293,7 +313,7 @@ mod tests {
                 *v = if j < 2 { 1.0 } else { t };
             }
         });
-        let (rank, _, cond) = solve_triangle(&tri).unwrap_err();
+        let (rank, cond) = solve_triangle(&tri).unwrap_err();
         assert_eq!(rank, 1);
         assert!(cond > 1e12);
     }

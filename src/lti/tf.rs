@@ -247,6 +247,45 @@ impl ContinuousTf {
     pub fn is_stable(&self) -> Result<bool, RootsError> {
         Ok(self.poles()?.iter().all(|p| p.re < 0.0))
     }
+
+    /// `self * other`.
+    pub fn series(&self, other: &ContinuousTf) -> ContinuousTf {
+        ContinuousTf {
+            num: convolve(&self.num, &other.num),
+            den: convolve(&self.den, &other.den),
+        }
+    }
+
+    /// Negative feedback `G / (1 + G H)` = `NG DH / (DG DH + NG NH)`.
+    pub fn feedback(&self, h: &ContinuousTf) -> ContinuousTf {
+        ContinuousTf {
+            num: convolve(&self.num, &h.den),
+            den: add_descending(&convolve(&self.den, &h.den), &convolve(&self.num, &h.num)),
+        }
+    }
+}
+
+fn convolve(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
+/// Sum of two descending-power coefficient lists (aligned at the constant term).
+fn add_descending(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let n = a.len().max(b.len());
+    let mut out = vec![0.0; n];
+    for (i, x) in a.iter().enumerate() {
+        out[n - a.len() + i] += x;
+    }
+    for (i, x) in b.iter().enumerate() {
+        out[n - b.len() + i] += x;
+    }
+    out
 }
 
 /// Either kind, as read from an `fts.tf/1` file.
@@ -442,5 +481,11 @@ mod tests {
         let v = g.response_at_hz(1.0 / (2.0 * PI));
         assert!((v.arg().to_degrees() + 45.0).abs() < 1e-12);
         assert!(g.is_stable().unwrap());
+        // 1/(s+1) in unity feedback: 1/(s+2).
+        let one = ContinuousTf::new(vec![1.0], vec![1.0]).unwrap();
+        let t = g.feedback(&one);
+        assert_eq!(t.num(), &[1.0]);
+        assert_eq!(t.den(), &[1.0, 2.0]);
+        assert_eq!(g.series(&g).den(), &[1.0, 2.0, 1.0]);
     }
 }

@@ -1,0 +1,231 @@
+//! `fts excite triangle|sine|sweep|multisine|five-leaf ... -o u.csv`: excitation
+//! signals written as a `t,u` CSV (the time-series contract).
+
+use super::common::{bad, write_atomic};
+use crate::ident::excite::{self, ExciteError};
+use crate::io::timeseries::{time_column, write_csv};
+use clap::{Args, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct ExciteArgs {
+    #[command(subcommand)]
+    signal: Signal,
+    /// Write the `t,u` CSV here (default: stdout).
+    #[arg(short, long, global = true, value_name = "U.csv")]
+    output: Option<PathBuf>,
+    /// Sample time, s.
+    #[arg(long, global = true, default_value_t = 1e-4)]
+    ts: f64,
+}
+
+#[derive(Debug, Subcommand)]
+enum Signal {
+    /// Triangle waves of several amplitudes (hysteresis identification, Li21).
+    Triangle {
+        /// Peak amplitudes, played in order.
+        #[arg(long, value_delimiter = ',', default_values_t = [10.0, 8.0, 6.0, 4.0, 2.0])]
+        amplitudes: Vec<f64>,
+        /// Triangle frequency, Hz.
+        #[arg(long, default_value_t = 1.0)]
+        freq: f64,
+        /// Periods per amplitude.
+        #[arg(long, default_value_t = 2)]
+        cycles: usize,
+        /// Constant added to every sample.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        offset: f64,
+        /// Symmetric 0 -> A -> -A -> 0 instead of 0 -> A -> 0.
+        #[arg(long)]
+        bipolar: bool,
+    },
+    /// A single sine.
+    Sine {
+        /// Peak amplitude.
+        #[arg(long, default_value_t = 1.0)]
+        amplitude: f64,
+        /// Frequency, Hz.
+        #[arg(long, default_value_t = 10.0)]
+        freq: f64,
+        /// Constant added.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        offset: f64,
+        /// Length, s.
+        #[arg(long, default_value_t = 1.0)]
+        duration: f64,
+    },
+    /// A sine sweep (chirp), 0-1000 Hz by default as in Li21.
+    Sweep {
+        /// Start frequency, Hz.
+        #[arg(long, default_value_t = 0.0)]
+        f0: f64,
+        /// End frequency, Hz.
+        #[arg(long, default_value_t = 1000.0)]
+        f1: f64,
+        /// Length, s.
+        #[arg(long, default_value_t = 1.0)]
+        duration: f64,
+        /// Peak amplitude.
+        #[arg(long, default_value_t = 1.0)]
+        amplitude: f64,
+        /// Constant added.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        offset: f64,
+        /// Frequency law.
+        #[arg(long, value_enum, default_value_t = Spacing::Linear)]
+        spacing: Spacing,
+    },
+    /// A Schroeder-phased multisine (Karagoz18), periodic.
+    Multisine {
+        /// Frequencies, Hz (rounded to multiples of 1/period).
+        #[arg(long, value_delimiter = ',', required_unless_present = "lines")]
+        freqs: Vec<f64>,
+        /// Instead of --freqs: this many lines spread evenly from --f-min to --f-max.
+        #[arg(long, conflicts_with = "freqs")]
+        lines: Option<usize>,
+        /// Lowest line with --lines, Hz.
+        #[arg(long, default_value_t = 10.0)]
+        f_min: f64,
+        /// Highest line with --lines, Hz.
+        #[arg(long, default_value_t = 1000.0)]
+        f_max: f64,
+        /// Period, s.
+        #[arg(long, default_value_t = 0.1)]
+        period: f64,
+        /// Number of periods.
+        #[arg(long, default_value_t = 10)]
+        periods: usize,
+        /// Peak of the record.
+        #[arg(long, default_value_t = 1.0)]
+        amplitude: f64,
+        /// Constant added.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        offset: f64,
+    },
+    /// The five-leaved trajectory z(t) = (50 - 10 t) sin(200 pi t) um of Li21 Eq. 13.
+    FiveLeaf {
+        /// Length, s.
+        #[arg(long, default_value_t = 1.0)]
+        duration: f64,
+        /// Factor on the published trajectory.
+        #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
+        scale: f64,
+        /// Constant added.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        offset: f64,
+    },
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum Spacing {
+    Linear,
+    Log,
+}
+
+fn to_bad(e: ExciteError) -> anyhow::Error {
+    bad(format!("--{}: {}", e.field.replace('_', "-"), e.message))
+}
+
+pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
+    let ts = args.ts;
+    let u = match args.signal {
+        Signal::Triangle {
+            amplitudes,
+            freq,
+            cycles,
+            offset,
+            bipolar,
+        } => excite::triangle(&excite::TriangleParams {
+            amplitudes,
+            freq_hz: freq,
+            cycles,
+            ts,
+            offset,
+            bipolar,
+        }),
+        Signal::Sine {
+            amplitude,
+            freq,
+            offset,
+            duration,
+        } => excite::sine(&excite::SineParams {
+            amplitude,
+            freq_hz: freq,
+            phase: 0.0,
+            offset,
+            duration,
+            ts,
+        }),
+        Signal::Sweep {
+            f0,
+            f1,
+            duration,
+            amplitude,
+            offset,
+            spacing,
+        } => excite::sweep(&excite::SweepParams {
+            f0,
+            f1,
+            duration,
+            amplitude,
+            offset,
+            ts,
+            spacing: match spacing {
+                Spacing::Linear => excite::SweepSpacing::Linear,
+                Spacing::Log => excite::SweepSpacing::Logarithmic,
+            },
+        }),
+        Signal::Multisine {
+            freqs,
+            lines,
+            f_min,
+            f_max,
+            period,
+            periods,
+            amplitude,
+            offset,
+        } => {
+            let freqs_hz = match lines {
+                Some(n) if n >= 1 => crate::lti::linspace(f_min, f_max, n),
+                Some(_) => return Err(bad("--lines: at least one line")),
+                None => freqs,
+            };
+            excite::multisine(&excite::MultisineParams {
+                freqs_hz,
+                period,
+                periods,
+                amplitude,
+                offset,
+                ts,
+            })
+            .map(|(u, used)| {
+                eprintln!("multisine lines (Hz): {used:?}");
+                u
+            })
+        }
+        Signal::FiveLeaf {
+            duration,
+            scale,
+            offset,
+        } => excite::five_leaf(&excite::FiveLeafParams {
+            duration,
+            scale,
+            offset,
+            ts,
+        }),
+    }
+    .map_err(to_bad)?;
+    let text = write_csv(&["t", "u"], &[&time_column(u.len(), ts), &u]);
+    match &args.output {
+        Some(path) => {
+            write_atomic(path, text.as_bytes())?;
+            eprintln!(
+                "wrote {} ({} samples, ts = {ts} s)",
+                path.display(),
+                u.len()
+            );
+        }
+        None => print!("{text}"),
+    }
+    Ok(())
+}

@@ -1,0 +1,51 @@
+//! The per-sample filter step must not allocate: a counting global allocator
+//! sees every allocation of this test binary.
+
+use fts::lti::{DiscreteTf, TdfFilter};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn filter_step_does_not_allocate() {
+    let g = DiscreteTf::new(
+        vec![4.154, -9.631, 10.23, -5.511, 1.154],
+        vec![1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447],
+        5,
+        1e-4,
+    )
+    .unwrap();
+    let mut filter = TdfFilter::new(&g);
+    let input: Vec<f64> = (0..10_000).map(|k| (k as f64 * 0.01).sin()).collect();
+    let mut output = vec![0.0; input.len()];
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let mut acc = 0.0;
+    for &x in &input {
+        acc += filter.step(x);
+    }
+    filter.reset();
+    filter.run(&input, &mut output);
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert_eq!(after - before, 0, "the filter allocated");
+    assert!(acc.is_finite() && output[9_999].is_finite());
+}
