@@ -1,15 +1,21 @@
-//! Deterministic test signals for the identification tests (the library's
-//! excitation generators live in `excite`; these keep unit tests self-contained).
+//! Test signals for the identification tests: the library sweep and a
+//! deterministic pseudo-random noise.
 
-/// Linear chirp 0 -> f1 Hz over n samples (test input only).
+/// Linear sine sweep 0 -> f1 Hz over n samples, unit amplitude, from
+/// [`crate::ident::excite::sweep`] (the `fts excite sweep` signal).
 pub fn chirp(n: usize, ts: f64, f1: f64) -> Vec<f64> {
-    let t_end = n as f64 * ts;
-    (0..n)
-        .map(|k| {
-            let t = k as f64 * ts;
-            (std::f64::consts::PI * f1 / t_end * t * t).sin()
-        })
-        .collect()
+    let p = crate::ident::excite::SweepParams {
+        f0: 0.0,
+        f1,
+        duration: n as f64 * ts,
+        amplitude: 1.0,
+        offset: 0.0,
+        ts,
+        spacing: crate::ident::excite::SweepSpacing::Linear,
+    };
+    let mut u = crate::ident::excite::sweep(&p).expect("valid sweep");
+    u.resize(n, 0.0);
+    u
 }
 
 /// Deterministic Gaussian-ish noise (sum of 12 uniforms), unit variance.
