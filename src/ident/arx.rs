@@ -272,4 +272,46 @@ mod tests {
             }
         );
     }
+
+    #[test]
+    fn reported_std_devs_match_monte_carlo_spread() {
+        // 200 noise realisations of A y = B u + e: the spread of the
+        // estimates must match the standard deviations ARX reports (the
+        // sample std of a std over 200 runs is good to about 5 %).
+        let (b, a) = (vec![0.5, 0.3], vec![1.0, -1.5, 0.7]);
+        let n = 1000;
+        let u = noise(n, 100);
+        let yu = filter_ab(&b, &a, 1, &u);
+        let runs = 200;
+        let mut est = vec![Vec::new(); 4];
+        let mut reported = [0.0; 4];
+        for r in 0..runs {
+            let e: Vec<f64> = noise(n, 1000 + r).iter().map(|v| 0.1 * v).collect();
+            let ye = filter_ab(&[1.0], &a, 0, &e);
+            let y: Vec<f64> = yu.iter().zip(&ye).map(|(p, q)| p + q).collect();
+            let fit = arx(&u, &y, &ArxParams::new(Orders::new(2, 2, 1))).unwrap();
+            let th = [
+                fit.model.a[1],
+                fit.model.a[2],
+                fit.model.b[0],
+                fit.model.b[1],
+            ];
+            let sd = [fit.std_a[0], fit.std_a[1], fit.std_b[0], fit.std_b[1]];
+            for i in 0..4 {
+                est[i].push(th[i]);
+                reported[i] += sd[i] / runs as f64;
+            }
+        }
+        for i in 0..4 {
+            let m = est[i].iter().sum::<f64>() / runs as f64;
+            let sd =
+                (est[i].iter().map(|v| (v - m).powi(2)).sum::<f64>() / (runs - 1) as f64).sqrt();
+            let ratio = sd / reported[i];
+            assert!(
+                (0.8..1.25).contains(&ratio),
+                "param {i}: empirical {sd} vs reported {}",
+                reported[i]
+            );
+        }
+    }
 }

@@ -338,6 +338,9 @@ mod tests {
             est_arx.model.a[1]
         );
         assert!(z.abs() > 10.0, "ARX a1 bias only {z} std devs");
+        // ... and its residual test says so.
+        let e = crate::ident::arx::arx_residuals(&est_arx.model, &u, &y, est_arx.start);
+        assert!(!crate::ident::linear::whiteness(&e, &u[est_arx.start..], 25).white);
         eprintln!(
             "ARX a1 {} ({z:.0} std devs off), max rel err 0-1 kHz {arx_err}",
             est_arx.model.a[1]
@@ -428,5 +431,57 @@ mod tests {
             assert!(z(est_oe.model.b[i], b[i], est_oe.std_b[i]).abs() < 4.0);
             assert!(z(est_iv.model.a[i + 1], a[i + 1], est_iv.std_a[i]).abs() < 4.0);
         }
+    }
+
+    #[test]
+    fn oe_and_iv_std_devs_match_monte_carlo_spread() {
+        // Output-error data, 200 realisations: OE (the maximum-likelihood
+        // estimator here) and IV report standard deviations that match the
+        // observed spread (within the ~5 % sampling error of 200 runs; SRIV
+        // converges to the OE optimum here, so the two agree).
+        let (b, a) = (vec![0.5, 0.3], vec![1.0, -1.5, 0.7]);
+        let n = 1000;
+        let u = noise(n, 200);
+        let clean = filter_ab(&b, &a, 1, &u);
+        let runs = 200;
+        let o = Orders::new(2, 2, 1);
+        let (mut oe_a1, mut iv_a1) = (Vec::new(), Vec::new());
+        let (mut oe_sd, mut iv_sd) = (0.0, 0.0);
+        for r in 0..runs {
+            let y: Vec<f64> = clean
+                .iter()
+                .zip(noise(n, 5000 + r))
+                .map(|(c, e)| c + 0.2 * e)
+                .collect();
+            let fo = oe(&u, &y, &OeParams::new(o), &mut |_| {}).unwrap();
+            let fi = iv(&u, &y, &IvParams::new(o)).unwrap();
+            oe_a1.push(fo.model.a[1]);
+            iv_a1.push(fi.model.a[1]);
+            oe_sd += fo.std_f[0] / runs as f64;
+            iv_sd += fi.std_a[0] / runs as f64;
+        }
+        let spread = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            (
+                m,
+                (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt(),
+            )
+        };
+        let (m_oe, s_oe) = spread(&oe_a1);
+        let (m_iv, s_iv) = spread(&iv_a1);
+        eprintln!(
+            "OE a1 mean {m_oe:.5} sd {s_oe:.5} (reported {oe_sd:.5}); IV a1 mean {m_iv:.5} sd {s_iv:.5} (reported {iv_sd:.5})"
+        );
+        assert!(
+            (0.8..1.25).contains(&(s_oe / oe_sd)),
+            "OE {s_oe} vs {oe_sd}"
+        );
+        assert!(
+            (0.8..1.25).contains(&(s_iv / iv_sd)),
+            "IV {s_iv} vs {iv_sd}"
+        );
+        // Unbiased: the mean is within 4 standard errors of the truth.
+        assert!((m_oe - a[1]).abs() < 4.0 * s_oe / (runs as f64).sqrt());
+        assert!((m_iv - a[1]).abs() < 4.0 * s_iv / (runs as f64).sqrt());
     }
 }
