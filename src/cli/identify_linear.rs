@@ -14,7 +14,9 @@ use crate::ident::linear::{
     Criteria, Fits, IdentError, NoiseModel, PolyModel, Whiteness, fits, whiteness,
 };
 use crate::ident::oe::{OeParams, OeStart, oe};
-use crate::ident::structure::{StructParams, StructSearch, arx_struct, delay_estimate};
+use crate::ident::structure::{
+    SelectionRule, StructParams, StructSearch, arx_struct, delay_estimate,
+};
 use crate::io::plot::{Series, stacked_charts_svg};
 use crate::io::tf_json;
 use crate::io::timeseries::{ColumnRef, HeaderMode, IoColumns, read_io};
@@ -123,6 +125,9 @@ pub struct ArxArgs {
     /// Choose na, nb, nk by structure selection (grid 1..10 x 1..10 x 0..10; validation loss when validation data exist, otherwise MDL).
     #[arg(long)]
     pub auto: bool,
+    /// Selection rule for --auto.
+    #[arg(long, value_enum, default_value_t = RuleArg::Auto, requires = "auto")]
+    pub rule: RuleArg,
     #[command(flatten)]
     pub out: OutArgs,
 }
@@ -148,6 +153,52 @@ pub struct OeArgs {
     pub max_iter: usize,
     #[command(flatten)]
     pub out: OutArgs,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RuleArg {
+    /// Validation loss when validation data exist, otherwise MDL.
+    Auto,
+    /// Minimum one-step prediction loss on the validation data (MATLAB arxstruc/selstruc).
+    Loss,
+    /// Maximum simulation fit on the validation data.
+    Fit,
+    /// Minimum AIC on the estimation data.
+    Aic,
+    /// Minimum FPE on the estimation data.
+    Fpe,
+    /// Minimum MDL on the estimation data.
+    Mdl,
+}
+
+impl From<RuleArg> for SelectionRule {
+    fn from(r: RuleArg) -> Self {
+        match r {
+            RuleArg::Auto => SelectionRule::Auto,
+            RuleArg::Loss => SelectionRule::ValidationLoss,
+            RuleArg::Fit => SelectionRule::ValidationFit,
+            RuleArg::Aic => SelectionRule::Aic,
+            RuleArg::Fpe => SelectionRule::Fpe,
+            RuleArg::Mdl => SelectionRule::Mdl,
+        }
+    }
+}
+
+/// The structure `rule` picks, with the rule's name; a validation rule
+/// without validation data is bad usage.
+fn pick(s: &StructSearch, rule: RuleArg) -> anyhow::Result<(Orders, &'static str)> {
+    let name = match (rule, s.best_validation.is_some()) {
+        (RuleArg::Auto, true) | (RuleArg::Loss, _) => "validation_loss",
+        (RuleArg::Auto, false) | (RuleArg::Mdl, _) => "mdl",
+        (RuleArg::Fit, _) => "validation_fit",
+        (RuleArg::Aic, _) => "aic",
+        (RuleArg::Fpe, _) => "fpe",
+    };
+    s.pick(rule.into()).map(|o| (o, name)).ok_or_else(|| {
+        bad(format!(
+            "--rule {name} needs validation data: give --validate FILE or --split FRACTION"
+        ))
+    })
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -188,9 +239,12 @@ pub struct StructArgs {
     /// Range of nk.
     #[arg(long, default_value = "0:10")]
     pub nk: String,
-    /// Rows of the table to print (best first).
+    /// Rows of the table to print (best first by the rule).
     #[arg(long, default_value_t = 15)]
     pub top: usize,
+    /// Which structure to recommend (and write with -o).
+    #[arg(long, value_enum, default_value_t = RuleArg::Auto)]
+    pub rule: RuleArg,
     /// Write the recommended model (`fts.tf/1`) here.
     #[arg(short = 'o', long = "out", value_name = "PLANT.json")]
     pub out: Option<PathBuf>,
@@ -581,13 +635,17 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         return print_json(&doc);
     }
     println!(
-        "{} {} from {} ({} samples, Ts = {} s, detrend {:?})",
+        "{} {} from {} ({} samples, Ts = {} s, detrend {})",
         r.method.to_uppercase(),
         r.orders_label,
         p.est.label,
         p.est.y.len(),
         p.ts,
-        p.detrend
+        match p.detrend {
+            Detrend::None => "none",
+            Detrend::Mean => "mean",
+            Detrend::Linear => "linear",
+        }
     );
     let den_name = if r.noise == NoiseModel::OutputError {
         "F"
@@ -674,6 +732,7 @@ fn orders_json(o: Orders, oe: bool) -> Value {
 fn run_arx(a: ArxArgs) -> anyhow::Result<()> {
     let p = prepare(&a.data)?;
     let mut extra = json!({});
+    let mut start = None;
     let o = if a.auto {
         let sp = StructParams {
             ts: p.ts,
@@ -686,21 +745,18 @@ fn run_arx(a: ArxArgs) -> anyhow::Result<()> {
             &sp,
         )
         .map_err(|e| ident_err(&p.source, e))?;
-        let o = s.recommended();
+        let (o, rule) = pick(&s, a.rule)?;
+        start = Some(s.start);
         eprintln!(
-            "structure selection over {} candidates chose {o} ({})",
-            s.rows.len(),
-            if s.best_validation.is_some() {
-                "validation loss"
-            } else {
-                "MDL"
-            }
+            "structure selection over {} candidates chose {o} (rule {rule})",
+            s.rows.len()
         );
         extra = json!({"selection": {
             "candidates": s.rows.len(),
-            "rule": if s.best_validation.is_some() { "validation_loss" } else { "mdl" },
+            "rule": rule,
             "best_aic": s.best_aic, "best_fpe": s.best_fpe, "best_mdl": s.best_mdl,
             "best_validation": s.best_validation,
+            "best_validation_fit": s.best_validation_fit,
         }});
         o
     } else {
@@ -709,6 +765,7 @@ fn run_arx(a: ArxArgs) -> anyhow::Result<()> {
     };
     let mut ap = ArxParams::new(o);
     ap.ts = p.ts;
+    ap.start = start;
     let est = arx(&p.est.u, &p.est.y, &ap).map_err(|e| ident_err(&p.source, e))?;
     let r = Report {
         method: "arx",
@@ -853,9 +910,10 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
     let nk_lo = *sp.nk.iter().min().unwrap_or(&0);
     let nk_hi = *sp.nk.iter().max().unwrap_or(&0);
     let delay = delay_estimate(&p.est.u, &p.est.y, 2, 2, nk_lo..=nk_hi).ok();
-    let best = s.recommended();
+    let (best, rule) = pick(&s, a.rule)?;
     let mut ap = ArxParams::new(best);
     ap.ts = p.ts;
+    ap.start = Some(s.start);
     let est = arx(&p.est.u, &p.est.y, &ap).map_err(|e| ident_err(&p.source, e))?;
     let g = TransferFunction::Discrete(est.model.tf().map_err(|e| ident_err(&p.source, e))?);
     if let Some(path) = &a.out {
@@ -868,14 +926,21 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
     let mut order: Vec<usize> = (0..s.rows.len()).collect();
     let key = |i: usize| {
         let r = &s.rows[i];
-        r.validation_loss.unwrap_or(r.criteria.mdl)
+        match rule {
+            "validation_loss" => r.validation_loss.unwrap_or(f64::INFINITY),
+            "validation_fit" => -r.validation_fit_percent.unwrap_or(f64::NEG_INFINITY),
+            "aic" => r.criteria.naic,
+            "fpe" => r.criteria.fpe,
+            _ => r.criteria.mdl,
+        }
     };
     order.sort_by(|&x, &y| key(x).total_cmp(&key(y)));
     if a.json {
         let mut doc = json!({
             "recommended": best,
-            "rule": if s.best_validation.is_some() { "validation_loss" } else { "mdl" },
+            "rule": rule,
             "best_validation": s.best_validation,
+            "best_validation_fit": s.best_validation_fit,
             "best_aic": s.best_aic,
             "best_fpe": s.best_fpe,
             "best_mdl": s.best_mdl,
@@ -934,11 +999,12 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         s.best_aic,
         s.best_fpe,
         s.best_mdl,
-        s.best_validation
-            .map(|o| format!("  validation loss {o}"))
-            .unwrap_or_default()
+        match (s.best_validation, s.best_validation_fit) {
+            (Some(l), Some(f)) => format!("  validation loss {l}  validation fit {f}"),
+            _ => String::new(),
+        }
     );
-    print!("  recommended {best}");
+    print!("  recommended ({rule}) {best}");
     if let Some(f) = val_fit {
         print!(": validation simulation fit {f:.2} %");
     }

@@ -56,10 +56,18 @@ pub struct StructRow {
 pub struct StructSearch {
     /// Every candidate that could be estimated, in grid order.
     pub rows: Vec<StructRow>,
+    /// First regression row every candidate was fitted and scored on (the
+    /// largest memory of the grid); re-estimate the chosen structure with
+    /// `ArxParams::start = Some(start)` to reproduce its table row.
+    pub start: usize,
     /// Candidates skipped because their regression was singular or too short.
     pub skipped: Vec<(Orders, String)>,
     /// Minimum validation loss (when validation data were given).
     pub best_validation: Option<Orders>,
+    /// Maximum simulation fit on the validation data (when given): the
+    /// rule to prefer when the model is meant for simulation (ZPETC design),
+    /// since a low one-step loss can come from modelling the noise.
+    pub best_validation_fit: Option<Orders>,
     /// Minimum AIC (estimation data).
     pub best_aic: Orders,
     /// Minimum FPE (estimation data).
@@ -68,11 +76,44 @@ pub struct StructSearch {
     pub best_mdl: Orders,
 }
 
+/// How to pick one structure from the table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SelectionRule {
+    /// Validation loss when validation data exist, otherwise MDL (default).
+    #[default]
+    Auto,
+    /// Minimum one-step prediction loss on validation data (MATLAB
+    /// `selstruc(V, 0)` on `arxstruc(ze, zv, NN)`).
+    ValidationLoss,
+    /// Maximum simulation fit on validation data.
+    ValidationFit,
+    /// Minimum AIC on estimation data.
+    Aic,
+    /// Minimum FPE on estimation data.
+    Fpe,
+    /// Minimum MDL on estimation data.
+    Mdl,
+}
+
 impl StructSearch {
     /// The recommended structure: best on validation data when available,
     /// otherwise MDL (the most parsimonious of the three criteria).
     pub fn recommended(&self) -> Orders {
         self.best_validation.unwrap_or(self.best_mdl)
+    }
+
+    /// The structure a rule picks; `None` for a validation rule without
+    /// validation data.
+    pub fn pick(&self, rule: SelectionRule) -> Option<Orders> {
+        match rule {
+            SelectionRule::Auto => Some(self.recommended()),
+            SelectionRule::ValidationLoss => self.best_validation,
+            SelectionRule::ValidationFit => self.best_validation_fit,
+            SelectionRule::Aic => Some(self.best_aic),
+            SelectionRule::Fpe => Some(self.best_fpe),
+            SelectionRule::Mdl => Some(self.best_mdl),
+        }
     }
 }
 
@@ -156,11 +197,20 @@ pub fn arx_struct(
     }
     let best_validation =
         val.map(|_| argmin(&rows, |r| r.validation_loss.unwrap_or(f64::INFINITY)));
+    let best_validation_fit = val.map(|_| {
+        argmin(&rows, |r| {
+            -r.validation_fit_percent
+                .filter(|f| f.is_finite())
+                .unwrap_or(f64::NEG_INFINITY)
+        })
+    });
     Ok(StructSearch {
         best_aic: argmin(&rows, |r| r.criteria.naic),
         best_fpe: argmin(&rows, |r| r.criteria.fpe),
         best_mdl: argmin(&rows, |r| r.criteria.mdl),
         best_validation,
+        best_validation_fit,
+        start,
         rows,
         skipped,
     })
