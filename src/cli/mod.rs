@@ -8,12 +8,14 @@
 //! | 1 | any other failure (I/O while writing, numerical breakdown) |
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
+mod bode;
 mod columns;
 mod common;
 mod excite;
 mod hysteresis;
 mod identify;
 mod identify_hysteresis;
+mod identify_linear;
 mod tf;
 mod zpetc;
 
@@ -42,6 +44,8 @@ enum Command {
     Hysteresis(hysteresis::HysteresisCommand),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
+    /// Empirical frequency response (Welch with coherence, or ETFE) of input/output data.
+    Bode(bode::BodeArgs),
     /// Inspect transfer-function files.
     #[command(subcommand)]
     Tf(tf::TfCommand),
@@ -73,5 +77,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Hysteresis(cmd) => hysteresis::run(cmd),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
+        Command::Bode(args) => bode::run(args),
     }
 }
