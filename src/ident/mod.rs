@@ -10,8 +10,8 @@
 pub mod arx;
 pub mod data;
 pub mod excite;
-pub mod hysteresis;
 pub mod freq;
+pub mod hysteresis;
 pub mod iv;
 pub mod linear;
 pub mod ls;

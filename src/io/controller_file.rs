@@ -121,8 +121,16 @@ impl HysteresisBlock {
             cbrt_gain: m.cbrt_gain,
             offset: m.offset,
             input_offset: m.input_offset,
-            dead_zone_thresholds: m.dead_zone.as_ref().map(|d| d.thresholds.clone()).unwrap_or_default(),
-            dead_zone_weights: m.dead_zone.as_ref().map(|d| d.weights.clone()).unwrap_or_default(),
+            dead_zone_thresholds: m
+                .dead_zone
+                .as_ref()
+                .map(|d| d.thresholds.clone())
+                .unwrap_or_default(),
+            dead_zone_weights: m
+                .dead_zone
+                .as_ref()
+                .map(|d| d.weights.clone())
+                .unwrap_or_default(),
         }
     }
 }
@@ -177,6 +185,18 @@ impl ControllerFile {
     /// Samples of reference look-ahead the loop must supply.
     pub fn preview(&self) -> usize {
         self.zpetc.as_ref().map_or(0, |z| z.preview)
+    }
+
+    /// The controller in the `--controller` grammar, e.g. `pid+hc+zpec`.
+    pub fn stages_name(&self) -> String {
+        let mut s = String::from("pid");
+        if self.hysteresis.is_some() {
+            s.push_str("+hc");
+        }
+        if self.zpetc.is_some() {
+            s.push_str("+zpec");
+        }
+        s
     }
 
     /// Names of the blocks in signal order, e.g. `zpetc, hysteresis_inverse, pid`.

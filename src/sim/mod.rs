@@ -2,6 +2,7 @@
 //! and closed-loop runs through the runtime controller step.
 
 pub mod closed_loop;
+pub mod experiment;
 pub mod reference;
 pub mod virtual_fts;
 
@@ -38,7 +39,10 @@ impl Plant for virtual_fts::VirtualFts {
 /// measurement noise. The command is clipped to `command_limits`.
 #[derive(Debug, Clone)]
 pub struct ModelPlant {
-    hysteresis: Option<(crate::ident::hysteresis::HysteresisModel, crate::ident::hysteresis::ModelState)>,
+    hysteresis: Option<(
+        crate::ident::hysteresis::HysteresisModel,
+        crate::ident::hysteresis::ModelState,
+    )>,
     linear: crate::lti::TdfFilter,
     ts: f64,
     output: f64,
@@ -67,7 +71,11 @@ impl ModelPlant {
             .then(|| rand_distr::Normal::new(0.0, noise_rms).ok())
             .flatten()
             .map(|n| (rand_chacha::ChaCha8Rng::seed_from_u64(seed), n));
-        let shifted = crate::lti::TdfFilter::from_coeffs(linear.num().coeffs(), linear.den().coeffs(), linear.delay() - 1);
+        let shifted = crate::lti::TdfFilter::from_coeffs(
+            linear.num().coeffs(),
+            linear.den().coeffs(),
+            linear.delay() - 1,
+        );
         Ok(Self {
             hysteresis: hysteresis.map(|m| {
                 let s = m.new_state();
