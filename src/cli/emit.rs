@@ -12,7 +12,7 @@ use crate::sim::experiment::build_controller;
 use crate::synth::composite::Stages;
 use crate::synth::zpetc::{self, ZpetcParams};
 use clap::{Args, ValueEnum};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum Format {
