@@ -61,7 +61,7 @@ pub struct EmitArgs {
 
 /// Reads an input and records its hash under `role`.
 fn hashed(
-    path: &PathBuf,
+    path: &Path,
     role: &str,
     inputs: &mut Vec<InputHash>,
 ) -> anyhow::Result<(String, String)> {
