@@ -10,6 +10,7 @@
 
 mod common;
 mod excite;
+mod robust;
 mod tf;
 mod zpetc;
 
@@ -35,6 +36,18 @@ enum Command {
     /// Inspect transfer-function files.
     #[command(subcommand)]
     Tf(tf::TfCommand),
+    /// H-infinity synthesis on a generalised plant (gamma bisection, central controller).
+    Hinf(robust::SynthArgs),
+    /// H2-optimal synthesis on a generalised plant.
+    H2(robust::SynthArgs),
+    /// Build a weighting function (W_s, W_t, makeweight) as fts.ss/1.
+    Weight(robust::WeightArgs),
+    /// Mixed-sensitivity H-infinity design (augw convention).
+    Mixsyn(robust::MixsynArgs),
+    /// Discretise a continuous system (ZOH or Tustin).
+    C2d(robust::C2dArgs),
+    /// Poles, zeros, stability, H2 and H-infinity norms of a system.
+    SsInfo(robust::SsInfoArgs),
 }
 
 /// Runs the command line and returns the process exit code.
@@ -61,5 +74,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Excite(args) => excite::run(args),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
+        Command::Hinf(args) => robust::run_hinf(args),
+        Command::H2(args) => robust::run_h2(args),
+        Command::Weight(args) => robust::run_weight(args),
+        Command::Mixsyn(args) => robust::run_mixsyn(args),
+        Command::C2d(args) => robust::run_c2d(args),
+        Command::SsInfo(args) => robust::run_ss_info(args),
     }
 }

@@ -1,4 +1,9 @@
 //! Controller and feedforward synthesis.
 
+pub mod genplant;
+pub mod h2;
+pub mod hinf;
+pub mod mixsyn;
 pub mod pid;
+pub mod weights;
 pub mod zpetc;
