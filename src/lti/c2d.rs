@@ -73,19 +73,20 @@ pub fn c2d(sys: &StateSpace, ts: f64, method: C2dMethod) -> Result<StateSpace, S
     }
 }
 
-/// Discrete system from a continuous one by `s = (z-1)/(z+1)` with the
-/// symmetric `sqrt 2` split; the inverse of
+/// Discrete system from a continuous one by `s = a (z-1)/(z+1)` with the
+/// symmetric `sqrt(2a)` split; the inverse of
 /// [`super::norms::bilinear_to_continuous`]. Norms and stability are preserved.
-pub fn bilinear_to_discrete(sys: &StateSpace, ts: f64) -> Result<StateSpace, SsError> {
+pub fn bilinear_to_discrete(sys: &StateSpace, alpha: f64, ts: f64) -> Result<StateSpace, SsError> {
     let n = sys.nx();
     let i = Mat::<f64>::identity(n, n);
-    let e = inv(&(&i - &sys.a)).ok_or(SsError::IllPosed)?;
-    let r2 = 2f64.sqrt();
+    let a = &sys.a * (1.0 / alpha);
+    let e = inv(&(&i - &a)).ok_or(SsError::IllPosed)?;
+    let r2 = (2.0 / alpha).sqrt();
     StateSpace::new(
-        &e * &(&i + &sys.a),
+        &e * &(&i + &a),
         &(&e * &sys.b) * r2,
         &(&sys.c * &e) * r2,
-        &sys.d + &sys.c * &e * &sys.b,
+        &sys.d + &(&(&sys.c * &e * &sys.b) * (1.0 / alpha)),
         Some(ts),
     )
 }
@@ -120,8 +121,8 @@ mod tests {
     #[test]
     fn unit_bilinear_round_trip() {
         let g = StateSpace::from_tf(&[1.0, 3.0], &[1.0, 2.0, 5.0], None).unwrap();
-        let d = bilinear_to_discrete(&g, 1.0).unwrap();
-        let back = bilinear_to_continuous(&d).unwrap();
+        let d = bilinear_to_discrete(&g, 7.0, 1.0).unwrap();
+        let back = bilinear_to_continuous(&d, 7.0).unwrap();
         let s = c64::new(0.3, 1.7);
         let e = (g.eval(s).unwrap()[(0, 0)] - back.eval(s).unwrap()[(0, 0)]).norm();
         assert!(e < 1e-13);

@@ -61,16 +61,18 @@ fn trace(m: &Mat<f64>) -> f64 {
     (0..m.nrows()).map(|i| m[(i, i)]).sum()
 }
 
-/// Continuous equivalent of a discrete system under `z = (1+s)/(1-s)`
-/// (same H-infinity norm; `theta = 2 atan(w)`).
-pub fn bilinear_to_continuous(sys: &StateSpace) -> Result<StateSpace, SsError> {
+/// Continuous equivalent of a discrete system under `z = (a+s)/(a-s)`,
+/// i.e. `s = a (z-1)/(z+1)` (same H-infinity norm and stability for any
+/// `a > 0`; `w_c = a tan(theta/2)`). `a = 2/ts` keeps the poles near their
+/// physical values, which keeps the Riccati problems well scaled.
+pub fn bilinear_to_continuous(sys: &StateSpace, alpha: f64) -> Result<StateSpace, SsError> {
     let n = sys.nx();
     let ap = &sys.a + Mat::<f64>::identity(n, n);
     let api = inv(&ap).ok_or(SsError::IllPosed)?;
-    let r2 = 2f64.sqrt();
+    let r2 = (2.0 * alpha).sqrt();
     let am = &sys.a - Mat::<f64>::identity(n, n);
     StateSpace::new(
-        &api * &am,
+        &(&api * &am) * alpha,
         &(&api * &sys.b) * r2,
         &(&sys.c * &api) * r2,
         &sys.d - &sys.c * &api * &sys.b,
@@ -87,10 +89,11 @@ pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
     match sys.ts {
         None => hinf_continuous(sys, rtol),
         Some(ts) => {
-            let c = bilinear_to_continuous(sys)?;
+            let alpha = 2.0 / ts;
+            let c = bilinear_to_continuous(sys, alpha)?;
             let (g, w) = hinf_continuous(&c, rtol)?;
             let theta = if w.is_finite() {
-                2.0 * w.atan()
+                2.0 * (w / alpha).atan()
             } else {
                 std::f64::consts::PI
             };

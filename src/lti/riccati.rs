@@ -57,12 +57,21 @@ pub struct RiccatiSolution {
 }
 
 /// Relative residual of `A'X + XA - XGX + Q`.
-fn care_residual(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>, x: &Mat<f64>) -> (Mat<f64>, f64) {
+/// `scale` is added to the denominator: the size of the data the reduced
+/// `Q` was formed from (`Q - S R^-1 S'` can cancel to rounding noise, and a
+/// residual relative to that noise alone would be meaningless).
+fn care_residual(
+    a: &Mat<f64>,
+    g: &Mat<f64>,
+    q: &Mat<f64>,
+    x: &Mat<f64>,
+    scale: f64,
+) -> (Mat<f64>, f64) {
     let xa = x * a;
     let xa_t = tr(&xa);
     let xgx = x * g * x;
     let r = &(&(&xa_t + &xa) - &xgx) + q;
-    let den = fro(&xa) * 2.0 + fro(&xgx) + fro(q);
+    let den = fro(&xa) * 2.0 + fro(&xgx) + fro(q) + scale;
     let r_sym = Mat::from_fn(r.nrows(), r.ncols(), |i, j| 0.5 * (r[(i, j)] + r[(j, i)]));
     let rel = if den > 0.0 {
         fro(&r_sym) / den
@@ -121,6 +130,15 @@ fn subspace_solution(z: &Mat<c64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
 /// possibly indefinite as in H-infinity), i.e. `A - G X` Hurwitz:
 /// `X = Ric(H)`, `H = [A, -G; -Q, -A']` (Zhou & Doyle, Essentials §12.1).
 pub fn care_g(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>) -> Result<RiccatiSolution, RiccatiError> {
+    care_g_scaled(a, g, q, 0.0)
+}
+
+fn care_g_scaled(
+    a: &Mat<f64>,
+    g: &Mat<f64>,
+    q: &Mat<f64>,
+    scale: f64,
+) -> Result<RiccatiSolution, RiccatiError> {
     let n = check_square(a, &[(g, "G"), (q, "Q")])?;
     if n == 0 {
         return Ok(RiccatiSolution {
@@ -149,7 +167,7 @@ pub fn care_g(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>) -> Result<RiccatiSolutio
         ));
     }
     let mut x = subspace_solution(&gs.z, n)?;
-    let (mut res, mut rel) = care_residual(a, g, q, &x);
+    let (mut res, mut rel) = care_residual(a, g, q, &x, scale);
     // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0.
     let mut steps = 0;
     for _ in 0..6 {
@@ -159,7 +177,7 @@ pub fn care_g(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>) -> Result<RiccatiSolutio
         let ak = a - g * &x;
         let Ok(d) = lyap(&tr(&ak), &res) else { break };
         let xn = &x + &d.x;
-        let (rn, reln) = care_residual(a, g, q, &xn);
+        let (rn, reln) = care_residual(a, g, q, &xn, scale);
         if !(reln < rel) {
             break;
         }
@@ -233,7 +251,8 @@ pub fn care(
     s: Option<&Mat<f64>>,
 ) -> Result<RiccatiSolution, RiccatiError> {
     let (at, g, qt, ri) = reduce(a, b, q, r, s)?;
-    let mut sol = care_g(&at, &g, &qt)?;
+    let scale = fro(q) + fro(&(q - &qt));
+    let mut sol = care_g_scaled(&at, &g, &qt, scale)?;
     let st = s
         .map(tr)
         .unwrap_or_else(|| Mat::zeros(b.ncols(), a.nrows()));

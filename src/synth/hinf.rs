@@ -242,7 +242,7 @@ pub fn hinfsyn(
 ) -> Result<HinfResult, SynthError> {
     let cont = match plant.ts {
         None => plant.clone(),
-        Some(_) => bilinear_to_continuous(plant).map_err(|e| {
+        Some(ts) => bilinear_to_continuous(plant, 2.0 / ts).map_err(|e| {
             SynthError::Numerical(format!("bilinear map of the discrete plant: {e}"))
         })?,
     };
@@ -327,9 +327,8 @@ pub fn hinfsyn(
     // Back to discrete time if needed.
     let k = match plant.ts {
         None => kc,
-        Some(ts) => {
-            bilinear_to_discrete(&kc, ts).map_err(|e| SynthError::Numerical(e.to_string()))?
-        }
+        Some(ts) => bilinear_to_discrete(&kc, 2.0 / ts, ts)
+            .map_err(|e| SynthError::Numerical(e.to_string()))?,
     };
     let closed_loop = plant
         .lft(&k)
