@@ -250,3 +250,64 @@ fn norms_of_closed_loops_agree_with_a_dense_sweep() {
     let h = h2syn(&pc_plant(), 1, 1, 1e-6).unwrap();
     assert!(h2_norm(&h.closed_loop).unwrap() < 1e-12);
 }
+
+#[test]
+fn mimo_plant_with_coupling_and_nonidentity_d12_d21() {
+    // 3 states, w in R^3, u in R^2, z in R^4, y in R^2; D12 and D21 full rank
+    // but neither orthogonal nor identity; D11 != 0, D22 != 0.
+    let a = m(&[&[-1.0, 2.0, 0.0], &[0.0, 0.5, 1.0], &[1.0, 0.0, -3.0]]);
+    let b1 = m(&[&[1.0, 0.0, 0.2], &[0.0, 1.0, 0.0], &[0.5, 0.0, 1.0]]);
+    let b2 = m(&[&[0.0, 1.0], &[1.0, 0.0], &[0.0, 0.3]]);
+    let c1 = m(&[
+        &[1.0, 0.0, 0.0],
+        &[0.0, 1.0, 1.0],
+        &[0.0, 0.0, 0.0],
+        &[0.0, 0.0, 0.0],
+    ]);
+    let c2 = m(&[&[1.0, 1.0, 0.0], &[0.0, 0.0, 1.0]]);
+    let d11 = m(&[
+        &[0.1, 0.0, 0.0],
+        &[0.0, 0.0, 0.0],
+        &[0.0, 0.0, 0.0],
+        &[0.0, 0.0, 0.0],
+    ]);
+    let d12 = m(&[&[0.0, 0.0], &[0.0, 0.0], &[2.0, 0.5], &[0.0, 1.0]]);
+    let d21 = m(&[&[0.0, 1.0, 0.3], &[0.5, 0.0, 2.0]]);
+    let d22 = m(&[&[0.1, 0.0], &[0.0, 0.2]]);
+    let p = StateSpace::new(
+        a,
+        hcat(&b1, &b2),
+        vcat(&c1, &c2),
+        vcat(&hcat(&d11, &d12), &hcat(&d21, &d22)),
+        None,
+    )
+    .unwrap();
+    let h = hinfsyn(&p, 2, 2, HinfOptions::default()).unwrap();
+    assert!(h.stable);
+    assert_eq!((h.k.nu(), h.k.ny()), (2, 2));
+    assert!(
+        h.achieved <= h.gamma * (1.0 + 1e-6),
+        "{} {}",
+        h.achieved,
+        h.gamma
+    );
+    assert!(h.achieved >= h.gamma_opt * (1.0 - 1e-3));
+    assert!(h.x_residual < 1e-10 && h.y_residual < 1e-10);
+    // H2 needs D11 = 0.
+    let mut p2 = p.clone();
+    p2.d[(0, 0)] = 0.0;
+    let r = h2syn(&p2, 2, 2, 1e-6).unwrap();
+    assert!(r.stable && r.h2_norm.is_finite());
+    assert!(r.x_residual < 1e-10 && r.y_residual < 1e-10);
+    // Optimality check: perturbing the H2 controller never lowers the norm.
+    for (i, j) in [(0, 0), (1, 0), (0, 1)] {
+        for delta in [1e-3, -1e-3] {
+            let mut k = r.k.clone();
+            k.c[(i, j)] += delta;
+            let cl = p2.lft(&k).unwrap();
+            if cl.is_stable().unwrap() {
+                assert!(h2_norm(&cl).unwrap() >= r.h2_norm * (1.0 - 1e-12));
+            }
+        }
+    }
+}

@@ -9,6 +9,7 @@
 
 use super::common::{bad, complex_pairs, fmt_complex, print_json, read_input, write_atomic};
 use crate::io::{InputError, ss_json, tf_json};
+use crate::lti::balred::balred;
 use crate::lti::c2d::{C2dMethod, c2d};
 use crate::lti::norms::{NormError, h2_norm, hinf_norm};
 use crate::lti::ss::StateSpace;
@@ -342,6 +343,10 @@ pub struct MixsynArgs {
     /// Relative tolerance of the gamma bisection.
     #[arg(long, default_value_t = 1e-6)]
     tol: f64,
+    /// Reduce the controller to this many states by balanced truncation
+    /// (the closed loop is re-checked with the reduced controller).
+    #[arg(long, value_name = "N")]
+    order: Option<usize>,
 }
 
 /// `fts mixsyn`.
@@ -352,8 +357,33 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     let wu = args.wu.as_deref().map(read_system).transpose()?;
     let wt = args.wt.as_deref().map(read_system).transpose()?;
     let source = args.plant.display().to_string();
-    let (p, r) =
+    let (p, mut r) =
         mixsyn(&g, Some(&ws), wu.as_ref(), wt.as_ref(), opts).map_err(|e| synth_err(&source, e))?;
+    let mut reduction = Value::Null;
+    if let Some(order) = args.order {
+        let red = balred(&r.k, order).map_err(|e| bad(format!("--order {order}: {e}")))?;
+        let cl = p.lft(&red.sys)?;
+        let stable = cl.is_stable()?;
+        let achieved = if stable {
+            hinf_norm(&cl, 1e-8).map(|x| x.0).unwrap_or(f64::INFINITY)
+        } else {
+            f64::INFINITY
+        };
+        reduction = json!({"order": red.sys.nx(), "hankel_singular_values": red.hsv,
+            "error_bound": red.bound, "full_order": r.k.nx()});
+        eprintln!(
+            "reduced controller: {} -> {} states (||K - Kr||_inf <= {:.3e}); closed loop {}, ||Tzw|| = {achieved:.6}",
+            r.k.nx(),
+            red.sys.nx(),
+            red.bound,
+            if stable { "stable" } else { "UNSTABLE" }
+        );
+        r.poles = cl.poles()?;
+        r.k = red.sys;
+        r.closed_loop = cl;
+        r.stable = stable;
+        r.achieved = achieved;
+    }
     if let Some(path) = &args.augmented {
         write_atomic(path, ss_json::ss_to_string(&p).as_bytes())?;
     }
@@ -367,6 +397,7 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     if args.json {
         let mut v = hinf_json(&r, args.eps, args.tol);
         v["controller_gain"] = Value::Array(lf);
+        v["reduction"] = reduction;
         print_json(&v)
     } else {
         print!("{}", hinf_text(&r, args.eps));
