@@ -113,11 +113,54 @@ fn weight_mixsyn_c2d_pipeline() {
         .stdout
         .clone();
     assert!(json_of(&out)["system"]["ts"].as_f64() == Some(1e-3));
-    fts()
+    let out = fts()
         .args(["ss-info", "--json"])
         .arg(&kd)
         .assert()
-        .success();
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    assert_eq!(json_of(&out)["ts"].as_f64(), Some(1e-3));
+    // Balanced truncation of the controller to 3 states keeps the loop stable.
+    let out = fts()
+        .args(["mixsyn", "--plant"])
+        .arg(&g)
+        .arg("--ws")
+        .arg(&ws)
+        .arg("--wu")
+        .arg(&wu)
+        .args(["--order", "3", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    assert_eq!(v["reduction"]["order"].as_u64(), Some(3));
+    assert_eq!(v["stable"], Value::Bool(true));
+    // makeweight as JSON
+    let out = fts()
+        .args([
+            "weight",
+            "--kind",
+            "makeweight",
+            "--dc",
+            "100",
+            "--freq",
+            "10",
+            "--mag",
+            "1",
+            "--hf",
+            "0.1",
+            "--json",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    assert!((json_of(&out)["dc_gain"].as_f64().unwrap() - 100.0).abs() < 1e-9);
 }
 
 fn expect_bad(args: &[&str], p: &Path, needle: &str) {

@@ -170,7 +170,7 @@ fn care_g_scaled(
     let (mut res, mut rel) = care_residual(a, g, q, &x, scale);
     // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0.
     let mut steps = 0;
-    for _ in 0..6 {
+    for _ in 0..10 {
         if rel < 1e-15 {
             break;
         }
@@ -182,13 +182,9 @@ fn care_g_scaled(
             break;
         }
         steps += 1;
-        let improved = reln < 0.5 * rel;
         x = xn;
         res = rn;
         rel = reln;
-        if !improved {
-            break;
-        }
     }
     let closed_loop = eigvals(&(a - g * &x))
         .map_err(|_| RiccatiError::NoStabilizing("closed-loop eigenvalues failed".into()))?;
