@@ -263,3 +263,44 @@ fn bad_inputs_exit_2_with_a_clear_message() {
         .code(2)
         .stderr(predicate::str::contains("strictly between"));
 }
+
+#[test]
+fn budget_closes_the_loop_and_matches_parseval() {
+    let dir = tempfile::tempdir().unwrap();
+    // Open loop 1/(s+1) from one white source: RMS^2 -> ||G||_2^2 = 1/2.
+    let g = write(
+        dir.path(),
+        "g.json",
+        r#"{"format":"fts.ss/1","a":[[-1]],"b":[[1]],"c":[[1]],"d":[[0]]}"#,
+    );
+    let csv = dir.path().join("b.csv");
+    let out = fts()
+        .arg("budget")
+        .arg(&g)
+        .args(["--fmax", "2000", "--points", "200001", "--json", "--csv"])
+        .arg(&csv)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let rms = json_of(&out)["rms"].as_f64().unwrap();
+    // 1e-3: the 2 kHz grid misses ~1e-4 of the 1/(s+1) tail power.
+    assert!((rms / 0.5f64.sqrt() - 1.0).abs() < 1e-3, "{rms}");
+    assert!(
+        std::fs::read_to_string(&csv)
+            .unwrap()
+            .starts_with("freq_hz,psd_0,psd_total,cas")
+    );
+    let unstable = write(
+        dir.path(),
+        "u.json",
+        r#"{"format":"fts.ss/1","a":[[1]],"b":[[1]],"c":[[1]],"d":[[0]]}"#,
+    );
+    fts()
+        .arg("budget")
+        .arg(&unstable)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("not stable"));
+}

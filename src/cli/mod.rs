@@ -48,6 +48,8 @@ enum Command {
     C2d(robust::C2dArgs),
     /// Poles, zeros, stability, H2 and H-infinity norms of a system.
     SsInfo(robust::SsInfoArgs),
+    /// Error budget: per-source PSD, cumulative amplitude spectrum, RMS.
+    Budget(robust::BudgetArgs),
 }
 
 /// Runs the command line and returns the process exit code.
@@ -80,5 +82,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Mixsyn(args) => robust::run_mixsyn(args),
         Command::C2d(args) => robust::run_c2d(args),
         Command::SsInfo(args) => robust::run_ss_info(args),
+        Command::Budget(args) => robust::run_budget(args),
     }
 }

@@ -6,6 +6,7 @@
 //! * `fts mixsyn --plant G.json --ws WS.json [--wu WU.json] [--wt WT.json] [-o K.json] [--json]`
 //! * `fts c2d K.json --ts SECONDS --method zoh|tustin [--prewarp HZ] [-o KD.json] [--json]`
 //! * `fts ss-info SYS.json [--json]`
+//! * `fts budget SYS.json [--controller K.json] [--output I] [--fmax HZ] [--csv OUT.csv] [--json]`
 
 use super::common::{bad, complex_pairs, fmt_complex, print_json, read_input, write_atomic};
 use crate::io::{InputError, ss_json, tf_json};
@@ -535,6 +536,102 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
                 h.0, h.1
             ))
         );
+        Ok(())
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct BudgetArgs {
+    /// The system from the white-noise sources to the errors (`fts.ss/1`), or,
+    /// with --controller, the generalised plant whose loop is closed first.
+    #[arg(value_name = "SYS.json")]
+    input: PathBuf,
+    /// Controller closing the loop `F_l(P, K)` (the last NU inputs / NY outputs of P).
+    #[arg(long, value_name = "K.json")]
+    controller: Option<PathBuf>,
+    /// Which output is the error (0-based).
+    #[arg(long, default_value_t = 0)]
+    output: usize,
+    /// Highest frequency of the budget in Hz (default: Nyquist, or 10 kHz).
+    #[arg(long, value_name = "HZ")]
+    fmax: Option<f64>,
+    /// Number of grid points (uniform from 0 to fmax).
+    #[arg(long, default_value_t = 20001)]
+    points: usize,
+    /// Write freq_hz, psd_<i>..., psd_total, cas to this CSV.
+    #[arg(long, value_name = "OUT.csv")]
+    csv: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `fts budget`: per-source PSD, cumulative amplitude spectrum and RMS (Ding22 Eq. 7-10).
+pub fn run_budget(args: BudgetArgs) -> anyhow::Result<()> {
+    let mut sys = read_system(&args.input)?;
+    if let Some(kp) = &args.controller {
+        let k = read_system(kp)?;
+        if k.nu() >= sys.ny() || k.ny() >= sys.nu() {
+            return Err(bad(format!(
+                "{}: the controller ({} in, {} out) does not fit the plant ({} in, {} out)",
+                kp.display(),
+                k.nu(),
+                k.ny(),
+                sys.nu(),
+                sys.ny()
+            )));
+        }
+        sys = sys.lft(&k)?;
+    }
+    if !sys.is_stable()? {
+        return Err(bad(format!(
+            "{}: the (closed-loop) system is not stable: its error spectrum is unbounded",
+            args.input.display()
+        )));
+    }
+    if args.output >= sys.ny() {
+        return Err(bad(format!(
+            "--output {}: the system has {} outputs",
+            args.output,
+            sys.ny()
+        )));
+    }
+    let fmax = match (args.fmax, sys.ts) {
+        (Some(f), _) => f,
+        (None, Some(t)) => 0.5 / t,
+        (None, None) => 1e4,
+    };
+    if !(fmax.is_finite() && fmax > 0.0) || args.points < 2 {
+        return Err(bad("--fmax must be positive and --points at least 2"));
+    }
+    let grid = crate::lti::linspace(0.0, fmax, args.points);
+    let b = crate::synth::budget::error_budget(&sys, args.output, &grid)
+        .ok_or_else(|| anyhow::anyhow!("frequency response failed"))?;
+    if let Some(path) = &args.csv {
+        let mut out = String::from("freq_hz");
+        for i in 0..b.psd.len() {
+            out.push_str(&format!(",psd_{i}"));
+        }
+        out.push_str(",psd_total,cas\n");
+        for k in 0..grid.len() {
+            out.push_str(&format!("{}", grid[k]));
+            for p in &b.psd {
+                out.push_str(&format!(",{}", p[k]));
+            }
+            out.push_str(&format!(",{},{}\n", b.total_psd[k], b.cas[k]));
+        }
+        write_atomic(path, out.as_bytes())?;
+    }
+    if args.json {
+        print_json(&json!({"rms": b.rms, "rms_per_source": b.rms_per_source, "fmax_hz": fmax}))
+    } else {
+        println!("RMS error up to {fmax} Hz: {:.6e}", b.rms);
+        for (i, r) in b.rms_per_source.iter().enumerate() {
+            println!(
+                "  source {i}: {r:.6e} ({:.1}% of the power)",
+                100.0 * r * r / (b.rms * b.rms).max(1e-300)
+            );
+        }
         Ok(())
     }
 }

@@ -268,8 +268,19 @@ pub fn hinfsyn(
             Ok(r) => break r,
             Err(SynthError::Infeasible(why)) => {
                 if hi >= opts.gamma_max {
+                    let hint = if regularised.0 || regularised.1 {
+                        format!(
+                            "; note: the rank-deficient {} was regularised with eps = {:e}, a \
+                             nearly singular problem: add a control weight (mixsyn --wu) or \
+                             raise --eps",
+                            if regularised.0 { "D12" } else { "D21" },
+                            opts.eps
+                        )
+                    } else {
+                        String::new()
+                    };
                     return Err(SynthError::Infeasible(format!(
-                        "no stabilising controller achieves gamma <= {:.3e} ({why})",
+                        "no stabilising controller achieves gamma <= {:.3e} ({why}){hint}",
                         opts.gamma_max
                     )));
                 }

@@ -1,5 +1,6 @@
 //! Controller and feedforward synthesis.
 
+pub mod budget;
 pub mod genplant;
 pub mod h2;
 pub mod hinf;
