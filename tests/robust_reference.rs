@@ -114,7 +114,7 @@ fn skogestad_postlethwaite_ex_2_11_gamma() {
     assert!(r.achieved > r.gamma * 0.99);
     assert!((r.gamma_opt - 1.37).abs() < 0.01);
     assert!(r.x_residual < 1e-10 && r.y_residual < 1e-10);
-    assert_eq!(r.regularised, (false, false));
+    assert_eq!(r.regularised, (None, None));
 }
 
 #[test]
@@ -225,6 +225,21 @@ fn karagoz18_x_and_y_axes_are_stabilised() {
             cyy(w)
         );
     }
+}
+
+#[test]
+fn karagoz18_x_without_control_weight_is_regularised_automatically() {
+    // D12 = 0 without W_u: fts adds eps u with a conditioning-aware weight and
+    // lands on the same design as the explicit unit control weight.
+    let g = StateSpace::from_tf(&[56930.0, 1389.0], &[1.0, 0.2268, 0.002058], None).unwrap();
+    let ws = weights::ws(2.0, 160.0, 0.001).unwrap();
+    let wt = weights::wt(2.0, 160.0, 0.001).unwrap();
+    let (_, r) = mixsyn(&g, Some(&ws), None, Some(&wt), HinfOptions::default()).unwrap();
+    assert!(r.stable);
+    let w = r.regularised.0.expect("D12 regularised");
+    assert!(w > 0.1 && w <= 1.0, "{w}");
+    assert!((r.gamma - 1.117).abs() < 1e-3, "{}", r.gamma);
+    assert!(r.achieved <= r.gamma * (1.0 + 1e-6));
 }
 
 #[test]

@@ -77,7 +77,8 @@ pub struct SynthArgs {
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
     json: bool,
-    /// Weight of the regularising channels added when D12 / D21 lack full rank.
+    /// Smallest weight of the regularising channels added when D12 / D21
+    /// lack full rank (raised automatically for conditioning; see docs/robust.md).
     #[arg(long, default_value_t = 1e-6)]
     eps: f64,
     /// Relative tolerance of the gamma bisection (H-inf only).
@@ -137,12 +138,12 @@ fn hinf_json(r: &HinfResult, eps: f64, tol: f64) -> Value {
         "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
         "controller": ss_json::ss_to_value(&r.k),
         "controller_order": r.k.nx(),
-        "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps": eps},
+        "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": eps},
         "bisection": {"rtol": tol, "iterations": r.iterations},
     })
 }
 
-fn hinf_text(r: &HinfResult, eps: f64) -> String {
+fn hinf_text(r: &HinfResult) -> String {
     let mut s = format!(
         "gamma            {:.8} (controller level; optimum estimate {:.8})\nachieved ||Tzw|| {:.8} (recomputed, Bruinsma-Steinbuch)\nclosed loop      {} (poles: {})\ncontroller       {} states\nRiccati residual X {:.1e}, Y {:.1e}\n",
         r.gamma,
@@ -154,14 +155,14 @@ fn hinf_text(r: &HinfResult, eps: f64) -> String {
         r.x_residual,
         r.y_residual
     );
-    if r.regularised.0 || r.regularised.1 {
+    if let Some(e) = r.regularised.0 {
         s.push_str(&format!(
-            "note: rank-deficient {} regularised with eps = {eps:e}\n",
-            match r.regularised {
-                (true, true) => "D12 and D21",
-                (true, false) => "D12",
-                _ => "D21",
-            }
+            "note: D12 lacks full column rank: regularised with a control weight {e:e} (eps u added to z)\n"
+        ));
+    }
+    if let Some(e) = r.regularised.1 {
+        s.push_str(&format!(
+            "note: D21 lacks full row rank: regularised with a sensor-noise weight {e:e}\n"
         ));
     }
     s
@@ -179,7 +180,7 @@ pub fn run_hinf(args: SynthArgs) -> anyhow::Result<()> {
     if args.json {
         print_json(&hinf_json(&r, args.eps, args.tol))
     } else {
-        print!("{}", hinf_text(&r, args.eps));
+        print!("{}", hinf_text(&r));
         Ok(())
     }
 }
@@ -201,7 +202,7 @@ pub fn run_h2(args: SynthArgs) -> anyhow::Result<()> {
             "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
             "controller": ss_json::ss_to_value(&r.k),
             "controller_order": r.k.nx(),
-            "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps": args.eps},
+            "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": args.eps},
         }))
     } else {
         println!(
@@ -338,7 +339,8 @@ pub struct MixsynArgs {
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
     json: bool,
-    /// Weight of the regularising channels added when D12 / D21 lack full rank.
+    /// Smallest weight of the regularising channels added when D12 / D21
+    /// lack full rank (raised automatically for conditioning; see docs/robust.md).
     #[arg(long, default_value_t = 1e-6)]
     eps: f64,
     /// Relative tolerance of the gamma bisection.
@@ -401,7 +403,7 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
         v["reduction"] = reduction;
         print_json(&v)
     } else {
-        print!("{}", hinf_text(&r, args.eps));
+        print!("{}", hinf_text(&r));
         for w in [0.0, 1.0, 10.0, 100.0, 1000.0] {
             println!("|K(j{w})| = {:.6e}", r.k.sigma_at(w));
         }

@@ -34,8 +34,8 @@ pub struct H2Result {
     /// Relative residuals of the two Riccati equations.
     pub x_residual: f64,
     pub y_residual: f64,
-    /// Regularisation added to `D12` / `D21`, if any.
-    pub regularised: (bool, bool),
+    /// Regularisation weights added to `D12` / `D21`, if any.
+    pub regularised: (Option<f64>, Option<f64>),
 }
 
 /// H2-optimal synthesis (continuous time).

@@ -69,8 +69,8 @@ pub struct HinfResult {
     /// Relative residuals of the X and Y Riccati equations.
     pub x_residual: f64,
     pub y_residual: f64,
-    /// Regularisation added to `D12` / `D21` (`eps`), if any.
-    pub regularised: (bool, bool),
+    /// Regularisation weights added to `D12` / `D21`, if any.
+    pub regularised: (Option<f64>, Option<f64>),
     /// Bisection steps.
     pub iterations: usize,
 }
@@ -248,6 +248,51 @@ pub fn hinfsyn(
     };
     let p0 = Partition::new(&cont.balanced(), nmeas, ncon)?;
     p0.check_stabilisable()?;
+    // Singular problems (D12 / D21 rank deficient) are regularised with a
+    // weight eps. The true optimum gamma(eps) is nondecreasing in eps, while a
+    // too small eps makes the Riccati tests fail through ill-conditioning and
+    // *overestimates* gamma. So try eps, 10 eps, ... (at most 1e6 eps) and keep
+    // the smallest gamma, stopping once gamma clearly grows again.
+    let mut probe = p0.clone();
+    if probe.regularise(opts.eps) == (None, None) {
+        return hinfsyn_regularised(plant, &p0, opts);
+    }
+    let mut best: Option<HinfResult> = None;
+    let mut last_err = None;
+    let mut eps = opts.eps / 10.0;
+    let mut previous = None;
+    for _ in 0..7 {
+        eps *= 10.0;
+        // Skip weights that the conditioning floor maps to one already tried.
+        let weights = p0.clone().regularise(eps);
+        if previous == Some(weights) {
+            continue;
+        }
+        previous = Some(weights);
+        match hinfsyn_regularised(plant, &p0, HinfOptions { eps, ..opts }) {
+            Ok(r) if r.stable => match &best {
+                Some(b) if r.gamma >= b.gamma => {
+                    if r.gamma > b.gamma * (1.0 + 1e-3) {
+                        break;
+                    }
+                }
+                _ => best = Some(r),
+            },
+            Ok(_) => {}
+            Err(e @ SynthError::Infeasible(_)) => last_err = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    best.ok_or_else(|| {
+        last_err.unwrap_or_else(|| SynthError::Numerical("no regularisation weight worked".into()))
+    })
+}
+
+fn hinfsyn_regularised(
+    plant: &StateSpace,
+    p0: &Partition,
+    opts: HinfOptions,
+) -> Result<HinfResult, SynthError> {
     let mut p = p0.clone();
     let regularised = p.regularise(opts.eps);
     let norm: Normalised = normalise(&p)?;
@@ -268,16 +313,15 @@ pub fn hinfsyn(
             Ok(r) => break r,
             Err(SynthError::Infeasible(why)) => {
                 if hi >= opts.gamma_max {
-                    let hint = if regularised.0 || regularised.1 {
-                        format!(
-                            "; note: the rank-deficient {} was regularised with eps = {:e}, a \
+                    let hint = match regularised {
+                        (None, None) => String::new(),
+                        (e12, e21) => format!(
+                            "; note: the rank-deficient {} was regularised with weight {:e}, a \
                              nearly singular problem: add a control weight (mixsyn --wu) or \
                              raise --eps",
-                            if regularised.0 { "D12" } else { "D21" },
-                            opts.eps
-                        )
-                    } else {
-                        String::new()
+                            if e12.is_some() { "D12" } else { "D21" },
+                            e12.or(e21).unwrap_or(opts.eps)
+                        ),
                     };
                     return Err(SynthError::Infeasible(format!(
                         "no stabilising controller achieves gamma <= {:.3e} ({why}){hint}",
