@@ -18,6 +18,7 @@ mod hysteresis;
 mod identify;
 mod identify_hysteresis;
 mod identify_linear;
+mod robust;
 mod simulate;
 mod tf;
 mod zpetc;
@@ -58,6 +59,20 @@ enum Command {
     /// Inspect transfer-function files.
     #[command(subcommand)]
     Tf(tf::TfCommand),
+    /// H-infinity synthesis on a generalised plant (gamma bisection, central controller).
+    Hinf(robust::SynthArgs),
+    /// H2-optimal synthesis on a generalised plant.
+    H2(robust::SynthArgs),
+    /// Build a weighting function (W_s, W_t, makeweight) as fts.ss/1.
+    Weight(robust::WeightArgs),
+    /// Mixed-sensitivity H-infinity design (augw convention).
+    Mixsyn(robust::MixsynArgs),
+    /// Discretise a continuous system (ZOH or Tustin).
+    C2d(robust::C2dArgs),
+    /// Poles, zeros, stability, H2 and H-infinity norms of a system.
+    SsInfo(robust::SsInfoArgs),
+    /// Error budget: per-source PSD, cumulative amplitude spectrum, RMS.
+    Budget(robust::BudgetArgs),
 }
 
 /// Runs the command line and returns the process exit code.
@@ -90,5 +105,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
         Command::Bode(args) => bode::run(args),
+        Command::Hinf(args) => robust::run_hinf(args),
+        Command::H2(args) => robust::run_h2(args),
+        Command::Weight(args) => robust::run_weight(args),
+        Command::Mixsyn(args) => robust::run_mixsyn(args),
+        Command::C2d(args) => robust::run_c2d(args),
+        Command::SsInfo(args) => robust::run_ss_info(args),
+        Command::Budget(args) => robust::run_budget(args),
     }
 }

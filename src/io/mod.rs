@@ -4,6 +4,7 @@
 //! touches the file system; the CLI reads and writes the bytes.
 
 mod error;
+pub mod ss_json;
 pub mod tf_json;
 pub mod timeseries;
 

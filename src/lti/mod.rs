@@ -1,9 +1,16 @@
 //! Linear time-invariant systems: polynomials in `z^-1`, roots, transfer
 //! functions, frequency response and filtering.
 
+pub mod balred;
+pub mod c2d;
 pub mod filter;
+pub mod lyapunov;
+pub mod norms;
 pub mod poly;
+pub mod riccati;
 pub mod roots;
+pub mod schur;
+pub mod ss;
 pub mod tf;
 
 /// Complex double, the same type faer uses (`faer::c64`).
@@ -13,4 +20,5 @@ pub type c64 = num_complex::Complex<f64>;
 pub use filter::{TdfFilter, lsim};
 pub use poly::Poly;
 pub use roots::{RootsError, roots_descending};
+pub use ss::{SsError, StateSpace};
 pub use tf::{Bode, ContinuousTf, DiscreteTf, TfError, TransferFunction, linspace, logspace};

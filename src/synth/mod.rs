@@ -1,5 +1,11 @@
 //! Controller and feedforward synthesis.
 
+pub mod budget;
 pub mod composite;
+pub mod genplant;
+pub mod h2;
+pub mod hinf;
+pub mod mixsyn;
 pub mod pid;
+pub mod weights;
 pub mod zpetc;

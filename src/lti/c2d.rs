@@ -1,0 +1,130 @@
+//! Discretisation of continuous state-space systems.
+//!
+//! * Zero-order hold by Van Loan's block exponential (Van Loan 1978, IEEE TAC
+//!   23(3)): `exp([A B; 0 0] T) = [Ad Bd; 0 I]`, computed with nalgebra's
+//!   scaling-and-squaring Padé `exp()` (the one nalgebra routine we use).
+//! * Tustin (bilinear) `s = alpha (z-1)/(z+1)`, `alpha = 2/T`, or with
+//!   prewarping at `w` rad/s `alpha = w / tan(w T/2)` so that the responses
+//!   match exactly at `w` (Franklin, Powell & Workman §6.3).
+//! * The norm-preserving unit bilinear map `s = (z-1)/(z+1)` used to carry
+//!   discrete H-infinity problems to continuous time and back.
+
+// `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::ss::{SsError, StateSpace, block2, inv, sub};
+use faer::Mat;
+
+/// Discretisation method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum C2dMethod {
+    /// Zero-order hold on the input.
+    Zoh,
+    /// Tustin / bilinear, optionally prewarped at this frequency (rad/s).
+    Tustin {
+        /// Prewarp frequency in rad/s.
+        prewarp: Option<f64>,
+    },
+}
+
+/// Discretises a continuous system with sample time `ts`.
+pub fn c2d(sys: &StateSpace, ts: f64, method: C2dMethod) -> Result<StateSpace, SsError> {
+    if sys.is_discrete() {
+        return Err(SsError::SampleTimeMismatch(sys.ts, Some(ts)));
+    }
+    if !(ts.is_finite() && ts > 0.0) {
+        return Err(SsError::BadSampleTime(ts));
+    }
+    let (n, m) = (sys.nx(), sys.nu());
+    match method {
+        C2dMethod::Zoh => {
+            let big = block2(&sys.a, &sys.b, &Mat::zeros(m, n), &Mat::zeros(m, m));
+            let k = n + m;
+            let e = nalgebra::DMatrix::from_fn(k, k, |i, j| big[(i, j)] * ts).exp();
+            let ef = Mat::from_fn(k, k, |i, j| e[(i, j)]);
+            StateSpace::new(
+                sub(&ef, 0, n, 0, n),
+                sub(&ef, 0, n, n, k),
+                sys.c.clone(),
+                sys.d.clone(),
+                Some(ts),
+            )
+        }
+        C2dMethod::Tustin { prewarp } => {
+            let alpha = match prewarp {
+                None => 2.0 / ts,
+                Some(w) => {
+                    if !(w.is_finite() && w > 0.0 && w * ts < std::f64::consts::PI) {
+                        return Err(SsError::BadSampleTime(ts));
+                    }
+                    w / (w * ts / 2.0).tan()
+                }
+            };
+            let i = Mat::<f64>::identity(n, n);
+            let e = inv(&(&i - &(&sys.a * (1.0 / alpha)))).ok_or(SsError::IllPosed)?;
+            StateSpace::new(
+                &e * &(&i + &(&sys.a * (1.0 / alpha))),
+                &(&e * &sys.b) * (2.0 / alpha),
+                &sys.c * &e,
+                &sys.d + &(&(&sys.c * &e * &sys.b) * (1.0 / alpha)),
+                Some(ts),
+            )
+        }
+    }
+}
+
+/// Discrete system from a continuous one by `s = a (z-1)/(z+1)` with the
+/// symmetric `sqrt(2a)` split; the inverse of
+/// [`super::norms::bilinear_to_continuous`]. Norms and stability are preserved.
+pub fn bilinear_to_discrete(sys: &StateSpace, alpha: f64, ts: f64) -> Result<StateSpace, SsError> {
+    let n = sys.nx();
+    let i = Mat::<f64>::identity(n, n);
+    let a = &sys.a * (1.0 / alpha);
+    let e = inv(&(&i - &a)).ok_or(SsError::IllPosed)?;
+    let r2 = (2.0 / alpha).sqrt();
+    StateSpace::new(
+        &e * &(&i + &a),
+        &(&e * &sys.b) * r2,
+        &(&sys.c * &e) * r2,
+        &sys.d + &(&(&sys.c * &e * &sys.b) * (1.0 / alpha)),
+        Some(ts),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lti::c64;
+    use crate::lti::norms::bilinear_to_continuous;
+
+    #[test]
+    fn zoh_of_first_order() {
+        // 1/(s+1), T = 0.1: Ad = e^-0.1, Bd = 1 - e^-0.1.
+        let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
+        let d = c2d(&g, 0.1, C2dMethod::Zoh).unwrap();
+        assert!((d.a[(0, 0)] - (-0.1f64).exp()).abs() < 1e-15);
+        assert!((d.b[(0, 0)] * d.c[(0, 0)] - (1.0 - (-0.1f64).exp())).abs() < 1e-15);
+    }
+
+    #[test]
+    fn tustin_prewarp_matches_at_the_frequency() {
+        let g = StateSpace::from_tf(&[100.0], &[1.0, 2.0, 100.0], None).unwrap();
+        let (ts, w) = (0.05, 10.0);
+        let d = c2d(&g, ts, C2dMethod::Tustin { prewarp: Some(w) }).unwrap();
+        let gc = g.freq_response(w).unwrap()[(0, 0)];
+        let gd = d.freq_response(w).unwrap()[(0, 0)];
+        assert!((gc - gd).norm() < 1e-12 * gc.norm(), "{gc} {gd}");
+        let plain = c2d(&g, ts, C2dMethod::Tustin { prewarp: None }).unwrap();
+        assert!((plain.dc_gain().unwrap()[(0, 0)] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn unit_bilinear_round_trip() {
+        let g = StateSpace::from_tf(&[1.0, 3.0], &[1.0, 2.0, 5.0], None).unwrap();
+        let d = bilinear_to_discrete(&g, 7.0, 1.0).unwrap();
+        let back = bilinear_to_continuous(&d, 7.0).unwrap();
+        let s = c64::new(0.3, 1.7);
+        let e = (g.eval(s).unwrap()[(0, 0)] - back.eval(s).unwrap()[(0, 0)]).norm();
+        assert!(e < 1e-13);
+    }
+}

@@ -1,0 +1,218 @@
+//! System norms.
+//!
+//! * H2 from the controllability Gramian: `||G||_2^2 = tr(C P C')` with
+//!   `A P + P A' + B B' = 0` (continuous, `D = 0`) or
+//!   `tr(C P C' + D D')` with `A P A' - P + B B' = 0` (discrete)
+//!   (Zhou & Doyle, Essentials §4.4).
+//! * H-infinity by the Bruinsma–Steinbuch two-step algorithm (Systems &
+//!   Control Letters 14, 1990; Boyd, Balakrishnan & Kabamba 1989): `gamma` is
+//!   a singular value of `G(jw)` iff the Hamiltonian `H(gamma)` has the
+//!   eigenvalue `jw`; the lower bound is raised to the peak over the midpoints
+//!   of the imaginary-axis eigenvalues until none remain. Discrete systems are
+//!   mapped to continuous time by the bilinear transform `z = (1+s)/(1-s)`,
+//!   which preserves the H-infinity norm exactly.
+
+// `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::c64;
+use super::lyapunov::{MatEqError, dlyap, lyap};
+use super::ss::{SsError, StateSpace, block2, eigvals, fro, inv, sigma_max, tr};
+use faer::Mat;
+use thiserror::Error;
+
+/// Errors of the norm computations.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum NormError {
+    /// The system is not asymptotically stable (the norm is infinite).
+    #[error("the system is not stable: its norm is infinite")]
+    Unstable,
+    /// Underlying computation failed.
+    #[error(transparent)]
+    Ss(#[from] SsError),
+    /// Gramian computation failed.
+    #[error(transparent)]
+    MatEq(#[from] MatEqError),
+}
+
+/// H2 norm (infinite for a continuous system with `D != 0`).
+pub fn h2_norm(sys: &StateSpace) -> Result<f64, NormError> {
+    if !sys.is_stable()? {
+        return Err(NormError::Unstable);
+    }
+    let bbt = &sys.b * tr(&sys.b);
+    let val = match sys.ts {
+        None => {
+            if fro(&sys.d) > 0.0 {
+                return Ok(f64::INFINITY);
+            }
+            let p = lyap(&sys.a, &bbt)?.x;
+            trace(&(&sys.c * &p * tr(&sys.c)))
+        }
+        Some(_) => {
+            let p = dlyap(&sys.a, &bbt)?.x;
+            trace(&(&sys.c * &p * tr(&sys.c))) + trace(&(&sys.d * tr(&sys.d)))
+        }
+    };
+    Ok(val.max(0.0).sqrt())
+}
+
+fn trace(m: &Mat<f64>) -> f64 {
+    (0..m.nrows()).map(|i| m[(i, i)]).sum()
+}
+
+/// Continuous equivalent of a discrete system under `z = (a+s)/(a-s)`,
+/// i.e. `s = a (z-1)/(z+1)` (same H-infinity norm and stability for any
+/// `a > 0`; `w_c = a tan(theta/2)`). `a = 2/ts` keeps the poles near their
+/// physical values, which keeps the Riccati problems well scaled.
+pub fn bilinear_to_continuous(sys: &StateSpace, alpha: f64) -> Result<StateSpace, SsError> {
+    let n = sys.nx();
+    let ap = &sys.a + Mat::<f64>::identity(n, n);
+    let api = inv(&ap).ok_or(SsError::IllPosed)?;
+    let r2 = (2.0 * alpha).sqrt();
+    let am = &sys.a - Mat::<f64>::identity(n, n);
+    StateSpace::new(
+        &(&api * &am) * alpha,
+        &(&api * &sys.b) * r2,
+        &(&sys.c * &api) * r2,
+        &sys.d - &sys.c * &api * &sys.b,
+        None,
+    )
+}
+
+/// H-infinity norm and the frequency (rad/s) where it is attained, to
+/// relative accuracy `rtol`. Errors for unstable systems.
+pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
+    if !sys.is_stable()? {
+        return Err(NormError::Unstable);
+    }
+    match sys.ts {
+        None => hinf_continuous(sys, rtol),
+        Some(ts) => {
+            let alpha = 2.0 / ts;
+            let c = bilinear_to_continuous(sys, alpha)?;
+            let (g, w) = hinf_continuous(&c, rtol)?;
+            let theta = if w.is_finite() {
+                2.0 * (w / alpha).atan()
+            } else {
+                std::f64::consts::PI
+            };
+            Ok((g, theta / ts))
+        }
+    }
+}
+
+fn hinf_continuous(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
+    let rtol = rtol.clamp(1e-12, 1e-1);
+    let n = sys.nx();
+    let sd = sigma_max(&sys.d);
+    if n == 0 {
+        return Ok((sd, f64::INFINITY));
+    }
+    // Initial lower bound: D, DC and the pole frequencies (Bruinsma–Steinbuch step 1).
+    let mut glb = sd;
+    let mut wpk = f64::INFINITY;
+    let mut cands = vec![0.0];
+    for p in eigvals(&sys.a)? {
+        cands.push(p.norm());
+        cands.push(p.im.abs());
+    }
+    for w in cands {
+        let s = sys.sigma_at(w);
+        if s > glb {
+            glb = s;
+            wpk = w;
+        }
+    }
+    if glb == 0.0 {
+        return Ok((0.0, 0.0));
+    }
+    let (a, b, c, d) = (&sys.a, &sys.b, &sys.c, &sys.d);
+    let (m, p) = (sys.nu(), sys.ny());
+    for _ in 0..60 {
+        let gamma = (1.0 + 2.0 * rtol) * glb;
+        // Bruinsma–Steinbuch Hamiltonian with R = D'D - g^2 I, S = DD' - g^2 I.
+        let g2 = gamma * gamma;
+        let r = &(tr(d) * d) - &(Mat::<f64>::identity(m, m) * g2);
+        let s = &(d * tr(d)) - &(Mat::<f64>::identity(p, p) * g2);
+        let (Some(ri), Some(si)) = (inv(&r), inv(&s)) else {
+            break;
+        };
+        let h11 = a - &(b * &ri * tr(d) * c);
+        let h12 = &(b * &ri * tr(b)) * (-gamma);
+        let h21 = &(tr(c) * &si * c) * gamma;
+        let h22 = &(tr(c) * d * &ri * tr(b)) - &tr(a);
+        let h = block2(&h11, &h12, &h21, &h22);
+        let hn = fro(&h);
+        let ev = eigvals(&h)?;
+        let mut ws: Vec<f64> = ev
+            .iter()
+            .filter(|l: &&c64| l.im >= 0.0 && l.re.abs() <= 1e-6 * l.norm() + 1e-10 * hn)
+            .map(|l| l.im)
+            .collect();
+        if ws.is_empty() {
+            return Ok((0.5 * (glb + gamma), wpk));
+        }
+        ws.sort_by(f64::total_cmp);
+        let mut mids: Vec<f64> = ws.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+        mids.extend(ws.iter().copied());
+        let old = glb;
+        for w in mids {
+            let s = sys.sigma_at(w);
+            if s > glb {
+                glb = s;
+                wpk = w;
+            }
+        }
+        if glb <= old * (1.0 + 0.1 * rtol) {
+            // Only spurious (numerically near-axis) eigenvalues remain.
+            return Ok((glb, wpk));
+        }
+    }
+    Ok((glb, wpk))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn first_order_norms() {
+        // 1/(s+1): H2 = sqrt(1/2), Hinf = 1 at w = 0.
+        let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
+        assert!((h2_norm(&g).unwrap() - 0.5f64.sqrt()).abs() < 1e-14);
+        let (n, w) = hinf_norm(&g, 1e-9).unwrap();
+        assert!((n - 1.0).abs() < 1e-8 && w.abs() < 1e-6);
+    }
+
+    #[test]
+    fn resonance_peak() {
+        // w0^2/(s^2 + 2 z w0 s + w0^2), z = 0.05: peak 1/(2 z sqrt(1 - z^2)).
+        let (z, w0) = (0.05, 10.0);
+        let g = StateSpace::from_tf(&[w0 * w0], &[1.0, 2.0 * z * w0, w0 * w0], None).unwrap();
+        let (n, w) = hinf_norm(&g, 1e-10).unwrap();
+        let want = 1.0 / (2.0 * z * (1.0 - z * z).sqrt());
+        assert!((n - want).abs() < 1e-8 * want, "{n} vs {want}");
+        assert!((w - w0 * (1.0 - 2.0 * z * z).sqrt()).abs() < 1e-3);
+        // Discrete: the norm of a stable discrete system equals the peak over the circle.
+        let gd = StateSpace::new(
+            Mat::from_fn(1, 1, |_, _| 0.5),
+            Mat::from_fn(1, 1, |_, _| 1.0),
+            Mat::from_fn(1, 1, |_, _| 1.0),
+            Mat::from_fn(1, 1, |_, _| 0.0),
+            Some(0.1),
+        )
+        .unwrap();
+        let (n, _) = hinf_norm(&gd, 1e-10).unwrap();
+        assert!((n - 2.0).abs() < 1e-8, "{n}");
+        // H2 of 1/(z - 0.5): sum 0.25^k = 4/3.
+        assert!((h2_norm(&gd).unwrap() - (4.0f64 / 3.0).sqrt()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn unstable_is_an_error() {
+        let g = StateSpace::from_tf(&[1.0], &[1.0, -1.0], None).unwrap();
+        assert_eq!(hinf_norm(&g, 1e-6), Err(NormError::Unstable));
+        assert_eq!(h2_norm(&g), Err(NormError::Unstable));
+    }
+}

@@ -1,0 +1,454 @@
+//! Algebraic Riccati equations: the stabilising solution by the Schur
+//! method on the Hamiltonian matrix (Laub 1979, IEEE TAC 24(6)) or the
+//! symplectic pencil (Pappas, Laub & Sandell 1980, IEEE TAC 25(4)), with the
+//! stable deflating subspace obtained by an ordered QZ ([`super::schur`]),
+//! then refined by Newton's method in residual-correction form
+//! (Kleinman 1968 for CARE, Hewer 1971 for DARE). Each solve returns its
+//! relative residual; the stabilising property is checked on the closed loop.
+
+// `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::c64;
+use super::lyapunov::{MatEqError, dlyap, lyap};
+use super::schur::{SchurError, gen_schur};
+use super::ss::{block2, eigvals, fro, inv, tr};
+use faer::Mat;
+use faer::linalg::solvers::Solve;
+use thiserror::Error;
+
+/// Errors of the Riccati solvers.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum RiccatiError {
+    /// Dimensions do not fit.
+    #[error("dimension mismatch: {0}")]
+    Dimension(String),
+    /// No stabilising solution exists (or it could not be computed reliably).
+    #[error("no stabilising solution: {0}")]
+    NoStabilizing(String),
+    /// `R` is singular.
+    #[error("the control weight R is singular")]
+    SingularR,
+    /// Schur form failed.
+    #[error(transparent)]
+    Schur(#[from] SchurError),
+}
+
+impl From<MatEqError> for RiccatiError {
+    fn from(e: MatEqError) -> Self {
+        RiccatiError::NoStabilizing(format!("Newton step failed: {e}"))
+    }
+}
+
+/// A stabilising Riccati solution.
+#[derive(Debug, Clone)]
+pub struct RiccatiSolution {
+    /// The symmetric solution X.
+    pub x: Mat<f64>,
+    /// Gain `K` (`u = -K x`): `R^-1 (B'X + S')` (CARE) or
+    /// `(R + B'XB)^-1 (B'XA + S')` (DARE); empty for [`care_g`].
+    pub k: Mat<f64>,
+    /// Relative residual `||Res||_F / (sum of the norms of the terms)`.
+    pub residual: f64,
+    /// Eigenvalues of the closed loop (`A - G X` or `A - B K`).
+    pub closed_loop: Vec<c64>,
+    /// Newton refinement steps taken.
+    pub newton_steps: usize,
+}
+
+/// Relative residual of `A'X + XA - XGX + Q`.
+/// `scale` is added to the denominator: the size of the data the reduced
+/// `Q` was formed from (`Q - S R^-1 S'` can cancel to rounding noise, and a
+/// residual relative to that noise alone would be meaningless).
+fn care_residual(
+    a: &Mat<f64>,
+    g: &Mat<f64>,
+    q: &Mat<f64>,
+    x: &Mat<f64>,
+    scale: f64,
+) -> (Mat<f64>, f64) {
+    let xa = x * a;
+    let xa_t = tr(&xa);
+    let xgx = x * g * x;
+    let r = &(&(&xa_t + &xa) - &xgx) + q;
+    let den = fro(&xa) * 2.0 + fro(&xgx) + fro(q) + scale;
+    let r_sym = Mat::from_fn(r.nrows(), r.ncols(), |i, j| 0.5 * (r[(i, j)] + r[(j, i)]));
+    let rel = if den > 0.0 {
+        fro(&r_sym) / den
+    } else {
+        fro(&r_sym)
+    };
+    (r_sym, rel)
+}
+
+fn check_square(a: &Mat<f64>, others: &[(&Mat<f64>, &str)]) -> Result<usize, RiccatiError> {
+    let n = a.nrows();
+    if a.ncols() != n {
+        return Err(RiccatiError::Dimension("A must be square".into()));
+    }
+    for (m, name) in others {
+        if m.nrows() != n || m.ncols() != n {
+            return Err(RiccatiError::Dimension(format!("{name} must be {n}x{n}")));
+        }
+    }
+    for m in std::iter::once(a).chain(others.iter().map(|(m, _)| *m)) {
+        if !m.is_all_finite() {
+            return Err(RiccatiError::Dimension("non-finite entries".into()));
+        }
+    }
+    Ok(n)
+}
+
+/// `X = U2 U1^-1` from the first `n` columns of `Z`, real part, symmetrised.
+fn subspace_solution(z: &Mat<c64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
+    let u1 = Mat::from_fn(n, n, |i, j| z[(i, j)]);
+    let u2 = Mat::from_fn(n, n, |i, j| z[(n + i, j)]);
+    // X U1 = U2  <=>  U1^T X^T = U2^T.
+    let u1t = u1.transpose().to_owned();
+    let u2t = u2.transpose().to_owned();
+    let sv = u1
+        .singular_values()
+        .map_err(|_| RiccatiError::NoStabilizing("SVD of the stable subspace failed".into()))?;
+    let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
+    let smax = sv.iter().cloned().fold(0.0, f64::max);
+    if !(smin > 1e-13 * smax.max(1e-300)) {
+        return Err(RiccatiError::NoStabilizing(
+            "the stable invariant subspace is not a graph (U1 singular): \
+             the system has undetectable or unstabilisable modes"
+                .into(),
+        ));
+    }
+    let xt = u1t.partial_piv_lu().solve(&u2t);
+    let x = Mat::from_fn(n, n, |i, j| 0.5 * (xt[(j, i)].re + xt[(i, j)].re));
+    if !x.is_all_finite() {
+        return Err(RiccatiError::NoStabilizing("solution overflowed".into()));
+    }
+    Ok(x)
+}
+
+/// Stabilising solution of `A'X + XA - XGX + Q = 0` (`G`, `Q` symmetric, `G`
+/// possibly indefinite as in H-infinity), i.e. `A - G X` Hurwitz:
+/// `X = Ric(H)`, `H = [A, -G; -Q, -A']` (Zhou & Doyle, Essentials §12.1).
+pub fn care_g(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>) -> Result<RiccatiSolution, RiccatiError> {
+    care_g_scaled(a, g, q, 0.0)
+}
+
+fn care_g_scaled(
+    a: &Mat<f64>,
+    g: &Mat<f64>,
+    q: &Mat<f64>,
+    scale: f64,
+) -> Result<RiccatiSolution, RiccatiError> {
+    let n = check_square(a, &[(g, "G"), (q, "Q")])?;
+    if n == 0 {
+        return Ok(RiccatiSolution {
+            x: Mat::zeros(0, 0),
+            k: Mat::zeros(0, 0),
+            residual: 0.0,
+            closed_loop: Vec::new(),
+            newton_steps: 0,
+        });
+    }
+    let h = block2(a, &(-g), &(-q), &(-tr(a)));
+    let hn = fro(&h);
+    let mut gs = gen_schur(&h, &Mat::identity(2 * n, 2 * n))?;
+    // An eigenvalue is treated as lying on the imaginary axis when its real
+    // part is at round-off level both absolutely (relative to ||H||) and
+    // relative to its own modulus; the second test keeps slow but genuinely
+    // stable modes of badly scaled Hamiltonians off the axis.
+    let on_axis = gs.pairs().iter().any(|(al, be)| {
+        let l = al / be;
+        l.re.abs() <= 1e-12 * hn && l.re.abs() <= 1e-7 * l.norm()
+    });
+    let k = gs.reorder(|al, be| (al / be).re < 0.0);
+    if on_axis || k != n {
+        return Err(RiccatiError::NoStabilizing(
+            "the Hamiltonian matrix has eigenvalues on the imaginary axis".into(),
+        ));
+    }
+    let mut x = subspace_solution(&gs.z, n)?;
+    let (mut res, mut rel) = care_residual(a, g, q, &x, scale);
+    // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0.
+    let mut steps = 0;
+    for _ in 0..10 {
+        if rel < 1e-15 {
+            break;
+        }
+        let ak = a - g * &x;
+        let Ok(d) = lyap(&tr(&ak), &res) else { break };
+        let xn = &x + &d.x;
+        let (rn, reln) = care_residual(a, g, q, &xn, scale);
+        if !(reln < rel) {
+            break;
+        }
+        steps += 1;
+        x = xn;
+        res = rn;
+        rel = reln;
+    }
+    let closed_loop = eigvals(&(a - g * &x))
+        .map_err(|_| RiccatiError::NoStabilizing("closed-loop eigenvalues failed".into()))?;
+    if closed_loop.iter().any(|l| !(l.re < 0.0)) {
+        return Err(RiccatiError::NoStabilizing(
+            "the computed solution does not stabilise A - G X".into(),
+        ));
+    }
+    if !(rel < 1e-6) {
+        return Err(RiccatiError::NoStabilizing(format!(
+            "residual {rel:.1e} after refinement: the problem is too ill-conditioned"
+        )));
+    }
+    Ok(RiccatiSolution {
+        x,
+        k: Mat::zeros(0, n),
+        residual: rel,
+        closed_loop,
+        newton_steps: steps,
+    })
+}
+
+/// `(A~, G, Q~, R^-1)` of a CARE/DARE with the cross term removed.
+type Reduced = (Mat<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
+
+fn reduce(
+    a: &Mat<f64>,
+    b: &Mat<f64>,
+    q: &Mat<f64>,
+    r: &Mat<f64>,
+    s: Option<&Mat<f64>>,
+) -> Result<Reduced, RiccatiError> {
+    let n = check_square(a, &[(q, "Q")])?;
+    let m = b.ncols();
+    if b.nrows() != n || r.nrows() != m || r.ncols() != m {
+        return Err(RiccatiError::Dimension(format!(
+            "B must be {n}xm and R mxm (m = {m})"
+        )));
+    }
+    let s0 = Mat::zeros(n, m);
+    let s = s.unwrap_or(&s0);
+    if s.nrows() != n || s.ncols() != m {
+        return Err(RiccatiError::Dimension(format!("S must be {n}x{m}")));
+    }
+    let ri = inv(r).ok_or(RiccatiError::SingularR)?;
+    // Remove the cross term: A~ = A - B R^-1 S', Q~ = Q - S R^-1 S'.
+    let at = a - b * &ri * tr(s);
+    let qt = q - s * &ri * tr(s);
+    let g = b * &ri * tr(b);
+    Ok((at, g, qt, ri))
+}
+
+/// Stabilising solution of the CARE
+/// `A'X + XA - (XB + S) R^-1 (B'X + S') + Q = 0`; `K = R^-1 (B'X + S')`.
+pub fn care(
+    a: &Mat<f64>,
+    b: &Mat<f64>,
+    q: &Mat<f64>,
+    r: &Mat<f64>,
+    s: Option<&Mat<f64>>,
+) -> Result<RiccatiSolution, RiccatiError> {
+    let (at, g, qt, ri) = reduce(a, b, q, r, s)?;
+    let scale = fro(q) + fro(&(q - &qt));
+    let mut sol = care_g_scaled(&at, &g, &qt, scale)?;
+    let st = s
+        .map(tr)
+        .unwrap_or_else(|| Mat::zeros(b.ncols(), a.nrows()));
+    sol.k = &ri * &(&(tr(b) * &sol.x) + &st);
+    Ok(sol)
+}
+
+/// Relative residual of `A'XA - X - (A'XB + S)(R + B'XB)^-1 (B'XA + S') + Q`.
+fn dare_residual(
+    a: &Mat<f64>,
+    b: &Mat<f64>,
+    q: &Mat<f64>,
+    r: &Mat<f64>,
+    s: &Mat<f64>,
+    x: &Mat<f64>,
+) -> Option<(Mat<f64>, f64, Mat<f64>)> {
+    let bx = tr(b) * x;
+    let rr = r + &bx * b;
+    let kk = inv(&rr)? * (&bx * a + tr(s));
+    let axa = tr(a) * x * a;
+    let t = (&(tr(a) * x * b) + s) * &kk;
+    let res = &(&(&axa - x) - &t) + q;
+    let res = Mat::from_fn(res.nrows(), res.ncols(), |i, j| {
+        0.5 * (res[(i, j)] + res[(j, i)])
+    });
+    let den = fro(&axa) + fro(x) + fro(&t) + fro(q);
+    let rel = if den > 0.0 {
+        fro(&res) / den
+    } else {
+        fro(&res)
+    };
+    Some((res, rel, kk))
+}
+
+/// Stabilising solution of the DARE
+/// `A'XA - X - (A'XB + S)(R + B'XB)^-1 (B'XA + S') + Q = 0`;
+/// `K = (R + B'XB)^-1 (B'XA + S')`, `A - BK` Schur stable.
+pub fn dare(
+    a: &Mat<f64>,
+    b: &Mat<f64>,
+    q: &Mat<f64>,
+    r: &Mat<f64>,
+    s: Option<&Mat<f64>>,
+) -> Result<RiccatiSolution, RiccatiError> {
+    let (at, g, qt, _) = reduce(a, b, q, r, s)?;
+    let n = a.nrows();
+    let s0 = Mat::zeros(n, b.ncols());
+    let s = s.unwrap_or(&s0);
+    if n == 0 {
+        return Ok(RiccatiSolution {
+            x: Mat::zeros(0, 0),
+            k: Mat::zeros(b.ncols(), 0),
+            residual: 0.0,
+            closed_loop: Vec::new(),
+            newton_steps: 0,
+        });
+    }
+    // Symplectic pencil lambda L - M, M = [A~, 0; -Q~, I], L = [I, G; 0, A~'] (Pappas et al. 1980).
+    let i = Mat::<f64>::identity(n, n);
+    let mm = block2(&at, &Mat::zeros(n, n), &(-&qt), &i);
+    let ll = block2(&i, &g, &Mat::zeros(n, n), &tr(&at));
+    let mut gs = gen_schur(&mm, &ll)?;
+    let scale = fro(&mm).max(fro(&ll));
+    let on_circle = gs
+        .pairs()
+        .iter()
+        .any(|(al, be)| (al.norm() - be.norm()).abs() <= 1e-12 * scale);
+    let k = gs.reorder(|al, be| al.norm() < be.norm());
+    if on_circle || k != n {
+        return Err(RiccatiError::NoStabilizing(
+            "the symplectic pencil has eigenvalues on the unit circle".into(),
+        ));
+    }
+    let mut x = subspace_solution(&gs.z, n)?;
+    let Some((mut res, mut rel, mut kk)) = dare_residual(a, b, q, r, s, &x) else {
+        return Err(RiccatiError::NoStabilizing("R + B'XB is singular".into()));
+    };
+    // Hewer (Newton) refinement: (A-BK)' D (A-BK) - D + Res(X) = 0.
+    let mut steps = 0;
+    for _ in 0..6 {
+        if rel < 1e-15 {
+            break;
+        }
+        let ak = a - b * &kk;
+        let Ok(d) = dlyap(&tr(&ak), &res) else { break };
+        let xn = &x + &d.x;
+        let Some((rn, reln, kn)) = dare_residual(a, b, q, r, s, &xn) else {
+            break;
+        };
+        if !(reln < rel) {
+            break;
+        }
+        steps += 1;
+        let improved = reln < 0.5 * rel;
+        (x, res, rel, kk) = (xn, rn, reln, kn);
+        if !improved {
+            break;
+        }
+    }
+    let closed_loop = eigvals(&(a - b * &kk))
+        .map_err(|_| RiccatiError::NoStabilizing("closed-loop eigenvalues failed".into()))?;
+    if closed_loop.iter().any(|l| !(l.norm() < 1.0)) {
+        return Err(RiccatiError::NoStabilizing(
+            "the computed solution does not stabilise A - B K".into(),
+        ));
+    }
+    if !(rel < 1e-6) {
+        return Err(RiccatiError::NoStabilizing(format!(
+            "residual {rel:.1e} after refinement: the problem is too ill-conditioned"
+        )));
+    }
+    Ok(RiccatiSolution {
+        x,
+        k: kk,
+        residual: rel,
+        closed_loop,
+        newton_steps: steps,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn m(rows: &[&[f64]]) -> Mat<f64> {
+        Mat::from_fn(rows.len(), rows[0].len(), |i, j| rows[i][j])
+    }
+
+    #[test]
+    fn scalar_care() {
+        // 2 a x - x^2 b^2 / r + q = 0 with a = 1, b = 1, r = 1, q = 1: x = 1 + sqrt 2.
+        let s = care(
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            None,
+        )
+        .unwrap();
+        assert!((s.x[(0, 0)] - (1.0 + 2f64.sqrt())).abs() < 1e-14);
+        assert!(s.residual < 1e-15);
+    }
+
+    #[test]
+    fn double_integrator_lqr() {
+        // A = [0 1; 0 0], B = [0; 1], Q = I, R = 1: X = [sqrt3 1; 1 sqrt3], K = [1 sqrt3].
+        let a = m(&[&[0.0, 1.0], &[0.0, 0.0]]);
+        let b = m(&[&[0.0], &[1.0]]);
+        let s = care(&a, &b, &Mat::identity(2, 2), &m(&[&[1.0]]), None).unwrap();
+        let r3 = 3f64.sqrt();
+        assert!((s.x[(0, 0)] - r3).abs() < 1e-13 && (s.x[(0, 1)] - 1.0).abs() < 1e-13);
+        assert!((s.k[(0, 1)] - r3).abs() < 1e-13);
+        assert!(s.residual < 1e-10);
+    }
+
+    #[test]
+    fn scalar_dare() {
+        // x = a^2 x - a^2 x^2 /(1 + x) + 1 with a = 2: x^2 - 4x - 1 = 0 => x = 2 + sqrt 5.
+        let s = dare(
+            &m(&[&[2.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            None,
+        )
+        .unwrap();
+        assert!(
+            (s.x[(0, 0)] - (2.0 + 5f64.sqrt())).abs() < 1e-13,
+            "{:?}",
+            s.x
+        );
+        assert!(s.residual < 1e-14);
+    }
+
+    #[test]
+    fn unstabilisable_is_an_error() {
+        // Unstable mode a = 1 not reachable (b = 0).
+        let e = care(
+            &m(&[&[1.0]]),
+            &m(&[&[0.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            None,
+        );
+        assert!(matches!(e, Err(RiccatiError::NoStabilizing(_))), "{e:?}");
+        let e = dare(
+            &m(&[&[2.0]]),
+            &m(&[&[0.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            None,
+        );
+        assert!(matches!(e, Err(RiccatiError::NoStabilizing(_))), "{e:?}");
+        let e = care(
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[1.0]]),
+            &m(&[&[0.0]]),
+            None,
+        );
+        assert!(matches!(e, Err(RiccatiError::SingularR)));
+    }
+}

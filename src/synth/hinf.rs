@@ -1,0 +1,417 @@
+//! H-infinity output-feedback synthesis on a generalised plant
+//! (`hinfsyn(P, nmeas, ncon)` convention, see [`super::genplant`]).
+//!
+//! Suboptimal central controller of Glover & Doyle (1988) in the general
+//! form of Zhou, Doyle & Glover, *Robust and Optimal Control* (1996),
+//! Theorem 17.1 (`D11 != 0` handled directly, `D22 != 0` by the loop shift of
+//! §17.2), after scaling to `D12 = [0; I]`, `D21 = [0 I]` (SLICOT SB10PD).
+//! Rank-deficient `D12`/`D21` are regularised by `eps u` / `eps v` channels.
+//! `gamma` is found by bisection (in log scale) to a relative tolerance.
+//! Continuous plants directly; discrete plants through the norm-preserving
+//! bilinear map `z = (1+s)/(1-s)` (the LFT commutes with the substitution).
+
+// `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::genplant::{
+    Normalised, Partition, SynthError, chol_factor, denormalise, inv_or, normalise,
+};
+use crate::lti::c2d::bilinear_to_discrete;
+use crate::lti::c64;
+use crate::lti::norms::{bilinear_to_continuous, hinf_norm};
+use crate::lti::riccati::care;
+use crate::lti::ss::{StateSpace, eigvals, hcat, sigma_max, sub, tr, vcat};
+use faer::Mat;
+
+/// Options of the synthesis.
+#[derive(Debug, Clone, Copy)]
+pub struct HinfOptions {
+    /// Relative tolerance of the gamma bisection.
+    pub rtol: f64,
+    /// Regularisation weight for rank-deficient `D12` / `D21`.
+    pub eps: f64,
+    /// Largest gamma tried before declaring the problem infeasible.
+    pub gamma_max: f64,
+    /// The returned controller is built for `gamma_opt * (1 + backoff)`:
+    /// at the optimum itself `I - Y X / gamma^2` is singular and the central
+    /// controller is numerically meaningless (cf. MATLAB hinfsyn's backoff).
+    pub backoff: f64,
+}
+
+impl Default for HinfOptions {
+    fn default() -> Self {
+        Self {
+            rtol: 1e-6,
+            eps: 1e-6,
+            gamma_max: 1e8,
+            backoff: 1e-4,
+        }
+    }
+}
+
+/// Result of a synthesis.
+#[derive(Debug, Clone)]
+pub struct HinfResult {
+    /// The controller (`u = K y`).
+    pub k: StateSpace,
+    /// The gamma the controller was built for: `gamma_opt (1 + backoff)`.
+    pub gamma: f64,
+    /// The optimal gamma estimate: the smallest feasible level of the bisection.
+    pub gamma_opt: f64,
+    /// Closed loop `F_l(P, K)` on the *original* plant.
+    pub closed_loop: StateSpace,
+    /// Its poles.
+    pub poles: Vec<c64>,
+    /// Whether it is stable.
+    pub stable: bool,
+    /// Its H-infinity norm, recomputed (Bruinsma–Steinbuch).
+    pub achieved: f64,
+    /// Relative residuals of the X and Y Riccati equations.
+    pub x_residual: f64,
+    pub y_residual: f64,
+    /// Regularisation weights added to `D12` / `D21`, if any.
+    pub regularised: (Option<f64>, Option<f64>),
+    /// Bisection steps.
+    pub iterations: usize,
+}
+
+/// The central controller and residuals at one gamma, or why it is infeasible.
+struct AtGamma {
+    k: StateSpace,
+    xres: f64,
+    yres: f64,
+}
+
+fn blocks(m: &Mat<f64>, r: usize, c: usize) -> [Mat<f64>; 4] {
+    let (nr, nc) = (m.nrows(), m.ncols());
+    [
+        sub(m, 0, r, 0, c),
+        sub(m, 0, r, c, nc),
+        sub(m, r, nr, 0, c),
+        sub(m, r, nr, c, nc),
+    ]
+}
+
+fn min_sym_eig(x: &Mat<f64>) -> f64 {
+    if x.nrows() == 0 {
+        return 0.0;
+    }
+    x.self_adjoint_eigenvalues(faer::Side::Lower)
+        .map(|v| v.into_iter().fold(f64::INFINITY, f64::min))
+        .unwrap_or(f64::NEG_INFINITY)
+}
+
+/// Lower bound on gamma from `D11` (Zhou, Doyle & Glover Thm 17.1 condition (i)).
+fn gamma_lower(p: &Partition) -> f64 {
+    let (m1, m2, p1, p2) = (p.m1(), p.m2(), p.p1(), p.p2());
+    let [d1111, d1112, d1121, _] = blocks(&p.d11, p1 - m2, m1 - p2);
+    sigma_max(&hcat(&d1111, &d1112)).max(sigma_max(&vcat(&d1111, &d1121)))
+}
+
+/// Thm 17.1 at one gamma on the normalised plant.
+fn central(p: &Partition, gamma: f64) -> Result<AtGamma, SynthError> {
+    let (n, m1, m2, p1, p2) = (p.n(), p.m1(), p.m2(), p.p1(), p.p2());
+    let g2 = gamma * gamma;
+    let infeasible = |why: String| SynthError::Infeasible(why);
+    // X: A'X + XA - (XB + C1'D1.) R^-1 (B'X + D1.'C1) + C1'C1 = 0,
+    // R = D1.'D1. - diag(g^2 I, 0).
+    let b = hcat(&p.b1, &p.b2);
+    let d1 = hcat(&p.d11, &p.d12);
+    let mut r = tr(&d1) * &d1;
+    for i in 0..m1 {
+        r[(i, i)] -= g2;
+    }
+    let xs = care(&p.a, &b, &(tr(&p.c1) * &p.c1), &r, Some(&(tr(&p.c1) * &d1)))
+        .map_err(|e| infeasible(format!("X Riccati: {e}")))?;
+    // Y: the dual, R~ = D.1 D.1' - diag(g^2 I, 0).
+    let c = vcat(&p.c1, &p.c2);
+    let dd1 = vcat(&p.d11, &p.d21);
+    let mut rt = &dd1 * tr(&dd1);
+    for i in 0..p1 {
+        rt[(i, i)] -= g2;
+    }
+    let ys = care(
+        &tr(&p.a),
+        &tr(&c),
+        &(&p.b1 * tr(&p.b1)),
+        &rt,
+        Some(&(&p.b1 * tr(&dd1))),
+    )
+    .map_err(|e| infeasible(format!("Y Riccati: {e}")))?;
+    let (x, y) = (&xs.x, &ys.x);
+    let scale_x = x.norm_l2().max(1.0);
+    let scale_y = y.norm_l2().max(1.0);
+    if min_sym_eig(x) < -1e-9 * scale_x || min_sym_eig(y) < -1e-9 * scale_y {
+        return Err(infeasible("X or Y is not positive semidefinite".into()));
+    }
+    let rho = eigvals(&(x * y))
+        .map_err(|e| SynthError::Numerical(e.to_string()))?
+        .iter()
+        .fold(0.0f64, |a, l| a.max(l.norm()));
+    if !(rho < g2 * (1.0 - 1e-10)) {
+        return Err(infeasible(format!(
+            "spectral radius of XY {rho:.4e} >= gamma^2"
+        )));
+    }
+    // F = -R^-1 (D1.'C1 + B'X) = -Kx, L = -(B1 D.1' + Y C') R~^-1 = -Ky'.
+    let f = -&xs.k;
+    let l = -tr(&ys.k);
+    let f1 = sub(&f, 0, m1, 0, n);
+    let f2 = sub(&f, m1, m1 + m2, 0, n);
+    let f12 = sub(&f1, m1 - p2, m1, 0, n);
+    let l1 = sub(&l, 0, n, 0, p1);
+    let l2 = sub(&l, 0, n, p1, p1 + p2);
+    let l12 = sub(&l1, 0, n, p1 - m2, p1);
+    let [d1111, d1112, d1121, d1122] = blocks(&p.d11, p1 - m2, m1 - p2);
+    let gi1 = |k: usize| Mat::<f64>::identity(k, k) * g2;
+    // (g^2 I - D1111 D1111')^-1 and (g^2 I - D1111' D1111)^-1.
+    let w1 = inv_or(
+        &(&gi1(p1 - m2) - &d1111 * tr(&d1111)),
+        "g^2 I - D1111 D1111'",
+    )?;
+    let w2 = inv_or(
+        &(&gi1(m1 - p2) - tr(&d1111) * &d1111),
+        "g^2 I - D1111' D1111",
+    )?;
+    let dh11 = &(-(&d1121 * tr(&d1111) * &w1 * &d1112)) - &d1122;
+    let dh12 = chol_factor(&(Mat::<f64>::identity(m2, m2) - &d1121 * &w2 * tr(&d1121)))
+        .ok_or_else(|| infeasible("D^12 factor is not positive definite".into()))?;
+    let dh21t = chol_factor(&(Mat::<f64>::identity(p2, p2) - tr(&d1112) * &w1 * &d1112))
+        .ok_or_else(|| infeasible("D^21 factor is not positive definite".into()))?;
+    let dh21 = tr(&dh21t); // D^21' D^21 = L L'
+    let zinf = inv_or(
+        &(Mat::<f64>::identity(n, n) - &(y * x * (1.0 / g2))),
+        "I - Y X / gamma^2",
+    )?;
+    let bh2 = &zinf * &(&p.b2 + &l12) * &dh12;
+    let ch2 = -(&dh21 * &(&p.c2 + &f12));
+    let dh12i = inv_or(&dh12, "D^12")?;
+    let dh21i = inv_or(&dh21, "D^21")?;
+    let bh1 = &(-(&zinf * &l2)) + &bh2 * &dh12i * &dh11;
+    let ch1 = &f2 + &dh11 * &dh21i * &ch2;
+    let ah = &(&p.a + &b * &f) + &bh1 * &dh21i * &ch2;
+    let k = StateSpace::new(ah, bh1, ch1, dh11, None)
+        .map_err(|e| SynthError::Numerical(e.to_string()))?;
+    Ok(AtGamma {
+        k,
+        xres: xs.residual,
+        yres: ys.residual,
+    })
+}
+
+/// The central controller at a given `gamma` (no bisection), on the
+/// original plant's coordinates (continuous plants only).
+pub fn hinf_at_gamma(
+    plant: &StateSpace,
+    nmeas: usize,
+    ncon: usize,
+    gamma: f64,
+    eps: f64,
+) -> Result<StateSpace, SynthError> {
+    let p0 = Partition::new(&plant.balanced(), nmeas, ncon)?;
+    let mut p = p0.clone();
+    p.regularise(eps);
+    let norm = normalise(&p)?;
+    let r = central(&norm.p, gamma)?;
+    denormalise(&r.k, &norm, &p0.d22)
+}
+
+/// Thm 17.1 at one gamma, accepted only if the central controller really
+/// stabilises the (normalised) plant: this guards the bisection against
+/// levels that pass the Riccati tests only through rounding.
+fn feasible(p: &Partition, pss: &StateSpace, gamma: f64) -> Result<AtGamma, SynthError> {
+    let r = central(p, gamma)?;
+    let cl = pss
+        .lft(&r.k)
+        .map_err(|_| SynthError::Infeasible("closed loop not well posed".into()))?;
+    match cl.is_stable() {
+        Ok(true) => Ok(r),
+        _ => Err(SynthError::Infeasible(
+            "the central controller does not stabilise the plant (numerically)".into(),
+        )),
+    }
+}
+
+/// H-infinity synthesis: bisection on gamma, central controller at the
+/// smallest feasible gamma found.
+pub fn hinfsyn(
+    plant: &StateSpace,
+    nmeas: usize,
+    ncon: usize,
+    opts: HinfOptions,
+) -> Result<HinfResult, SynthError> {
+    let cont = match plant.ts {
+        None => plant.clone(),
+        Some(ts) => bilinear_to_continuous(plant, 2.0 / ts).map_err(|e| {
+            SynthError::Numerical(format!("bilinear map of the discrete plant: {e}"))
+        })?,
+    };
+    let p0 = Partition::new(&cont.balanced(), nmeas, ncon)?;
+    p0.check_stabilisable()?;
+    // Singular problems (D12 / D21 rank deficient) are regularised with a
+    // weight eps. The true optimum gamma(eps) is nondecreasing in eps, while a
+    // too small eps makes the Riccati tests fail through ill-conditioning and
+    // *overestimates* gamma. So try eps, 10 eps, ... (at most 1e6 eps) and keep
+    // the smallest gamma, stopping once gamma clearly grows again.
+    let mut probe = p0.clone();
+    if probe.regularise(opts.eps) == (None, None) {
+        return hinfsyn_regularised(plant, &p0, opts);
+    }
+    let mut best: Option<HinfResult> = None;
+    let mut last_err = None;
+    let mut eps = opts.eps / 10.0;
+    let mut previous = None;
+    for _ in 0..7 {
+        eps *= 10.0;
+        // Skip weights that the conditioning floor maps to one already tried.
+        let weights = p0.clone().regularise(eps);
+        if previous == Some(weights) {
+            continue;
+        }
+        previous = Some(weights);
+        match hinfsyn_regularised(plant, &p0, HinfOptions { eps, ..opts }) {
+            Ok(r) if r.stable => match &best {
+                Some(b) if r.gamma >= b.gamma => {
+                    if r.gamma > b.gamma * (1.0 + 1e-3) {
+                        break;
+                    }
+                }
+                _ => best = Some(r),
+            },
+            Ok(_) => {}
+            Err(e @ SynthError::Infeasible(_)) => last_err = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    best.ok_or_else(|| {
+        last_err.unwrap_or_else(|| SynthError::Numerical("no regularisation weight worked".into()))
+    })
+}
+
+fn hinfsyn_regularised(
+    plant: &StateSpace,
+    p0: &Partition,
+    opts: HinfOptions,
+) -> Result<HinfResult, SynthError> {
+    let mut p = p0.clone();
+    let regularised = p.regularise(opts.eps);
+    let norm: Normalised = normalise(&p)?;
+    let pss = norm.p.to_ss()?;
+    let lo0 = gamma_lower(&norm.p);
+    let mut iterations = 0;
+    // Bracket: find a feasible gamma by growing from max(1, 2 lo).
+    if lo0 >= opts.gamma_max {
+        return Err(SynthError::Infeasible(format!(
+            "no stabilising controller achieves gamma <= {:.3e}: the feedthrough D11 alone forces gamma > {lo0:.6}",
+            opts.gamma_max
+        )));
+    }
+    let mut hi = (2.0 * lo0).max(1.0).min(opts.gamma_max);
+    let mut best = loop {
+        iterations += 1;
+        match feasible(&norm.p, &pss, hi) {
+            Ok(r) => break r,
+            Err(SynthError::Infeasible(why)) => {
+                if hi >= opts.gamma_max {
+                    let hint = match regularised {
+                        (None, None) => String::new(),
+                        (e12, e21) => format!(
+                            "; note: the rank-deficient {} was regularised with weight {:e}, a \
+                             nearly singular problem: add a control weight (mixsyn --wu) or \
+                             raise --eps",
+                            if e12.is_some() { "D12" } else { "D21" },
+                            e12.or(e21).unwrap_or(opts.eps)
+                        ),
+                    };
+                    return Err(SynthError::Infeasible(format!(
+                        "no stabilising controller achieves gamma <= {:.3e} ({why}){hint}",
+                        opts.gamma_max
+                    )));
+                }
+                hi = (hi * 4.0).min(opts.gamma_max);
+            }
+            Err(e) => return Err(e),
+        }
+    };
+    let mut lo = lo0;
+    if lo0 == 0.0 {
+        // Search downwards for an infeasible level (gamma_opt may be tiny or zero).
+        let mut g = hi / 4.0;
+        loop {
+            iterations += 1;
+            if g < 1e-8 * hi.max(1.0) {
+                lo = g;
+                break;
+            }
+            match feasible(&norm.p, &pss, g) {
+                Ok(r) => {
+                    hi = g;
+                    best = r;
+                    g /= 4.0;
+                }
+                Err(SynthError::Infeasible(_)) => {
+                    lo = g;
+                    break;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+    while hi / lo.max(1e-300) - 1.0 > opts.rtol && iterations < 200 {
+        iterations += 1;
+        let mid = if lo > 0.0 { (lo * hi).sqrt() } else { 0.5 * hi };
+        match feasible(&norm.p, &pss, mid) {
+            Ok(r) => {
+                hi = mid;
+                best = r;
+            }
+            Err(SynthError::Infeasible(_)) => lo = mid,
+            Err(e) => return Err(e),
+        }
+    }
+    let gamma_opt = hi;
+    let mut gamma = hi;
+    if opts.backoff > 0.0 {
+        let gb = hi * (1.0 + opts.backoff);
+        if let Ok(r) = feasible(&norm.p, &pss, gb) {
+            best = r;
+            gamma = gb;
+        }
+    }
+    let kc = denormalise(&best.k, &norm, &p0.d22)?;
+    // Back to discrete time if needed.
+    let k = match plant.ts {
+        None => kc,
+        Some(ts) => bilinear_to_discrete(&kc, 2.0 / ts, ts)
+            .map_err(|e| SynthError::Numerical(e.to_string()))?,
+    };
+    let closed_loop = plant
+        .lft(&k)
+        .map_err(|e| SynthError::Numerical(format!("closed loop: {e}")))?;
+    let poles = closed_loop
+        .poles()
+        .map_err(|e| SynthError::Numerical(e.to_string()))?;
+    let stable = closed_loop
+        .is_stable()
+        .map_err(|e| SynthError::Numerical(e.to_string()))?;
+    let achieved = if stable {
+        hinf_norm(&closed_loop, 1e-8)
+            .map(|x| x.0)
+            .unwrap_or(f64::INFINITY)
+    } else {
+        f64::INFINITY
+    };
+    Ok(HinfResult {
+        k,
+        gamma,
+        gamma_opt,
+        closed_loop,
+        poles,
+        stable,
+        achieved,
+        x_residual: best.xres,
+        y_residual: best.yres,
+        regularised,
+        iterations,
+    })
+}

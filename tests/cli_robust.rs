@@ -1,0 +1,306 @@
+//! `fts hinf | h2 | weight | mixsyn | c2d | ss-info` from the outside.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+const PC_PLANT: &str =
+    r#"{"format":"fts.ss/1","ts":null,"a":[[-1]],"b":[[1,1]],"c":[[1],[1]],"d":[[0,1],[1,0]]}"#;
+
+fn json_of(out: &[u8]) -> Value {
+    serde_json::from_slice(out).expect("one JSON object on stdout")
+}
+
+#[test]
+fn hinf_and_h2_json_and_controller_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "p.json", PC_PLANT);
+    let k = dir.path().join("k.json");
+    for cmd in ["hinf", "h2"] {
+        let out = fts()
+            .args([cmd, "--generalized"])
+            .arg(&p)
+            .args(["--nmeas", "1", "--ncon", "1", "--json", "-o"])
+            .arg(&k)
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        let v = json_of(&out);
+        assert_eq!(v["stable"], Value::Bool(true));
+        assert!(v["riccati_residuals"]["x"].as_f64().unwrap() < 1e-10);
+        assert!(v["controller"]["a"].is_array());
+        let kk = std::fs::read_to_string(&k).unwrap();
+        assert!(kk.contains("fts.ss/1"));
+        if cmd == "hinf" {
+            assert!(v["gamma"].as_f64().is_some());
+            assert!(v["achieved_hinf_norm"].as_f64().is_some());
+        } else {
+            assert!(v["h2_norm"].as_f64().unwrap() < 1e-9);
+        }
+    }
+}
+
+#[test]
+fn weight_mixsyn_c2d_pipeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(
+        dir.path(),
+        "g.json",
+        r#"{"format":"fts.tf/1","var":"s","num":[200],"den":[0.025,1.0025,10.1,1]}"#,
+    );
+    let ws = dir.path().join("ws.json");
+    fts()
+        .args([
+            "weight", "--kind", "ws", "--m", "1.5", "--w0", "10", "--a", "1e-4", "-o",
+        ])
+        .arg(&ws)
+        .assert()
+        .success();
+    let wu = write(
+        dir.path(),
+        "wu.json",
+        r#"{"format":"fts.ss/1","a":[],"b":[],"c":[[]],"d":[[1]]}"#,
+    );
+    let k = dir.path().join("k.json");
+    let out = fts()
+        .args(["mixsyn", "--plant"])
+        .arg(&g)
+        .arg("--ws")
+        .arg(&ws)
+        .arg("--wu")
+        .arg(&wu)
+        .args(["--json", "-o"])
+        .arg(&k)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    let gamma = v["gamma"].as_f64().unwrap();
+    assert!((gamma - 1.37).abs() < 0.01, "{gamma}");
+    let kd = dir.path().join("kd.json");
+    let out = fts()
+        .arg("c2d")
+        .arg(&k)
+        .args([
+            "--ts",
+            "1e-3",
+            "--method",
+            "tustin",
+            "--prewarp",
+            "10",
+            "--json",
+            "-o",
+        ])
+        .arg(&kd)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    assert!(json_of(&out)["system"]["ts"].as_f64() == Some(1e-3));
+    let out = fts()
+        .args(["ss-info", "--json"])
+        .arg(&kd)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    assert_eq!(json_of(&out)["ts"].as_f64(), Some(1e-3));
+    // Balanced truncation of the controller to 3 states keeps the loop stable.
+    let out = fts()
+        .args(["mixsyn", "--plant"])
+        .arg(&g)
+        .arg("--ws")
+        .arg(&ws)
+        .arg("--wu")
+        .arg(&wu)
+        .args(["--order", "3", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    assert_eq!(v["reduction"]["order"].as_u64(), Some(3));
+    assert_eq!(v["stable"], Value::Bool(true));
+    // makeweight as JSON
+    let out = fts()
+        .args([
+            "weight",
+            "--kind",
+            "makeweight",
+            "--dc",
+            "100",
+            "--freq",
+            "10",
+            "--mag",
+            "1",
+            "--hf",
+            "0.1",
+            "--json",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    assert!((json_of(&out)["dc_gain"].as_f64().unwrap() - 100.0).abs() < 1e-9);
+}
+
+fn expect_bad(args: &[&str], p: &Path, needle: &str) {
+    fts()
+        .args(&args[..1])
+        .arg("--generalized")
+        .arg(p)
+        .args(&args[1..])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(needle));
+}
+
+#[test]
+fn bad_inputs_exit_2_with_a_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let nonsq = write(
+        dir.path(),
+        "nonsq.json",
+        r#"{"format":"fts.ss/1","a":[[1,2]],"b":[[1,1]],"c":[[1],[1]],"d":[[0,1],[1,0]]}"#,
+    );
+    expect_bad(
+        &["hinf", "--nmeas", "1", "--ncon", "1"],
+        &nonsq,
+        "field 'a'",
+    );
+    let mism = write(
+        dir.path(),
+        "mism.json",
+        r#"{"format":"fts.ss/1","a":[[-1]],"b":[[1,1,1]],"c":[[1],[1]],"d":[[0,1],[1,0]]}"#,
+    );
+    expect_bad(&["h2", "--nmeas", "1", "--ncon", "1"], &mism, "field 'b'");
+    let p = write(dir.path(), "p.json", PC_PLANT);
+    expect_bad(
+        &["hinf", "--nmeas", "2", "--ncon", "1"],
+        &p,
+        "--nmeas 2 out of range",
+    );
+    expect_bad(
+        &["h2", "--nmeas", "1", "--ncon", "0"],
+        &p,
+        "--ncon 0 out of range",
+    );
+    // Unstable mode at +1 that the control cannot reach (B2 = 0 on that state).
+    let unst = write(
+        dir.path(),
+        "unst.json",
+        r#"{"format":"fts.ss/1","a":[[1,0],[0,-1]],"b":[[1,0],[0,1]],"c":[[1,0],[1,1]],"d":[[0,1],[1,0]]}"#,
+    );
+    expect_bad(
+        &["hinf", "--nmeas", "1", "--ncon", "1"],
+        &unst,
+        "not stabilisable",
+    );
+    expect_bad(
+        &["h2", "--nmeas", "1", "--ncon", "1"],
+        &unst,
+        "not stabilisable",
+    );
+    // z = x + 2 w1 + u, y = x + w2: the w1 -> z feedthrough 2 cannot be
+    // cancelled (y does not see w1), so gamma >= 2 and --gamma-max 1 is unreachable.
+    let d11 = write(
+        dir.path(),
+        "d11.json",
+        r#"{"format":"fts.ss/1","a":[[-1]],"b":[[0,0,1]],"c":[[1],[1]],"d":[[2,0,1],[0,1,0]]}"#,
+    );
+    expect_bad(
+        &["hinf", "--nmeas", "1", "--ncon", "1", "--gamma-max", "1"],
+        &d11,
+        "no stabilising controller achieves gamma",
+    );
+    expect_bad(&["h2", "--nmeas", "1", "--ncon", "1"], &d11, "D11 != 0");
+    let missing = dir.path().join("missing.json");
+    expect_bad(
+        &["hinf", "--nmeas", "1", "--ncon", "1"],
+        &missing,
+        "cannot read",
+    );
+    fts()
+        .args(["c2d"])
+        .arg(&p)
+        .args(["--ts", "-1"])
+        .assert()
+        .code(2);
+    fts()
+        .args([
+            "weight",
+            "--kind",
+            "makeweight",
+            "--dc",
+            "1",
+            "--freq",
+            "1",
+            "--mag",
+            "5",
+            "--hf",
+            "2",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("strictly between"));
+}
+
+#[test]
+fn budget_closes_the_loop_and_matches_parseval() {
+    let dir = tempfile::tempdir().unwrap();
+    // Open loop 1/(s+1) from one white source: RMS^2 -> ||G||_2^2 = 1/2.
+    let g = write(
+        dir.path(),
+        "g.json",
+        r#"{"format":"fts.ss/1","a":[[-1]],"b":[[1]],"c":[[1]],"d":[[0]]}"#,
+    );
+    let csv = dir.path().join("b.csv");
+    let out = fts()
+        .arg("budget")
+        .arg(&g)
+        .args(["--fmax", "2000", "--points", "200001", "--json", "--csv"])
+        .arg(&csv)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let rms = json_of(&out)["rms"].as_f64().unwrap();
+    // 1e-3: the 2 kHz grid misses ~1e-4 of the 1/(s+1) tail power.
+    assert!((rms / 0.5f64.sqrt() - 1.0).abs() < 1e-3, "{rms}");
+    assert!(
+        std::fs::read_to_string(&csv)
+            .unwrap()
+            .starts_with("freq_hz,psd_0,psd_total,cas")
+    );
+    let unstable = write(
+        dir.path(),
+        "u.json",
+        r#"{"format":"fts.ss/1","a":[[1]],"b":[[1]],"c":[[1]],"d":[[0]]}"#,
+    );
+    fts()
+        .arg("budget")
+        .arg(&unstable)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("not stable"));
+}
