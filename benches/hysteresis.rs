@@ -70,7 +70,7 @@ fn bench(c: &mut Criterion) {
         group.bench_function(format!("rows_into_ident_ls/{n}x10"), |b| {
             b.iter(|| {
                 let mut ls = StreamingLstsq::new(regressor.cols(), &LstsqParams::default());
-                let mut states = vec![0.0; 10];
+                let mut states = [0.0; 10];
                 let mut row = vec![0.0; regressor.cols()];
                 for (&x, &yk) in u.iter().zip(&y) {
                     row[0] = 1.0;

@@ -109,7 +109,8 @@ impl Fit {
         }
         let (lo, hi) = min_max(y);
         let range = hi - lo;
-        if !(range > 0.0) {
+        // Also rejects a NaN range.
+        if range.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         let (mut sum_sq, mut max_abs) = (0.0f64, 0.0f64);
@@ -572,6 +573,15 @@ where
     }
 }
 
+/// The best MPI-deadzone iterate so far.
+struct Candidate {
+    cost: f64,
+    w: Vec<f64>,
+    d: Vec<f64>,
+    g: Vec<f64>,
+    offset: f64,
+}
+
 /// MPI-deadzone ([Tang17] Eq. 40-43) by alternating least squares.
 ///
 /// * g-step: with the PI stage `v = Phi w` fixed, `y = off + sum_j g_j S_{d_j}[v]`
@@ -620,7 +630,7 @@ where
     g[0] = 1.0;
     let mut d = vec![0.0; m];
     let mut v = vec![0.0; n];
-    let mut best: Option<(f64, Vec<f64>, Vec<f64>, Vec<f64>, f64)> = None;
+    let mut best: Option<Candidate> = None;
     let mut condition_number = f64::NAN;
     let mut iterations = 0;
     let mut alternations = 0;
@@ -676,8 +686,14 @@ where
             }
             sum / (2.0 * n as f64)
         };
-        if best.as_ref().is_none_or(|bst| cost < bst.0) {
-            best = Some((cost, w.to_vec(), d.clone(), g.clone(), offset));
+        if best.as_ref().is_none_or(|bst| cost < bst.cost) {
+            best = Some(Candidate {
+                cost,
+                w: w.to_vec(),
+                d: d.clone(),
+                g: g.clone(),
+                offset,
+            });
             constraint_active = act_w || act_g;
         }
         // Stop when an alternation no longer improves the cost (relative 1e-12).
@@ -686,7 +702,13 @@ where
         }
         previous_cost = cost;
     }
-    let (cost, w, d, g, offset) = best.expect("at least one alternation");
+    let Candidate {
+        cost,
+        w,
+        d,
+        g,
+        offset,
+    } = best.expect("at least one alternation");
     Ok(Identified {
         model: HysteresisModel {
             kind: ModelKind::MpiDeadzone,

@@ -254,7 +254,8 @@ pub fn solve_from_r(
     let smax = sv.iter().copied().fold(0.0, f64::max);
     let smin = sv.iter().copied().fold(f64::INFINITY, f64::min);
     let condition_number = smax / smin;
-    if !(smin > RANK_TOL * smax * p as f64) {
+    // `partial_cmp` so that a NaN singular value also counts as deficient.
+    if smin.partial_cmp(&(RANK_TOL * smax * p as f64)) != Some(std::cmp::Ordering::Greater) {
         let rank = sv
             .iter()
             .filter(|&&s| s > RANK_TOL * smax * p as f64)
@@ -295,7 +296,7 @@ pub fn solve_from_r(
                 *bi -= row_sum * delta;
             }
             let q = nnls(&a, &b);
-            let active = q.iter().any(|&v| v == 0.0);
+            let active = q.contains(&0.0);
             let s: Vec<f64> = q.iter().map(|v| v + delta).collect();
             let mut w = vec![0.0; m];
             for i in 0..m {
