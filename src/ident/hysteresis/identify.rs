@@ -556,7 +556,7 @@ where
         Method::Ls => (ls.x.clone(), 0),
         Method::Gd => {
             let phi = regressor.matrix(u);
-            let (w, info) = run_gd(&phi, y, &params.gd, observer)?;
+            let (w, info) = run_gd(&phi, y, &params.gd, None, observer)?;
             (w, info.iterations)
         }
     };
@@ -577,12 +577,13 @@ fn run_gd<O>(
     phi: &ColMajor,
     y: &[f64],
     gd: &GdParams,
+    start: Option<&[f64]>,
     observer: O,
 ) -> Result<(Vec<f64>, GdInfo), IdentifyError>
 where
     O: Observe<GdState> + 'static,
 {
-    gd_lstsq(phi, y, gd, observer).map_err(|e| IdentifyError::Solver(e.to_string()))
+    gd_lstsq(phi, y, gd, start, observer).map_err(|e| IdentifyError::Solver(e.to_string()))
 }
 
 /// Solves one linear stage `min ||A x - b||` (A materialised) by the chosen method.
@@ -592,6 +593,7 @@ fn solve_stage<O>(
     free: usize,
     params: &IdentifyParams,
     constraint: Option<PartialSumConstraint>,
+    start: Option<&[f64]>,
     observer: O,
 ) -> Result<(Vec<f64>, f64, u64, bool), IdentifyError>
 where
@@ -604,7 +606,7 @@ where
     match params.method {
         Method::Ls => Ok((ls.x, ls.condition_number, 0, ls.constraint_active)),
         Method::Gd => {
-            let (x, info) = run_gd(a, b, &params.gd, observer)?;
+            let (x, info) = run_gd(a, b, &params.gd, start, observer)?;
             Ok((x, ls.condition_number, info.iterations, false))
         }
     }
@@ -673,6 +675,7 @@ where
     let mut alternations = 0;
     let mut previous_cost = f64::INFINITY;
     let mut constraint_active = false;
+    let (mut start_w, mut start_g): (Option<Vec<f64>>, Option<Vec<f64>>) = (None, None);
     for _ in 0..params.alternations.max(1) {
         alternations += 1;
         // w-step: y(k) + b(k) = off + a(k) Phi[k, :] w with the frozen pattern.
@@ -692,11 +695,20 @@ where
                 *o = a_k * p;
             }
         }
-        let (x, cond, it, act_w) =
-            solve_stage(&aw, &b, free, params, constraint, observer.clone())?;
+        let (x, cond, it, act_w) = solve_stage(
+            &aw,
+            &b,
+            free,
+            params,
+            constraint,
+            start_w.as_deref(),
+            observer.clone(),
+        )?;
         iterations += it;
         condition_number = cond;
         let w = &x[free..];
+        // Gradient solves of the next alternation start where this one ended.
+        start_w = Some(x.clone());
         // g-step on the new v = Phi w ([Tang17] Eq. 40), d_j = (j-1)/m max|v|.
         v.fill(0.0);
         for (i, wi) in w.iter().enumerate() {
@@ -711,9 +723,18 @@ where
                 *o = dead_zone(dj, vk);
             }
         }
-        let (xg, _, it, act_g) = solve_stage(&ag, y, free, params, constraint, observer.clone())?;
+        let (xg, _, it, act_g) = solve_stage(
+            &ag,
+            y,
+            free,
+            params,
+            constraint,
+            start_g.as_deref(),
+            observer.clone(),
+        )?;
         iterations += it;
         g.copy_from_slice(&xg[free..]);
+        start_g = Some(xg.clone());
         let offset = if free == 1 { xg[0] } else { 0.0 };
         let cost = {
             let mut sum = 0.0;
