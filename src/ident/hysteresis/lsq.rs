@@ -174,30 +174,110 @@ fn fold_avx2(n: usize, r: &mut [f64], block: &mut [f64], rows: usize) {
 /// The Householder sweep of [`QrAccumulator::fold`]. `FMA` selects fused
 /// multiply-adds (only where the CPU has them: `f64::mul_add` is a slow
 /// library call otherwise).
+///
+/// Reflectors are applied two at a time: for the pair `(j, k = j+1)` each
+/// trailing column needs both dot products (one pass over the block) and one
+/// combined update (a second pass), instead of two passes per reflector. With
+/// `H = I - beta v v^T` and the R parts of `v_j`, `v_k` on different rows,
+/// `v_k^T (H_j c) = v_k^T c - s_j (b_k . b_j)`.
 #[inline(always)]
 fn fold_kernel<const FMA: bool>(n: usize, r: &mut [f64], block: &mut [f64], rows: usize) {
     let ld = BLOCK_ROWS;
-    for j in 0..n {
-        let (head, tail) = block.split_at_mut((j + 1) * ld);
-        let bj = &head[j * ld..j * ld + rows];
+    // Makes the reflector of column j (R[j, j] becomes alpha); None if the
+    // block column is already zero.
+    let reflector = |r: &mut [f64], bj: &[f64], j: usize| -> Option<(f64, f64)> {
         let sigma = dot::<FMA>(bj, bj);
         if sigma == 0.0 {
-            continue;
+            return None;
         }
         let x = r[j * n + j];
         let norm = (x * x + sigma).sqrt();
         // Sign choice avoids cancellation in v0 = x - alpha (Golub & Van Loan 5.1.3).
         let alpha = if x > 0.0 { -norm } else { norm };
         let v0 = x - alpha;
-        let beta = 2.0 / (v0 * v0 + sigma);
         r[j * n + j] = alpha;
-        for l in j + 1..n {
-            let bl = &mut tail[(l - j - 1) * ld..(l - j - 1) * ld + rows];
-            let rjl = &mut r[l * n + j];
-            let s = beta * (v0 * *rjl + dot::<FMA>(bj, bl));
-            *rjl -= s * v0;
-            axpy::<FMA>(-s, bj, bl);
+        Some((v0, 2.0 / (v0 * v0 + sigma)))
+    };
+    let mut j = 0;
+    while j < n {
+        let (head, tail) = block.split_at_mut((j + 1) * ld);
+        let bj = &head[j * ld..j * ld + rows];
+        let Some((v0j, beta_j)) = reflector(r, bj, j) else {
+            j += 1;
+            continue;
+        };
+        if j + 1 == n {
+            break;
         }
+        // Column k = j + 1 gets H_j alone, then yields the second reflector.
+        let k = j + 1;
+        let (bk_all, rest) = tail.split_at_mut(ld);
+        let bk = &mut bk_all[..rows];
+        let s = beta_j * (v0j * r[k * n + j] + dot::<FMA>(bj, bk));
+        r[k * n + j] -= s * v0j;
+        axpy::<FMA>(-s, bj, bk);
+        let bk = &bk_all[..rows];
+        match reflector(r, bk, k) {
+            Some((v0k, beta_k)) => {
+                let cross = dot::<FMA>(bk, bj);
+                for l in k + 1..n {
+                    let bl = &mut rest[(l - k - 1) * ld..(l - k - 1) * ld + rows];
+                    let (dj, dk) = dot2::<FMA>(bj, bk, bl);
+                    let s_j = beta_j * (v0j * r[l * n + j] + dj);
+                    let s_k = beta_k * (v0k * r[l * n + k] + dk - s_j * cross);
+                    r[l * n + j] -= s_j * v0j;
+                    r[l * n + k] -= s_k * v0k;
+                    axpy2::<FMA>(-s_j, bj, -s_k, bk, bl);
+                }
+            }
+            None => {
+                for l in k + 1..n {
+                    let bl = &mut rest[(l - k - 1) * ld..(l - k - 1) * ld + rows];
+                    let s = beta_j * (v0j * r[l * n + j] + dot::<FMA>(bj, bl));
+                    r[l * n + j] -= s * v0j;
+                    axpy::<FMA>(-s, bj, bl);
+                }
+            }
+        }
+        j += 2;
+    }
+}
+
+/// `(a . c, b . c)` in one pass.
+#[inline(always)]
+fn dot2<const FMA: bool>(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
+    let n = a.len().min(b.len()).min(c.len());
+    let (a, b, c) = (&a[..n], &b[..n], &c[..n]);
+    let mut acc_a = [0.0f64; 4];
+    let mut acc_b = [0.0f64; 4];
+    let chunks = n / 4;
+    for q in 0..chunks {
+        let (xa, xb, xc) = (
+            &a[4 * q..4 * q + 4],
+            &b[4 * q..4 * q + 4],
+            &c[4 * q..4 * q + 4],
+        );
+        for t in 0..4 {
+            acc_a[t] = madd::<FMA>(xa[t], xc[t], acc_a[t]);
+            acc_b[t] = madd::<FMA>(xb[t], xc[t], acc_b[t]);
+        }
+    }
+    let (mut sa, mut sb) = (
+        (acc_a[0] + acc_a[1]) + (acc_a[2] + acc_a[3]),
+        (acc_b[0] + acc_b[1]) + (acc_b[2] + acc_b[3]),
+    );
+    for i in 4 * chunks..n {
+        sa += a[i] * c[i];
+        sb += b[i] * c[i];
+    }
+    (sa, sb)
+}
+
+/// `c += alpha a + beta b` in one pass.
+#[inline(always)]
+fn axpy2<const FMA: bool>(alpha: f64, a: &[f64], beta: f64, b: &[f64], c: &mut [f64]) {
+    for ((ci, ai), bi) in c.iter_mut().zip(a).zip(b) {
+        *ci = madd::<FMA>(beta, *bi, madd::<FMA>(alpha, *ai, *ci));
     }
 }
 
