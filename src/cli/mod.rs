@@ -8,12 +8,15 @@
 //! | 1 | any other failure (I/O while writing, numerical breakdown) |
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
+mod bode;
 mod columns;
 mod common;
 mod excite;
 mod hysteresis;
 mod identify;
 mod identify_hysteresis;
+mod identify_linear;
+mod simulate;
 mod tf;
 mod zpetc;
 
@@ -40,8 +43,12 @@ enum Command {
     /// Use hysteresis models: analytic inverse, run on a signal.
     #[command(subcommand)]
     Hysteresis(hysteresis::HysteresisCommand),
+    /// Simulate a closed loop (pid, pid+hc, pid+hc+zpec) on the virtual FTS or a plant model.
+    Simulate(simulate::SimulateArgs),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
+    /// Empirical frequency response (Welch with coherence, or ETFE) of input/output data.
+    Bode(bode::BodeArgs),
     /// Inspect transfer-function files.
     #[command(subcommand)]
     Tf(tf::TfCommand),
@@ -71,7 +78,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Excite(args) => excite::run(args),
         Command::Identify(cmd) => identify::run(cmd),
         Command::Hysteresis(cmd) => hysteresis::run(cmd),
+        Command::Simulate(args) => simulate::run(args),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
+        Command::Bode(args) => bode::run(args),
     }
 }

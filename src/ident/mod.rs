@@ -1,6 +1,23 @@
 //! Identification from measured data.
+//!
+//! Linear (polynomial) models, math.md 2: [`arx`] (QR least squares),
+//! [`iv`] (refined instrumental variables), [`oe`] (output error by
+//! Levenberg–Marquardt), [`structure`] (order and delay selection),
+//! [`freq`] (empirical frequency response), sharing [`linear`] (model,
+//! fits, residual tests), [`regress`] (streaming QR) and [`data`]
+//! (detrending, splits).
 
+pub mod arx;
+pub mod data;
 pub mod excite;
+pub mod freq;
 pub mod hysteresis;
+pub mod iv;
+pub mod linear;
 pub mod ls;
 pub mod metrics;
+pub mod oe;
+pub mod regress;
+pub mod structure;
+#[cfg(test)]
+pub(crate) mod testutil;

@@ -1,0 +1,556 @@
+//! What every linear (polynomial) estimator shares: the model
+//! `y = z^-nk B(z^-1)/A(z^-1) u` (+ noise), its errors, simulation with
+//! estimated initial conditions (MATLAB `compare`), the simulation and
+//! one-step prediction fits, and the residual tests (MATLAB `resid`).
+
+use super::metrics::nrmse_fit_percent;
+use super::regress::{DEFAULT_BLOCK_ROWS, solve_triangle, triangularize};
+use crate::lti::{DiscreteTf, TfError};
+
+/// Why a linear identification failed. All of these are about the data or
+/// the requested structure (the CLI maps them to exit code 2) except
+/// [`IdentError::Numerical`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentError {
+    /// Fewer usable rows than parameters.
+    #[error(
+        "too few samples for the model orders: {samples} samples give {rows} regression rows, at least {needed} are needed ({params} parameters; orders {orders})"
+    )]
+    TooShort {
+        /// Samples in the record.
+        samples: usize,
+        /// Regression rows available.
+        rows: usize,
+        /// Rows needed.
+        needed: usize,
+        /// Parameters to estimate.
+        params: usize,
+        /// The orders, for the message.
+        orders: String,
+    },
+    /// The regressor matrix is rank deficient.
+    #[error(
+        "singular regression: the regressor matrix has numerical rank {rank} < {params} parameters (condition number {cond:.3e} after column scaling); {hint}"
+    )]
+    Singular {
+        /// Numerical rank.
+        rank: usize,
+        /// Parameters.
+        params: usize,
+        /// Condition number of the regressor matrix.
+        cond: f64,
+        /// What usually causes it.
+        hint: String,
+    },
+    /// A signal holds NaN or infinity.
+    #[error("{signal} sample {index} is not finite")]
+    NonFinite {
+        /// `input` or `output`.
+        signal: &'static str,
+        /// 0-based sample index.
+        index: usize,
+    },
+    /// Orders that make no model (e.g. `nb = 0`).
+    #[error("invalid model structure: {0}")]
+    BadStructure(String),
+    /// Input and output lengths differ.
+    #[error("input has {input} samples but output has {output}")]
+    LengthMismatch {
+        /// Input length.
+        input: usize,
+        /// Output length.
+        output: usize,
+    },
+    /// The estimate could not be turned into a transfer function, or an
+    /// iterative method broke down.
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+}
+
+impl From<TfError> for IdentError {
+    fn from(e: TfError) -> Self {
+        IdentError::Numerical(e.to_string())
+    }
+}
+
+/// Checks lengths and finiteness of an input/output record.
+pub fn check_signals(u: &[f64], y: &[f64]) -> Result<(), IdentError> {
+    if u.len() != y.len() {
+        return Err(IdentError::LengthMismatch {
+            input: u.len(),
+            output: y.len(),
+        });
+    }
+    if let Some(index) = u.iter().position(|v| !v.is_finite()) {
+        return Err(IdentError::NonFinite {
+            signal: "input",
+            index,
+        });
+    }
+    if let Some(index) = y.iter().position(|v| !v.is_finite()) {
+        return Err(IdentError::NonFinite {
+            signal: "output",
+            index,
+        });
+    }
+    Ok(())
+}
+
+/// A SISO polynomial model `y(k) = z^-nk B(z^-1)/A(z^-1) u(k)`, the form
+/// ARX, IV and OE all return (for OE, `A` is MATLAB's `F`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolyModel {
+    /// `[1, a1, .., a_na]`, ascending powers of `z^-1`.
+    pub a: Vec<f64>,
+    /// `[b0, .., b_{nb-1}]`.
+    pub b: Vec<f64>,
+    /// Input delay in samples.
+    pub nk: usize,
+    /// Sample time in seconds.
+    pub ts: f64,
+}
+
+impl PolyModel {
+    /// `na` (number of `a` coefficients after the leading 1).
+    pub fn na(&self) -> usize {
+        self.a.len() - 1
+    }
+
+    /// `nb`.
+    pub fn nb(&self) -> usize {
+        self.b.len()
+    }
+
+    /// The transfer function `z^-nk B/A`.
+    pub fn tf(&self) -> Result<DiscreteTf, IdentError> {
+        Ok(DiscreteTf::new(
+            self.b.clone(),
+            self.a.clone(),
+            self.nk,
+            self.ts,
+        )?)
+    }
+
+    /// Number of past samples the difference equation needs:
+    /// `max(na, nb + nk - 1)`.
+    pub fn memory(&self) -> usize {
+        self.na().max((self.nb() + self.nk).saturating_sub(1))
+    }
+
+    /// Whether all roots of `A` are strictly inside the unit circle.
+    pub fn is_stable(&self) -> bool {
+        if self.na() == 0 {
+            return true;
+        }
+        match crate::lti::Poly::new(self.a.clone()).z_roots() {
+            Ok(r) => r.iter().all(|p| p.norm() < 1.0),
+            Err(_) => false,
+        }
+    }
+
+    /// Simulation from rest: `A(q) y_s(k) = B(q) u(k - nk)`.
+    pub fn simulate(&self, u: &[f64]) -> Vec<f64> {
+        filter_ab(&self.b, &self.a, self.nk, u)
+    }
+
+    /// One-step-ahead prediction of the ARX predictor
+    /// `y_hat(k) = (1 - A(q)) y(k) + B(q) u(k - nk)` (for an OE model the
+    /// predictor is the simulation; see [`Fits`]). Samples before
+    /// [`PolyModel::memory`] use only the past that exists.
+    pub fn predict_arx(&self, u: &[f64], y: &[f64]) -> Vec<f64> {
+        let n = y.len();
+        let mut out = vec![0.0; n];
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for (i, a) in self.a.iter().enumerate().skip(1) {
+                if k >= i {
+                    s -= a * y[k - i];
+                }
+            }
+            for (i, b) in self.b.iter().enumerate() {
+                if k >= self.nk + i {
+                    s += b * u[k - self.nk - i];
+                }
+            }
+            *o = s;
+        }
+        out
+    }
+
+    /// Simulation with the initial conditions chosen to fit `y` best (MATLAB
+    /// `compare` default, `InitialCondition = 'estimate'`). The free response
+    /// of an order-`n` model is any combination of the impulse responses of
+    /// `1/A` started at `k = 0 .. n-1`, so the initial conditions are the
+    /// least-squares fit of that basis to `y - y_sim`. An unstable `A` keeps
+    /// zero initial conditions (its basis would blow up).
+    pub fn simulate_fit_ic(&self, u: &[f64], y: &[f64]) -> Vec<f64> {
+        let mut ys = self.simulate(u);
+        let n = self.memory().min(y.len() / 4);
+        if n == 0 || !self.is_stable() {
+            return ys;
+        }
+        let len = y.len();
+        let basis: Vec<Vec<f64>> = (0..n)
+            .map(|j| {
+                let mut imp = vec![0.0; len];
+                imp[j] = 1.0;
+                filter_ab(&[1.0], &self.a, 0, &imp)
+            })
+            .collect();
+        let resid: Vec<f64> = y.iter().zip(&ys).map(|(a, b)| a - b).collect();
+        let tri = triangularize(n + 1, len, DEFAULT_BLOCK_ROWS, |j, s, out| {
+            let src = if j < n { &basis[j] } else { &resid };
+            out.copy_from_slice(&src[s..s + out.len()]);
+        });
+        if let Ok(sol) = solve_triangle(&tri) {
+            for (c, h) in sol.theta.iter().zip(&basis) {
+                for (v, hv) in ys.iter_mut().zip(h) {
+                    *v += c * hv;
+                }
+            }
+        }
+        ys
+    }
+}
+
+/// Reflects the roots of `a` (ascending `z^-1`, `a[0] = 1`) that lie on or
+/// outside the unit circle to `1/conj(z)`: the same magnitude response up to a
+/// gain, and a stable polynomial from which simulation and gradient filters
+/// can start (what MATLAB does to an unstable initial estimate).
+/// Returns `a` unchanged when it is already stable.
+pub fn stabilize(a: &[f64]) -> Vec<f64> {
+    let p = crate::lti::Poly::new(a.to_vec());
+    let Ok(roots) = p.z_roots() else {
+        return a.to_vec();
+    };
+    if roots.iter().all(|r| r.norm() < 1.0) {
+        return a.to_vec();
+    }
+    let fixed: Vec<crate::lti::c64> = roots
+        .iter()
+        .map(|r| {
+            if r.norm() >= 1.0 {
+                // Slightly inside, so that a root on the circle moves in.
+                0.999 / r.conj()
+            } else {
+                *r
+            }
+        })
+        .collect();
+    let mut out = crate::lti::Poly::from_z_roots(&fixed, 1.0).into_coeffs();
+    out.resize(a.len(), 0.0);
+    out
+}
+
+/// `A(q) y(k) = B(q) u(k - nk)` from rest, direct form (`a[0]` normalised).
+pub fn filter_ab(b: &[f64], a: &[f64], nk: usize, u: &[f64]) -> Vec<f64> {
+    let a0 = a[0];
+    let n = u.len();
+    let mut y = vec![0.0; n];
+    for k in 0..n {
+        let mut s = 0.0;
+        for (i, bi) in b.iter().enumerate() {
+            let lag = nk + i;
+            if k >= lag {
+                s += bi * u[k - lag];
+            }
+        }
+        for (i, ai) in a.iter().enumerate().skip(1) {
+            if k >= i {
+                s -= ai * y[k - i];
+            }
+        }
+        y[k] = s / a0;
+    }
+    y
+}
+
+/// Fit figures of a model on one data set (MATLAB `compare`, NRMSE).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Fits {
+    /// Simulation fit (%), initial conditions estimated as `compare` does:
+    /// the number users quote.
+    pub simulation_percent: f64,
+    /// Simulation fit (%) from rest (zero initial conditions).
+    pub simulation_zero_ic_percent: f64,
+    /// One-step-ahead prediction fit (%) on the samples whose regressors are
+    /// all known. For an output-error model this equals the simulation fit
+    /// from rest.
+    pub prediction_percent: f64,
+    /// Mean squared one-step prediction error.
+    pub prediction_mse: f64,
+}
+
+/// Whether the model carries an ARX noise model (`1/A`) or none (OE: the
+/// predictor is the simulation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoiseModel {
+    /// `A y = B u + e`: the predictor uses past outputs.
+    Arx,
+    /// `y = B/F u + e`: the predictor is the simulation.
+    OutputError,
+}
+
+/// Simulation and prediction fits of `model` on `(u, y)`.
+pub fn fits(model: &PolyModel, noise: NoiseModel, u: &[f64], y: &[f64]) -> Fits {
+    let sim_ic = model.simulate_fit_ic(u, y);
+    let sim0 = model.simulate(u);
+    let start = model.memory().min(y.len());
+    let pred = match noise {
+        NoiseModel::Arx => model.predict_arx(u, y),
+        NoiseModel::OutputError => sim0.clone(),
+    };
+    let (yy, pp) = match noise {
+        NoiseModel::Arx => (&y[start..], &pred[start..]),
+        NoiseModel::OutputError => (y, &pred[..]),
+    };
+    let mse = if yy.is_empty() {
+        f64::NAN
+    } else {
+        yy.iter().zip(pp).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / yy.len() as f64
+    };
+    Fits {
+        simulation_percent: nrmse_fit_percent(y, &sim_ic),
+        simulation_zero_ic_percent: nrmse_fit_percent(y, &sim0),
+        prediction_percent: nrmse_fit_percent(yy, pp),
+        prediction_mse: mse,
+    }
+}
+
+/// Residual analysis as MATLAB `resid`: normalised autocorrelation of the
+/// residuals for lags `1..=lags` and cross-correlation with the input for
+/// lags `-lags..=lags`, against 99 % confidence bounds.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Whiteness {
+    /// Number of lags tested (MATLAB default 25).
+    pub lags: usize,
+    /// 99 % bound on the autocorrelation, `2.576 / sqrt(N)`.
+    pub bound: f64,
+    /// `max |r_ee(tau)| / r_ee(0)` over `tau = 1..lags`.
+    pub max_autocorr: f64,
+    /// Lags whose autocorrelation leaves the bound.
+    pub autocorr_outside: Vec<usize>,
+    /// True when no autocorrelation lag leaves the bound: the residuals look
+    /// white, so the noise model is adequate.
+    pub white: bool,
+    /// 99 % bound on the input cross-correlation,
+    /// `2.576 sqrt(sum_tau rho_ee(tau) rho_uu(tau)) / sqrt(N)` (the variance
+    /// of the sample cross-correlation of two independent signals).
+    pub cross_bound: f64,
+    /// `max |r_eu(tau)|` (normalised) over `tau = -lags..lags`.
+    pub max_crosscorr: f64,
+    /// Lags (`tau`: residual at `k`, input at `k - tau`) outside the bound.
+    pub crosscorr_outside: Vec<i64>,
+    /// True when no cross-correlation lag leaves the bound: the residuals
+    /// are independent of past inputs, so the dynamics are captured.
+    pub independent: bool,
+}
+
+/// 99 % two-sided quantile of the standard normal distribution.
+pub const Z99: f64 = 2.575_829_303_548_901;
+
+fn xcorr(a: &[f64], b: &[f64], lag: i64) -> f64 {
+    // sum_k a(k) b(k - lag) / N
+    let n = a.len() as i64;
+    let mut s = 0.0;
+    let (lo, hi) = if lag >= 0 { (lag, n) } else { (0, n + lag) };
+    for k in lo..hi {
+        s += a[k as usize] * b[(k - lag) as usize];
+    }
+    s / n as f64
+}
+
+/// The residual tests of [`Whiteness`] for residuals `e` and input `u`.
+pub fn whiteness(e: &[f64], u: &[f64], lags: usize) -> Whiteness {
+    let n = e.len();
+    let lags = lags.min(n.saturating_sub(1));
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let (me, mu) = (mean(e), mean(u));
+    let e: Vec<f64> = e.iter().map(|v| v - me).collect();
+    let u: Vec<f64> = u.iter().map(|v| v - mu).collect();
+    let ree0 = xcorr(&e, &e, 0);
+    let ruu0 = xcorr(&u, &u, 0);
+    let sqrt_n = (n.max(1) as f64).sqrt();
+    let bound = Z99 / sqrt_n;
+    let rho_e: Vec<f64> = (0..=lags)
+        .map(|t| {
+            if ree0 > 0.0 {
+                xcorr(&e, &e, t as i64) / ree0
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let rho_u: Vec<f64> = (0..=lags)
+        .map(|t| {
+            if ruu0 > 0.0 {
+                xcorr(&u, &u, t as i64) / ruu0
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let autocorr_outside: Vec<usize> = (1..=lags).filter(|&t| rho_e[t].abs() > bound).collect();
+    let max_autocorr = (1..=lags).map(|t| rho_e[t].abs()).fold(0.0, f64::max);
+    let p: f64 = rho_e[0] * rho_u[0] + 2.0 * (1..=lags).map(|t| rho_e[t] * rho_u[t]).sum::<f64>();
+    let cross_bound = Z99 * p.max(0.0).sqrt() / sqrt_n;
+    let norm = (ree0 * ruu0).sqrt();
+    let mut max_crosscorr = 0.0f64;
+    let mut crosscorr_outside = Vec::new();
+    for t in -(lags as i64)..=(lags as i64) {
+        let r = if norm > 0.0 {
+            xcorr(&e, &u, t) / norm
+        } else {
+            0.0
+        };
+        max_crosscorr = max_crosscorr.max(r.abs());
+        if r.abs() > cross_bound {
+            crosscorr_outside.push(t);
+        }
+    }
+    Whiteness {
+        lags,
+        bound,
+        max_autocorr,
+        white: autocorr_outside.is_empty(),
+        autocorr_outside,
+        cross_bound,
+        max_crosscorr,
+        independent: crosscorr_outside.is_empty(),
+        crosscorr_outside,
+    }
+}
+
+/// Information criteria of an estimate with `d` parameters from `n` rows
+/// and loss `v` (mean squared residual), as MATLAB reports them.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Criteria {
+    /// Loss function `V = ||e||^2 / N` (MATLAB `LossFcn`).
+    pub loss: f64,
+    /// Mean squared error (the same as `loss` for SISO; MATLAB `MSE`).
+    pub mse: f64,
+    /// Akaike's final prediction error `V (1 + d/N) / (1 - d/N)`.
+    pub fpe: f64,
+    /// Raw AIC `N ln V + 2 d + N (ln 2 pi + 1)` (MATLAB `aic(m)`).
+    pub aic: f64,
+    /// Normalised AIC `ln V + 2 d / N` (MATLAB `aic(m, 'nAIC')`).
+    pub naic: f64,
+    /// Rissanen's MDL / BIC-like `V (1 + d ln N / N)` (MATLAB `selstruc` 'mdl').
+    pub mdl: f64,
+    /// Number of residuals `N`.
+    pub samples: usize,
+    /// Number of parameters `d`.
+    pub params: usize,
+}
+
+impl Criteria {
+    /// From the loss `v` of `n` residuals and `d` parameters.
+    pub fn new(v: f64, n: usize, d: usize) -> Self {
+        let nf = n as f64;
+        let df = d as f64;
+        Criteria {
+            loss: v,
+            mse: v,
+            fpe: if n > d {
+                v * (1.0 + df / nf) / (1.0 - df / nf)
+            } else {
+                f64::INFINITY
+            },
+            aic: nf * v.ln() + 2.0 * df + nf * ((2.0 * std::f64::consts::PI).ln() + 1.0),
+            naic: v.ln() + 2.0 * df / nf,
+            mdl: v * (1.0 + df * nf.ln() / nf),
+            samples: n,
+            params: d,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn simulation_prediction_and_fit_distinction() {
+        // y(k) = 0.5 y(k-1) + u(k-1): the ARX predictor of the true model is
+        // exact on noise-free data, and so is the simulation.
+        let m = PolyModel {
+            a: vec![1.0, -0.5],
+            b: vec![1.0],
+            nk: 1,
+            ts: 1.0,
+        };
+        let u: Vec<f64> = (0..50).map(|k| ((k * 7 % 5) as f64) - 2.0).collect();
+        let y = m.simulate(&u);
+        let f = fits(&m, NoiseModel::Arx, &u, &y);
+        assert!((f.simulation_percent - 100.0).abs() < 1e-9);
+        assert!((f.prediction_percent - 100.0).abs() < 1e-9);
+        // A wrong pole: the one-step prediction re-anchors on measured y and
+        // stays far better than the free-running simulation (hand check:
+        // prediction error is 0.1 y(k-1), simulation error accumulates).
+        let wrong = PolyModel {
+            a: vec![1.0, -0.4],
+            ..m.clone()
+        };
+        let f = fits(&wrong, NoiseModel::Arx, &u, &y);
+        let pred = wrong.predict_arx(&u, &y);
+        let e: Vec<f64> = (1..50).map(|k| y[k] - pred[k]).collect();
+        for k in 1..50 {
+            assert!((e[k - 1] - 0.1 * y[k - 1]).abs() < 1e-12);
+        }
+        let expect = nrmse_fit_percent(&y[1..], &pred[1..]);
+        assert!((f.prediction_percent - expect).abs() < 1e-12);
+        let by_hand: Vec<f64> = (1..50).map(|k| y[k] - 0.1 * y[k - 1]).collect();
+        assert!((nrmse_fit_percent(&y[1..], &by_hand) - expect).abs() < 1e-12);
+        // The simulation runs free: its error is not 0.1 y(k-1).
+        assert!((f.simulation_zero_ic_percent - f.prediction_percent).abs() > 1e-3);
+    }
+
+    #[test]
+    fn initial_conditions_are_estimated() {
+        // The same model started from y(-1) = 3: simulation from rest misses
+        // the transient, the compare-style IC estimate removes it.
+        let m = PolyModel {
+            a: vec![1.0, -0.9],
+            b: vec![0.1],
+            nk: 1,
+            ts: 1.0,
+        };
+        let u: Vec<f64> = (0..200).map(|k| ((k / 10) % 2) as f64).collect();
+        let mut y = m.simulate(&u);
+        for (k, v) in y.iter_mut().enumerate() {
+            *v += 3.0 * 0.9f64.powi(k as i32 + 1);
+        }
+        let f = fits(&m, NoiseModel::OutputError, &u, &y);
+        assert!((f.simulation_percent - 100.0).abs() < 1e-9, "{f:?}");
+        assert!(f.simulation_zero_ic_percent < 90.0);
+    }
+
+    #[test]
+    fn white_noise_passes_and_coloured_fails() {
+        // Deterministic pseudo-random sequence (LCG) for white noise.
+        let mut s = 12345u64;
+        let mut rnd = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let e: Vec<f64> = (0..4000).map(|_| rnd()).collect();
+        let u: Vec<f64> = (0..4000).map(|_| rnd()).collect();
+        let w = whiteness(&e, &u, 25);
+        assert!(w.max_autocorr < 0.06);
+        let coloured = filter_ab(&[1.0], &[1.0, -0.8], 0, &e);
+        let w = whiteness(&coloured, &u, 25);
+        assert!(!w.white && w.autocorr_outside.contains(&1));
+        // Residual that still contains the input: not independent.
+        let leak: Vec<f64> = e.iter().zip(&u).map(|(a, b)| a + 0.5 * b).collect();
+        assert!(!whiteness(&leak, &u, 25).independent);
+    }
+
+    #[test]
+    fn criteria_formulas() {
+        let c = Criteria::new(0.5, 100, 4);
+        assert!((c.fpe - 0.5 * 1.04 / 0.96).abs() < 1e-15);
+        assert!((c.naic - (0.5f64.ln() + 0.08)).abs() < 1e-15);
+    }
+}

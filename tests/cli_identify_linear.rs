@@ -1,0 +1,387 @@
+//! `fts identify arx|oe|iv|arx-struct` and `fts bode` end to end: the DaISy
+//! records, the [Li21] closed loop, and every bad input exiting with code 2,
+//! naming the problem and leaving no output file.
+
+use assert_cmd::Command;
+use fts::ident::excite::{SweepParams, SweepSpacing, sweep};
+use fts::ident::linear::filter_ab;
+use predicates::prelude::*;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+const LI21_B: [f64; 5] = [4.154, -9.631, 10.23, -5.511, 1.154];
+const LI21_A: [f64; 6] = [1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447];
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn dataset(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/datasets")
+        .join(rel)
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn json_of(cmd: &mut Command) -> Value {
+    let out = cmd.assert().success().get_output().stdout.clone();
+    serde_json::from_slice(&out).expect("exactly one JSON object on stdout")
+}
+
+fn floats(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// Only the inputs are left in the folder (no result, no temporary file).
+fn assert_only(dir: &Path, expected: &[&str]) {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut expected: Vec<String> = expected.iter().map(|s| s.to_string()).collect();
+    expected.sort();
+    assert_eq!(names, expected);
+}
+
+/// `t,u,y` CSV of the [Li21] closed loop driven by a 0-1 kHz sweep, with
+/// white measurement noise of standard deviation `noise` on `y`.
+fn li21_csv(n: usize, noise: f64) -> String {
+    let ts = 1e-4;
+    let u = sweep(&SweepParams {
+        f0: 0.0,
+        f1: 1000.0,
+        duration: n as f64 * ts,
+        amplitude: 1.0,
+        offset: 0.0,
+        ts,
+        spacing: SweepSpacing::Linear,
+    })
+    .unwrap();
+    let y = filter_ab(&LI21_B, &LI21_A, 5, &u);
+    let mut s = 0x1234_5678u64;
+    let mut uni = move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut out = String::from("t,u,y\n");
+    for k in 0..u.len() {
+        let e = (0..12).map(|_| uni()).sum::<f64>() - 6.0;
+        // 17 significant digits: the CSV round-trips f64 exactly.
+        out.push_str(&format!(
+            "{:.17e},{:.17e},{:.17e}\n",
+            k as f64 * ts,
+            u[k],
+            y[k] + noise * e
+        ));
+    }
+    out
+}
+
+#[test]
+fn dryer_arx_223_delay_and_validation_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plant.json");
+    let dryer = dataset("daisy-hairdryer/dryer.dat");
+    let v = json_of(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&dryer)
+            .args([
+                "--ts",
+                "0.08",
+                "--detrend",
+                "mean",
+                "--split",
+                "0.5",
+                "--na",
+                "2",
+                "--nb",
+                "2",
+                "--nk",
+                "3",
+                "--json",
+                "-o",
+            ])
+            .arg(&out),
+    );
+    assert_eq!(v["delay"], 3);
+    assert_eq!(v["ts"], 0.08);
+    let den = floats(&v["den"]);
+    let num = floats(&v["num"]);
+    assert_eq!(den.len(), 3);
+    assert_eq!(num.len(), 2);
+    // Stable second-order lag with a positive gain near 0.92.
+    assert!(
+        (den[1] + 1.2765).abs() < 1e-3 && (den[2] - 0.3967).abs() < 1e-3,
+        "{den:?}"
+    );
+    assert!(
+        (num[0] - 0.0652).abs() < 1e-3 && (num[1] - 0.0452).abs() < 1e-3,
+        "{num:?}"
+    );
+    let fit = v["fit_percent"].as_f64().unwrap();
+    let val = v["validation_fit_percent"].as_f64().unwrap();
+    assert!((85.0..92.0).contains(&fit), "estimation fit {fit}");
+    assert!((85.0..93.0).contains(&val), "validation fit {val}");
+    assert!(v["prediction_fit_percent"].as_f64().unwrap() > fit);
+    for key in [
+        "std_den",
+        "std_num",
+        "loss",
+        "fpe",
+        "aic",
+        "condition_number",
+        "whiteness",
+    ] {
+        assert!(!v[key].is_null(), "{key}");
+    }
+    // The file is an fts.tf/1 with the same numbers.
+    let file: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(file["format"], "fts.tf/1");
+    assert_eq!(file["den"], v["den"]);
+    assert_eq!(file["delay"], 3);
+}
+
+#[test]
+fn dryer_structure_selection_estimates_three_samples_delay() {
+    let v = json_of(
+        fts()
+            .args(["identify", "arx-struct"])
+            .arg(dataset("daisy-hairdryer/dryer.dat"))
+            .args([
+                "--ts",
+                "0.08",
+                "--detrend",
+                "mean",
+                "--split",
+                "0.5",
+                "--na",
+                "1:4",
+                "--nb",
+                "1:4",
+                "--nk",
+                "0:6",
+                "--json",
+            ]),
+    );
+    assert_eq!(v["delay_estimate"], 3);
+    assert_eq!(v["rows"].as_array().unwrap().len(), 4 * 4 * 7);
+    assert!(v["validation_fit_percent"].as_f64().unwrap() > 85.0);
+}
+
+#[test]
+fn robot_arm_structure_selection_fits_well() {
+    let v = json_of(
+        fts()
+            .args(["identify", "arx-struct"])
+            .arg(dataset("daisy-robot-arm/robot_arm.dat"))
+            .args([
+                "--ts", "1", "--split", "0.5", "--na", "2:10", "--nb", "2:10", "--nk", "0:2",
+                "--json",
+            ]),
+    );
+    assert!(
+        v["validation_fit_percent"].as_f64().unwrap() > 90.0,
+        "{}",
+        v["recommended"]
+    );
+}
+
+#[test]
+fn li21_noise_free_csv_recovered_and_ts_from_time_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "sweep.csv", &li21_csv(6000, 0.0));
+    let v = json_of(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&data)
+            .args(["--na", "5", "--nb", "5", "--nk", "5", "--json"]),
+    );
+    assert_eq!(v["delay"], 5);
+    assert!((v["ts"].as_f64().unwrap() - 1e-4).abs() < 1e-12);
+    for (x, t) in floats(&v["den"]).iter().zip(LI21_A) {
+        assert!((x - t).abs() < 1e-9, "{x} vs {t}");
+    }
+    for (x, t) in floats(&v["num"]).iter().zip(LI21_B) {
+        assert!((x - t).abs() < 1e-9, "{x} vs {t}");
+    }
+    assert!(v["fit_percent"].as_f64().unwrap() > 99.999);
+}
+
+#[test]
+fn output_noise_arx_flagged_oe_and_iv_summaries() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "sweep.csv", &li21_csv(10_000, 1e-3));
+    let arx = json_of(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&data)
+            .args(["--na", "5", "--nb", "5", "--nk", "5", "--json"]),
+    );
+    // Measurement noise makes the ARX residual coloured; the summary says so.
+    assert_eq!(arx["whiteness"]["white"], false);
+    assert!(arx["notes"][0].as_str().unwrap().contains("not white"));
+    let svg = dir.path().join("bode.svg");
+    let oe = json_of(
+        fts()
+            .args(["identify", "oe"])
+            .arg(&data)
+            .args(["--nb", "5", "--nf", "5", "--nk", "5", "--json", "--plot"])
+            .arg(&svg),
+    );
+    assert_eq!(oe["converged"], true);
+    assert_eq!(oe["orders"]["nf"], 5);
+    assert!(oe["fit_percent"].as_f64().unwrap() > 99.8);
+    // OE residuals are the white measurement noise.
+    assert_eq!(oe["whiteness"]["white"], true);
+    assert!((oe["noise_variance"].as_f64().unwrap() / 1e-6 - 1.0).abs() < 0.1);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") && text.contains("coherence"));
+    let iv = json_of(
+        fts()
+            .args(["identify", "iv"])
+            .arg(&data)
+            .args(["--na", "5", "--nb", "5", "--nk", "5", "--json"]),
+    );
+    assert!(iv["fit_percent"].as_f64().unwrap() > 99.8);
+    // Human summary of OE names the method and the residual test.
+    fts()
+        .args(["identify", "oe"])
+        .arg(&data)
+        .args(["--nb", "5", "--nf", "5", "--nk", "5"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("Levenberg-Marquardt"))
+        .stdout(predicate::str::contains("residuals: white"));
+}
+
+#[test]
+fn auto_structure_and_validate_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let est = write(dir.path(), "est.csv", &li21_csv(3000, 0.0));
+    let val = write(dir.path(), "val.csv", &li21_csv(2000, 0.0));
+    let v = json_of(
+        fts()
+            .args(["identify", "arx", "--auto", "--json"])
+            .arg(&est)
+            .arg("--validate")
+            .arg(&val),
+    );
+    assert!(v["validation_fit_percent"].as_f64().unwrap() > 99.9);
+    assert_eq!(v["selection"]["rule"], "validation_loss");
+}
+
+#[test]
+fn bode_prints_and_writes_the_empirical_response() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "sweep.csv", &li21_csv(20_000, 1e-3));
+    let csv = dir.path().join("resp.csv");
+    let v = json_of(
+        fts()
+            .arg("bode")
+            .arg(&data)
+            .args(["--json", "--fmax", "1000", "-o"])
+            .arg(&csv),
+    );
+    assert_eq!(v["method"], "welch");
+    assert!(v["mean_coherence"].as_f64().unwrap() > 0.9);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("freq_hz,magnitude,magnitude_db,phase_deg,coherence,re,im"));
+    // DC gain of Li21 is 0.9503: the lowest excited bins are close to it.
+    let mag = floats(&v["magnitude"]);
+    assert!((mag[2] - 0.95).abs() < 0.05, "{}", mag[2]);
+    fts()
+        .arg("bode")
+        .arg(&data)
+        .args(["--method", "etfe", "--fmax", "500"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("ETFE estimate"));
+}
+
+fn bad_run(dir: &Path, data: &Path, extra: &[&str], expect: &str) {
+    let out = dir.join("plant.json");
+    fts()
+        .args(["identify", "arx"])
+        .arg(data)
+        .args(extra)
+        .arg("-o")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(expect));
+    assert!(!out.exists(), "no output file on bad input");
+}
+
+#[test]
+fn bad_inputs_exit_2_and_leave_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let orders = ["--na", "2", "--nb", "2", "--nk", "1"];
+    let short = write(d, "short.csv", "t,u,y\n0,1,2\n1,2,3\n2,3,1\n3,1,2\n");
+    bad_run(d, &short, &orders, "too few samples for the model orders");
+    let mut text = String::from("t,u,y\n");
+    for k in 0..50 {
+        text.push_str(&format!("{k},1.5,{}\n", (k as f64 * 0.3).sin()));
+    }
+    let constant = write(d, "constant.csv", &text);
+    bad_run(d, &constant, &orders, "input is constant");
+    bad_run(d, &constant, &orders, "singular regression");
+    let nan = write(d, "nan.csv", "t,u,y\n0,1,2\n1,NaN,3\n2,3,1\n");
+    bad_run(d, &nan, &orders, "nan.csv line 3, field 'u'");
+    let missing = write(d, "missing.csv", "t,u,z\n0,1,2\n1,2,3\n");
+    bad_run(d, &missing, &orders, "missing column 'y'");
+    let jitter = write(d, "jitter.csv", "t,u,y\n0,1,2\n1,2,3\n2.5,3,1\n3.5,1,1\n");
+    bad_run(d, &jitter, &orders, "non-uniform time");
+    let dat = write(d, "plain.dat", "1 2\n3 4\n5 6\n");
+    bad_run(d, &dat, &orders, "give --ts");
+    bad_run(
+        d,
+        &constant,
+        &["--na", "2", "--nb", "0", "--nk", "1"],
+        "nb must be at least 1",
+    );
+    bad_run(
+        d,
+        &constant,
+        &["--na", "1", "--nb", "1", "--nk", "1", "--split", "1.5"],
+        "--split",
+    );
+    bad_run(d, &dir.path().join("absent.csv"), &orders, "cannot read");
+    fts()
+        .args(["identify", "oe"])
+        .arg(&constant)
+        .args(["--nb", "2", "--nf", "2", "--nk", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("input is constant"));
+    fts()
+        .arg("bode")
+        .arg(&constant)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("no power"));
+    assert_only(
+        d,
+        &[
+            "short.csv",
+            "constant.csv",
+            "nan.csv",
+            "missing.csv",
+            "jitter.csv",
+            "plain.dat",
+        ],
+    );
+}
