@@ -11,6 +11,8 @@
 mod bode;
 mod columns;
 mod common;
+mod demo;
+mod emit;
 mod excite;
 mod hysteresis;
 mod identify;
@@ -35,6 +37,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run the whole Li21 pipeline on the embedded virtual FTS: identify, compensate, ZPETC, verify, emit.
+    Demo(demo::DemoArgs),
     /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
     Excite(excite::ExciteArgs),
     /// Identify a model from measured data.
@@ -43,6 +47,8 @@ enum Command {
     /// Use hysteresis models: analytic inverse, run on a signal.
     #[command(subcommand)]
     Hysteresis(hysteresis::HysteresisCommand),
+    /// Write the controller coefficient file (fts.controller/1 JSON or C header) for a real-time loop.
+    Emit(emit::EmitArgs),
     /// Simulate a closed loop (pid, pid+hc, pid+hc+zpec) on the virtual FTS or a plant model.
     Simulate(simulate::SimulateArgs),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
@@ -75,9 +81,11 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Demo(args) => demo::run(args),
         Command::Excite(args) => excite::run(args),
         Command::Identify(cmd) => identify::run(cmd),
         Command::Hysteresis(cmd) => hysteresis::run(cmd),
+        Command::Emit(args) => emit::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
