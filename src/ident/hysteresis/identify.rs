@@ -264,16 +264,13 @@ impl Regressor {
             }
             j += 1;
         }
-        let plays = &mut columns[j..];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports the features `plays_avx2` is compiled for.
-                unsafe { plays_avx2(self.operator, &self.thresholds, u, states, plays) };
-                return;
-            }
-        }
-        plays_kernel(self.operator, &self.thresholds, u, states, plays);
+        play_columns(
+            self.operator,
+            &self.thresholds,
+            u,
+            states,
+            &mut columns[j..],
+        );
     }
 
     /// The whole regressor as an `N x cols` column-major matrix.
@@ -298,6 +295,27 @@ impl Regressor {
         }
         acc
     }
+}
+
+/// Play operator outputs for `u` into `columns[i][..u.len()]`, one column per
+/// threshold, continuing from `states` (updated). Picks the AVX2 build of the
+/// kernel when the CPU has it.
+pub(crate) fn play_columns(
+    op: PlayOperator,
+    thresholds: &[f64],
+    u: &[f64],
+    states: &mut [f64],
+    columns: &mut [&mut [f64]],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports the features `plays_avx2` is compiled for.
+            unsafe { plays_avx2(op, thresholds, u, states, columns) };
+            return;
+        }
+    }
+    plays_kernel(op, thresholds, u, states, columns);
 }
 
 #[cfg(target_arch = "x86_64")]
