@@ -332,8 +332,11 @@ fn piezo_record() -> (Vec<f64>, Vec<f64>) {
 
 /// The real piezo record (150 V, 1 Hz), from the first excited sample: every
 /// model with 10 operators fits it to under 1 % rms of the stroke, and the
-/// MPI forms beat classical PI. Measured (debug and release agree):
+/// MPI forms beat classical PI. Measured with the defaults (lower play for
+/// PI and MPI-cbrt, symmetric for MPI-deadzone, offset on):
 /// PI 0.889 % rms / 20.3 % max, MPI-cbrt 0.707 / 19.9, MPI-deadzone 0.513 / 21.1.
+/// (PI on the symmetric play, whose grid spans twice the play width, gives
+/// 0.537 / 21.2.)
 /// The max error sits in the first ~50 samples: the voltage jumps from 0 to
 /// -87 V at sample 16286 and the stage rings (a dynamic transient no static
 /// hysteresis model can follow); after it the max error is ~3.2-3.8 %.
