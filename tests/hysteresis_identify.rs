@@ -251,10 +251,17 @@ fn invertibility_constraint() {
 /// [Li21] Table 1 (reference-values.md): driven by a 0 -> 9.677 -> 0 triangle
 /// the inverse model rises to 1.9647 at the peak and gives 1.2714 (up) and
 /// 1.0430 (down) at 5.806. With the initial state of math.md 1.1 (play
-/// outputs start at 0) we get 1.964739, 1.271338 and 1.042956: the peak and
-/// the falling branch round to the published 4 digits; the rising branch is
-/// 6e-5 below the published 1.2714. Tolerance 1e-4: the published numbers
-/// carry 4-5 significant digits (and the thresholds themselves are rounded).
+/// outputs start at 0) and the printed thresholds we get:
+///
+/// * peak 1.9647355 — rounds to the published 1.9647;
+/// * at u = 5.806 exactly: 1.2713379 up, 1.0429528 down (the rising value is
+///   6e-5 below the published 1.2714);
+/// * at u = 5.8062 (= r_6, the sample the paper most likely read, printed
+///   with 4 significant digits): 1.2713744 up, 1.0429937 down — all three
+///   published values then agree to their last printed digit.
+///
+/// Tolerances: 5e-5 (half a unit in the 4th decimal) where we claim digit
+/// agreement, 1e-4 at 5.806, and 1e-6 against our own hand-checked values.
 #[test]
 fn li21_table1_inverse_model_loop() {
     let path = concat!(
@@ -265,21 +272,35 @@ fn li21_table1_inverse_model_loop() {
     let file = parse_model(&text, path).unwrap();
     assert_eq!(file.mapping(), "displacement->voltage");
     let m = &file.model;
-    // Fine triangle; 5.806 is reached exactly on both legs (k * 9.677 / n).
-    let n = 9677;
+    // Triangle in steps of 1e-4 um: 5.806, 5.8062 and 9.677 are all samples.
+    let n = 96_770;
     let up: Vec<f64> = (0..=n).map(|k| 9.677 * k as f64 / n as f64).collect();
     let mut u = up.clone();
     u.extend(up.iter().rev().skip(1));
     let y = m.simulate(&u);
-    let peak = y[n];
-    let k_up = 5806;
-    let k_down = 2 * n - k_up;
-    assert!((u[k_up] - 5.806).abs() < 1e-12 && (u[k_down] - 5.806).abs() < 1e-12);
-    assert!((peak - 1.9647).abs() < 1e-4, "peak {peak}");
-    assert!((y[k_up] - 1.2714).abs() < 1e-4, "up {}", y[k_up]);
-    assert!((y[k_down] - 1.0430).abs() < 1e-4, "down {}", y[k_down]);
-    // Independent check of the hand computation behind those numbers: on the
-    // rising leg every lower play is max(u - r_i, 0) and at the peak the output is
+    let at = |k: usize, x: f64| {
+        assert!((u[k] - x).abs() < 1e-12, "u[{k}] = {}", u[k]);
+        y[k]
+    };
+    let peak = at(n, 9.677);
+    let (up_5806, down_5806) = (at(58_060, 5.806), at(2 * n - 58_060, 5.806));
+    let (up_r6, down_r6) = (at(58_062, 5.8062), at(2 * n - 58_062, 5.8062));
+    assert!((peak - 1.9647).abs() < 5e-5, "peak {peak}");
+    assert!((up_r6 - 1.2714).abs() < 5e-5, "up at r_6 {up_r6}");
+    assert!((down_r6 - 1.0430).abs() < 5e-5, "down at r_6 {down_r6}");
+    assert!((up_5806 - 1.2714).abs() < 1e-4, "up {up_5806}");
+    assert!((down_5806 - 1.0430).abs() < 5e-5, "down {down_5806}");
+    for (got, want) in [
+        (peak, 1.964_735_5),
+        (up_5806, 1.271_337_9),
+        (down_5806, 1.042_952_8),
+        (up_r6, 1.271_374_4),
+        (down_r6, 1.042_993_7),
+    ] {
+        assert!((got - want).abs() < 1e-6, "{got} vs {want}");
+    }
+    // Independent check of the peak: on the rising leg from the demagnetised
+    // state every lower play is max(u - r_i, 0), so at the peak the output is
     // c cbrt(9.677) + sum w_i (9.677 - r_i).
     let by_hand: f64 = m.cbrt_gain * 9.677f64.cbrt()
         + m.weights
@@ -288,9 +309,6 @@ fn li21_table1_inverse_model_loop() {
             .map(|(w, r)| w * (9.677 - r))
             .sum::<f64>();
     assert!((peak - by_hand).abs() < 1e-12);
-    assert!((peak - 1.964_736).abs() < 1e-6);
-    assert!((y[k_up] - 1.271_338).abs() < 1e-6);
-    assert!((y[k_down] - 1.042_953).abs() < 1e-6);
 }
 
 fn piezo_record() -> (Vec<f64>, Vec<f64>) {
@@ -314,8 +332,11 @@ fn piezo_record() -> (Vec<f64>, Vec<f64>) {
 
 /// The real piezo record (150 V, 1 Hz), from the first excited sample: every
 /// model with 10 operators fits it to under 1 % rms of the stroke, and the
-/// MPI forms beat classical PI. Measured (debug and release agree):
+/// MPI forms beat classical PI. Measured with the defaults (lower play for
+/// PI and MPI-cbrt, symmetric for MPI-deadzone, offset on):
 /// PI 0.889 % rms / 20.3 % max, MPI-cbrt 0.707 / 19.9, MPI-deadzone 0.513 / 21.1.
+/// (PI on the symmetric play, whose grid spans twice the play width, gives
+/// 0.537 / 21.2.)
 /// The max error sits in the first ~50 samples: the voltage jumps from 0 to
 /// -87 V at sample 16286 and the stage rings (a dynamic transient no static
 /// hysteresis model can follow); after it the max error is ~3.2-3.8 %.

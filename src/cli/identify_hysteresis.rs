@@ -129,6 +129,9 @@ impl Observe<GdState> for ProgressObserver {
 fn identify_error(source: &str, e: IdentifyError) -> anyhow::Error {
     match e {
         IdentifyError::Solver(_) => anyhow::Error::new(e),
+        // Problems with the options, not with the data file.
+        IdentifyError::Thresholds(t) => bad(format!("--thresholds: {t}")),
+        IdentifyError::InvalidParams(m) => bad(m),
         other => bad(format!("{source}: {other}")),
     }
 }

@@ -102,31 +102,43 @@ impl Gradient for ScaledLeastSquares<'_> {
     }
 }
 
-/// Minimises `1/(2N) ||Phi w - y||^2` by L-BFGS from `w = 0`.
+/// Minimises `1/(2N) ||Phi w - y||^2` by L-BFGS from `start` (or `w = 0`).
+///
+/// Stops when the gradient norm falls below `rel_tol_grad` times its value at
+/// `w = 0` (the problem's own scale, whatever the start), when an iteration
+/// changes the cost by less than 1e-16 of the cost at `w = 0` (round-off
+/// level), or after `max_iters`.
 pub fn gd_lstsq<O>(
     phi: &ColMajor,
     y: &[f64],
     params: &GdParams,
+    start: Option<&[f64]>,
     observer: O,
 ) -> Result<(Vec<f64>, GdInfo), ArgminError>
 where
     O: Observe<GdState> + 'static,
 {
     let p = phi.cols();
-    let scale: Vec<f64> = (0..p)
-        .map(|j| {
-            let norm = phi.col(j).iter().map(|v| v * v).sum::<f64>().sqrt();
-            if norm > 0.0 { 1.0 / norm } else { 1.0 }
-        })
+    let norms: Vec<f64> = (0..p)
+        .map(|j| phi.col(j).iter().map(|v| v * v).sum::<f64>().sqrt())
+        .collect();
+    let scale: Vec<f64> = norms
+        .iter()
+        .map(|&n| if n > 0.0 { 1.0 / n } else { 1.0 })
         .collect();
     let problem = ScaledLeastSquares { phi, y, scale };
-    let x0 = vec![0.0; p];
-    let g0 = problem.gradient(&x0)?;
+    let zeros = vec![0.0; p];
+    let g0 = problem.gradient(&zeros)?;
     let g0_norm = g0.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let cost0 = problem.cost(&zeros)?;
+    // x = w / D in the scaled unknowns.
+    let x0 = match start {
+        Some(w) if w.len() == p => w.iter().zip(&problem.scale).map(|(w, d)| w / d).collect(),
+        _ => zeros,
+    };
     let solver = LBFGS::new(MoreThuenteLineSearch::new(), params.memory)
         .with_tolerance_grad(params.rel_tol_grad * g0_norm)?
-        // Stop on cost stagnation only at round-off level.
-        .with_tolerance_cost(0.0)?;
+        .with_tolerance_cost(1e-16 * cost0)?;
     let scale = problem.scale.clone();
     let result = Executor::new(problem, solver)
         .configure(|state| state.param(x0).max_iters(params.max_iters))

@@ -56,7 +56,11 @@ pub fn analytic_inverse(model: &HysteresisModel) -> Result<HysteresisModel, Inve
         return Err(InverseError::FirstThreshold(r[0]));
     }
     let partial = model.partial_sums();
-    if let Some((index, &value)) = partial.iter().enumerate().find(|(_, s)| !(**s > 0.0)) {
+    if let Some((index, &value)) = partial
+        .iter()
+        .enumerate()
+        .find(|(_, s)| s.partial_cmp(&&0.0) != Some(std::cmp::Ordering::Greater))
+    {
         return Err(InverseError::NotInvertible { index, value });
     }
     let thresholds: Vec<f64> = (0..r.len())

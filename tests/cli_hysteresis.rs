@@ -1,0 +1,278 @@
+//! `fts identify hysteresis`, `fts hysteresis invert|apply` end to end: happy
+//! paths, and every bad input exits with code 2, names the problem, never
+//! panics, and leaves no output file.
+
+use assert_cmd::Command;
+use fts::ident::hysteresis::operators::uniform_thresholds;
+use fts::ident::hysteresis::{HysteresisModel, ModelKind, PlayOperator};
+use predicates::prelude::*;
+use std::path::{Path, PathBuf};
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+/// Nothing but the inputs is left in the folder.
+fn assert_only(dir: &Path, expected: &[&str]) {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut expected: Vec<String> = expected.iter().map(|s| s.to_string()).collect();
+    expected.sort();
+    assert_eq!(names, expected);
+}
+
+/// Triangles of several amplitudes through a known symmetric-play PI model
+/// with an offset, as a `t,u,y` CSV.
+fn record() -> (String, HysteresisModel, Vec<f64>) {
+    let mut u = vec![0.0];
+    let mut last = 0.0;
+    for a in [4.0, 10.0, 7.0, 2.0, 8.5] {
+        for target in [a, -a, 0.0] {
+            for k in 1..=60 {
+                u.push(last + (target - last) * k as f64 / 60.0);
+            }
+            last = target;
+        }
+    }
+    let truth = HysteresisModel {
+        kind: ModelKind::Pi,
+        operator: PlayOperator::Symmetric,
+        thresholds: uniform_thresholds(6, 10.0),
+        weights: vec![0.8, 0.2, -0.1, 0.15, 0.05, 0.1],
+        cbrt_gain: 0.0,
+        offset: 0.5,
+        input_offset: 0.0,
+        dead_zone: None,
+    };
+    let y = truth.simulate(&u);
+    let mut csv = String::from("t,u,y\n");
+    for (k, (a, b)) in u.iter().zip(&y).enumerate() {
+        csv.push_str(&format!("{},{a},{b}\n", k as f64 * 1e-3));
+    }
+    (csv, truth, u)
+}
+
+#[test]
+fn identify_json_model_file_plot_then_invert_and_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, truth, u) = record();
+    let data = write(dir.path(), "data.csv", &csv);
+    let model = dir.path().join("model.json");
+    let svg = dir.path().join("loop.svg");
+    let out = fts()
+        .args(["identify", "hysteresis"])
+        .arg(&data)
+        .args([
+            "--model",
+            "pi",
+            "--operator",
+            "play-symmetric",
+            "--operators",
+            "6",
+            "--json",
+            "-o",
+        ])
+        .arg(&model)
+        .arg("--plot")
+        .arg(&svg)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).expect("exactly one JSON object");
+    // interfaces.md fields.
+    let weights: Vec<f64> = serde_json::from_value(v["weights"].clone()).unwrap();
+    let thresholds: Vec<f64> = serde_json::from_value(v["thresholds"].clone()).unwrap();
+    assert_eq!(thresholds, truth.thresholds);
+    for (a, b) in weights.iter().zip(&truth.weights) {
+        assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+    }
+    assert_eq!(v["cbrt_gain"], 0.0);
+    assert!(v["fit"]["rms_percent"].as_f64().unwrap() < 1e-9);
+    assert!(v["fit"]["max_percent"].as_f64().unwrap() < 1e-9);
+    assert!(v["condition_number"].as_f64().unwrap() > 1.0);
+    assert_eq!(v["iterations"], 0);
+    assert_eq!(v["mapping"], "voltage->displacement");
+    let text = std::fs::read_to_string(&model).unwrap();
+    assert!(text.contains("\"format\": \"fts.hysteresis/1\""));
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+
+    // Analytic inverse, then apply it to the forward output: u comes back.
+    let inv = dir.path().join("inv.json");
+    fts()
+        .args(["hysteresis", "invert"])
+        .arg(&model)
+        .arg("-o")
+        .arg(&inv)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "check: max |u - inverse(forward(u))|",
+        ));
+    let inv_text = std::fs::read_to_string(&inv).unwrap();
+    assert!(inv_text.contains("\"mapping\": \"displacement->voltage\""));
+
+    let applied = dir.path().join("u_back.csv");
+    fts()
+        .args(["hysteresis", "apply"])
+        .arg(&inv)
+        .arg(&data)
+        .args(["--input", "y", "--time", "t", "-o"])
+        .arg(&applied)
+        .assert()
+        .success();
+    let back = std::fs::read_to_string(&applied).unwrap();
+    let mut lines = back.lines();
+    assert_eq!(lines.next(), Some("t,u,y"));
+    for (line, want) in lines.zip(&u) {
+        let got: f64 = line.rsplit(',').next().unwrap().parse().unwrap();
+        assert!((got - want).abs() < 1e-8, "{got} vs {want}");
+    }
+}
+
+#[test]
+fn gd_reports_iterations_and_inverse_swaps_signals() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, _, _) = record();
+    let data = write(dir.path(), "data.csv", &csv);
+    let out = fts()
+        .args(["identify", "hysteresis"])
+        .arg(&data)
+        .args(["--method", "gd", "--inverse", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert!(v["iterations"].as_u64().unwrap() > 0);
+    assert_eq!(v["mapping"], "displacement->voltage");
+    assert_eq!(v["model"], "mpi-cbrt");
+    assert!(v["cbrt_gain"].is_number());
+}
+
+#[test]
+fn li21_fixture_applies() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "x.csv", "u\n0\n4.8385\n9.677\n4.8385\n0\n");
+    fts()
+        .args(["hysteresis", "apply"])
+        .arg(fixture("li21-inverse-mpi.json"))
+        .arg(&data)
+        .arg("--json")
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("\"output_max\": 1.96473"));
+}
+
+/// Runs a failing command; checks exit 2, the message, and that no file but
+/// the inputs is left.
+fn assert_bad(dir: &Path, inputs: &[&str], args: &[&str], message: &str) {
+    fts()
+        .current_dir(dir)
+        .args(args)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(message))
+        .stderr(predicate::str::contains("panicked").not());
+    assert_only(dir, inputs);
+}
+
+#[test]
+fn bad_inputs_exit_2_name_the_problem_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (csv, _, _) = record();
+    write(d, "data.csv", &csv);
+    let constant: String = std::iter::once("u,y\n".to_string())
+        .chain((0..100).map(|k| format!("2.5,{k}\n")))
+        .collect();
+    write(d, "constant.csv", &constant);
+    write(d, "short.csv", "u,y\n0,0\n1,1\n2,3\n1,2\n");
+    write(d, "nan.csv", "u,y\n0,0\n1,NaN\n2,3\n");
+    let model = fixture("li21-inverse-mpi.json");
+    let mismatched = std::fs::read_to_string(&model)
+        .unwrap()
+        .replace("\"weights\": [0.29, ", "\"weights\": [");
+    write(d, "mismatched.json", &mismatched);
+    let inputs = [
+        "data.csv",
+        "constant.csv",
+        "short.csv",
+        "nan.csv",
+        "mismatched.json",
+    ];
+    let id = |file: &'static str| vec!["identify", "hysteresis", file, "-o", "m.json"];
+
+    assert_bad(
+        d,
+        &inputs,
+        &id("constant.csv"),
+        "the input is constant (2.5)",
+    );
+    assert_bad(d, &inputs, &id("short.csv"), "too few samples: 4");
+    assert_bad(d, &inputs, &id("nan.csv"), "nan.csv line 3, field 'y'");
+    let mut args = id("data.csv");
+    args.extend(["--thresholds", "0,2,1"]);
+    assert_bad(
+        d,
+        &inputs,
+        &args,
+        "--thresholds: thresholds must increase strictly: threshold 2 (1)",
+    );
+    let mut args = id("data.csv");
+    args.extend(["--method", "gd", "--invertible"]);
+    assert_bad(d, &inputs, &args, "needs --method ls");
+    assert_bad(
+        d,
+        &inputs,
+        &["identify", "hysteresis", "missing.csv", "-o", "m.json"],
+        "missing.csv: cannot read",
+    );
+    assert_bad(
+        d,
+        &inputs,
+        &[
+            "hysteresis",
+            "apply",
+            "mismatched.json",
+            "data.csv",
+            "-o",
+            "o.csv",
+        ],
+        "mismatched.json field 'weights': 'weights' has 9 entries but 'thresholds' has 10",
+    );
+    assert_bad(
+        d,
+        &inputs,
+        &["hysteresis", "invert", "mismatched.json", "-o", "i.json"],
+        "'weights' has 9 entries",
+    );
+    // The Li21 model is MPI-cbrt on the lower play: no analytic inverse.
+    let li21 = model.to_str().unwrap();
+    assert_bad(
+        d,
+        &inputs,
+        &["hysteresis", "invert", li21, "-o", "i.json"],
+        "needs a classical PI model",
+    );
+    let mut args = id("data.csv");
+    args.extend(["--start", "5000"]);
+    assert_bad(d, &inputs, &args, "sample range 5000..");
+}
