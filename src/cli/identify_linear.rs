@@ -146,8 +146,11 @@ pub struct OeArgs {
     #[arg(long)]
     pub nk: usize,
     /// Start estimate of the iteration.
-    #[arg(long, value_enum, default_value_t = StartArg::Iv)]
+    #[arg(long, value_enum, default_value_t = StartArg::Best)]
     pub start: StartArg,
+    /// Initial conditions of the simulation: estimated with the model (MATLAB default) or zero.
+    #[arg(long, value_enum, default_value_t = InitialArg::Estimate)]
+    pub initial: InitialArg,
     /// Maximum Levenberg-Marquardt iterations.
     #[arg(long, default_value_t = OeParams::new(Orders::new(1, 1, 1)).max_iterations)]
     pub max_iter: usize,
@@ -202,7 +205,17 @@ fn pick(s: &StructSearch, rule: RuleArg) -> anyhow::Result<(Orders, &'static str
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum InitialArg {
+    /// Estimate the initial state together with B and F.
+    Estimate,
+    /// Start the simulation from rest.
+    Zero,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum StartArg {
+    /// Whichever of IV and ARX simulates the data better.
+    Best,
     /// Refined instrumental variables.
     Iv,
     /// Least-squares ARX.
@@ -427,7 +440,7 @@ fn residuals(r: &Report, u: &[f64], y: &[f64]) -> Vec<f64> {
     match r.noise {
         NoiseModel::Arx => arx_residuals(&r.model, u, y, start),
         NoiseModel::OutputError => {
-            let s = r.model.simulate(u);
+            let s = r.model.simulate_fit_ic(u, y);
             y.iter().zip(&s).map(|(a, b)| a - b).collect()
         }
     }
@@ -821,9 +834,11 @@ fn run_oe(a: OeArgs) -> anyhow::Result<()> {
     op.ts = p.ts;
     op.max_iterations = a.max_iter;
     op.start = match a.start {
+        StartArg::Best => OeStart::Best,
         StartArg::Iv => OeStart::Iv,
         StartArg::Arx => OeStart::Arx,
     };
+    op.estimate_initial = a.initial == InitialArg::Estimate;
     let bar = indicatif::ProgressBar::new_spinner();
     bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
     let est = oe(&p.est.u, &p.est.y, &op, &mut |pr| {
@@ -846,6 +861,7 @@ fn run_oe(a: OeArgs) -> anyhow::Result<()> {
         est.start_loss,
         est.criteria.loss,
         match a.start {
+            StartArg::Best => "best of IV/ARX",
             StartArg::Iv => "IV",
             StartArg::Arx => "ARX",
         }
@@ -861,7 +877,7 @@ fn run_oe(a: OeArgs) -> anyhow::Result<()> {
         noise_variance: est.noise_variance,
         condition_number: est.condition_number,
         noise: NoiseModel::OutputError,
-        extra: json!({"iterations": est.iterations, "converged": est.converged, "start_loss": est.start_loss, "iterations_note": note}),
+        extra: json!({"iterations": est.iterations, "converged": est.converged, "start_loss": est.start_loss, "initial_conditions": est.initial_conditions, "iterations_note": note}),
     };
     finish(&p, r, &a.out)
 }

@@ -184,32 +184,49 @@ impl PolyModel {
     /// least-squares fit of that basis to `y - y_sim`. An unstable `A` keeps
     /// zero initial conditions (its basis would blow up).
     pub fn simulate_fit_ic(&self, u: &[f64], y: &[f64]) -> Vec<f64> {
-        let mut ys = self.simulate(u);
+        let ic = self.initial_conditions(u, y);
+        self.simulate_ic(u, &ic)
+    }
+
+    /// The initial conditions of [`PolyModel::simulate_fit_ic`]: weights
+    /// `c_j` of the free-response basis `h(k - j)`, `h` the impulse response
+    /// of `1/A`, `j = 0 .. memory-1`. Empty when there is nothing to fit.
+    pub fn initial_conditions(&self, u: &[f64], y: &[f64]) -> Vec<f64> {
         let n = self.memory().min(y.len() / 4);
         if n == 0 || !self.is_stable() {
-            return ys;
+            return Vec::new();
         }
         let len = y.len();
-        let basis: Vec<Vec<f64>> = (0..n)
-            .map(|j| {
-                let mut imp = vec![0.0; len];
-                imp[j] = 1.0;
-                filter_ab(&[1.0], &self.a, 0, &imp)
-            })
-            .collect();
-        let resid: Vec<f64> = y.iter().zip(&ys).map(|(a, b)| a - b).collect();
+        let mut imp = vec![0.0; len];
+        imp[0] = 1.0;
+        let h = filter_ab(&[1.0], &self.a, 0, &imp);
+        let ys = self.simulate(u);
         let tri = triangularize(n + 1, len, DEFAULT_BLOCK_ROWS, |j, s, out| {
-            let src = if j < n { &basis[j] } else { &resid };
-            out.copy_from_slice(&src[s..s + out.len()]);
-        });
-        if let Ok(sol) = solve_triangle(&tri) {
-            for (c, h) in sol.theta.iter().zip(&basis) {
-                for (v, hv) in ys.iter_mut().zip(h) {
-                    *v += c * hv;
-                }
+            for (r, o) in out.iter_mut().enumerate() {
+                let k = s + r;
+                *o = if j == n {
+                    y[k] - ys[k]
+                } else if k >= j {
+                    h[k - j]
+                } else {
+                    0.0
+                };
             }
+        });
+        solve_triangle(&tri)
+            .map(|sol| sol.theta)
+            .unwrap_or_default()
+    }
+
+    /// Simulation with initial conditions `ic` (weights of `h(k - j)`, see
+    /// [`PolyModel::initial_conditions`]): `A(q) y(k) = B(q) u(k - nk) + c_k`
+    /// with `c_k = ic[k]` for `k < ic.len()`, zero after.
+    pub fn simulate_ic(&self, u: &[f64], ic: &[f64]) -> Vec<f64> {
+        let mut w = filter_ab(&self.b, &[1.0], self.nk, u);
+        for (wk, c) in w.iter_mut().zip(ic) {
+            *wk += c;
         }
-        ys
+        filter_ab(&[1.0], &self.a, 0, &w)
     }
 }
 
@@ -274,8 +291,8 @@ pub struct Fits {
     /// Simulation fit (%) from rest (zero initial conditions).
     pub simulation_zero_ic_percent: f64,
     /// One-step-ahead prediction fit (%) on the samples whose regressors are
-    /// all known. For an output-error model this equals the simulation fit
-    /// from rest.
+    /// all known. For an output-error model the predictor is the simulation,
+    /// so this equals `simulation_percent`.
     pub prediction_percent: f64,
     /// Mean squared one-step prediction error.
     pub prediction_mse: f64,
@@ -298,7 +315,7 @@ pub fn fits(model: &PolyModel, noise: NoiseModel, u: &[f64], y: &[f64]) -> Fits 
     let start = model.memory().min(y.len());
     let pred = match noise {
         NoiseModel::Arx => model.predict_arx(u, y),
-        NoiseModel::OutputError => sim0.clone(),
+        NoiseModel::OutputError => sim_ic.clone(),
     };
     let (yy, pp) = match noise {
         NoiseModel::Arx => (&y[start..], &pred[start..]),
