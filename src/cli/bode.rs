@@ -3,7 +3,7 @@
 
 use super::common::{bad, print_json, write_atomic};
 use super::identify_linear::{DataArgs, empirical_plot, prepare};
-use crate::ident::freq::{FreqResponse, WelchParams, etfe, welch};
+use crate::ident::freq::{WelchParams, etfe, welch};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::path::PathBuf;
@@ -46,34 +46,6 @@ pub struct BodeArgs {
     json: bool,
 }
 
-fn phase_deg(h: &FreqResponse) -> Vec<f64> {
-    // Unwrapped along the grid, skipping bins without input power.
-    let mut out = Vec::with_capacity(h.response.len());
-    let mut offset = 0.0;
-    let mut prev: Option<f64> = None;
-    for v in &h.response {
-        if !v.re.is_finite() {
-            out.push(f64::NAN);
-            continue;
-        }
-        let raw = v.arg().to_degrees();
-        if let Some(p) = prev {
-            let mut d = raw + offset - p;
-            while d > 180.0 {
-                offset -= 360.0;
-                d -= 360.0;
-            }
-            while d < -180.0 {
-                offset += 360.0;
-                d += 360.0;
-            }
-        }
-        prev = Some(raw + offset);
-        out.push(raw + offset);
-    }
-    out
-}
-
 pub fn run(a: BodeArgs) -> anyhow::Result<()> {
     if a.data.validate.is_some() || a.data.split.is_some() {
         return Err(bad("fts bode: --validate and --split do not apply"));
@@ -94,7 +66,7 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
     .map_err(|e| bad(format!("{}: {e}", p.source)))?;
     let nyq = 0.5 / p.ts;
     let fmax = a.fmax.unwrap_or(nyq).min(nyq);
-    let phase = phase_deg(&h);
+    let phase = h.phase_deg_unwrapped();
     let coh = |i: usize| h.coherence.as_ref().map(|c| c[i]);
     if let Some(path) = &a.out {
         let mut s = String::from("freq_hz,magnitude,magnitude_db,phase_deg,coherence,re,im\n");

@@ -15,7 +15,7 @@ use crate::ident::linear::{
 };
 use crate::ident::oe::{OeParams, OeStart, oe};
 use crate::ident::structure::{
-    SelectionRule, StructParams, StructSearch, arx_struct, delay_estimate,
+    SelectionRule, StructParams, StructSearch, arx_struct_observed, delay_estimate,
 };
 use crate::io::plot::{Series, stacked_charts_svg};
 use crate::io::tf_json;
@@ -402,6 +402,26 @@ pub fn prepare(d: &DataArgs) -> anyhow::Result<Prepared> {
     })
 }
 
+/// Structure search with a progress bar on stderr (hidden when stderr is
+/// not a terminal).
+fn search(p: &Prepared, sp: &StructParams) -> anyhow::Result<StructSearch> {
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+    let s = arx_struct_observed(
+        &p.est.u,
+        &p.est.y,
+        p.val.as_ref().map(|v| (&v.u[..], &v.y[..])),
+        sp,
+        &mut |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    )
+    .map_err(|e| ident_err(&p.source, e))?;
+    bar.finish_and_clear();
+    Ok(s)
+}
+
 /// Maps identification errors to exit codes: everything about the data or
 /// the structure is bad input (2) and names the file.
 pub fn ident_err(source: &str, e: IdentError) -> anyhow::Error {
@@ -489,15 +509,12 @@ fn bode_plot_svg(
         .filter(|&i| emp.freq_hz[i] <= fmax && emp.response[i].re.is_finite())
         .collect();
     let ef: Vec<f64> = keep.iter().map(|&i| emp.freq_hz[i]).collect();
-    let eb = Bode::from_fn(&ef, {
-        let resp: Vec<_> = keep.iter().map(|&i| emp.response[i]).collect();
-        let ef2 = ef.clone();
-        move |f| {
-            let i = ef2.iter().position(|x| *x == f).unwrap_or(0);
-            resp[i]
-        }
-    });
-    let emag = eb.magnitude_db();
+    let all_phase = emp.phase_deg_unwrapped();
+    let ephase: Vec<f64> = keep.iter().map(|&i| all_phase[i]).collect();
+    let emag: Vec<f64> = keep
+        .iter()
+        .map(|&i| 20.0 * emp.response[i].norm().log10())
+        .collect();
     let coh: Vec<f64> = match &emp.coherence {
         Some(c) => keep.iter().map(|&i| c[i]).collect(),
         None => Vec::new(),
@@ -513,7 +530,7 @@ fn bode_plot_svg(
     let mut phase = vec![Series {
         label: "empirical (Welch H1)",
         x: &ef,
-        y: &eb.phase_deg,
+        y: &ephase,
     }];
     if let (Some(b), Some(m)) = (&mb, &mmag) {
         mag.push(Series {
@@ -751,13 +768,7 @@ fn run_arx(a: ArxArgs) -> anyhow::Result<()> {
             ts: p.ts,
             ..Default::default()
         };
-        let s = arx_struct(
-            &p.est.u,
-            &p.est.y,
-            p.val.as_ref().map(|v| (&v.u[..], &v.y[..])),
-            &sp,
-        )
-        .map_err(|e| ident_err(&p.source, e))?;
+        let s = search(&p, &sp)?;
         let (o, rule) = pick(&s, a.rule)?;
         start = Some(s.start);
         eprintln!(
@@ -916,13 +927,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         nk: parse_range(&a.nk, "nk")?,
         ts: p.ts,
     };
-    let s: StructSearch = arx_struct(
-        &p.est.u,
-        &p.est.y,
-        p.val.as_ref().map(|v| (&v.u[..], &v.y[..])),
-        &sp,
-    )
-    .map_err(|e| ident_err(&p.source, e))?;
+    let s: StructSearch = search(&p, &sp)?;
     let nk_lo = *sp.nk.iter().min().unwrap_or(&0);
     let nk_hi = *sp.nk.iter().max().unwrap_or(&0);
     let delay = delay_estimate(&p.est.u, &p.est.y, 2, 2, nk_lo..=nk_hi).ok();

@@ -628,7 +628,10 @@ mod tests {
                     r[k] = s / a[0];
                 }
                 for k in 0..n {
-                    assert!((y[k] - r[k]).abs() < 1e-12 * (1.0 + r[k].abs()), "n {n} nk {nk} k {k}");
+                    assert!(
+                        (y[k] - r[k]).abs() < 1e-12 * (1.0 + r[k].abs()),
+                        "n {n} nk {nk} k {k}"
+                    );
                 }
             }
         }
