@@ -234,12 +234,20 @@ fn output_noise_arx_flagged_oe_and_iv_summaries() {
     assert_eq!(arx["whiteness"]["white"], false);
     assert!(arx["notes"][0].as_str().unwrap().contains("not white"));
     let svg = dir.path().join("bode.svg");
+    let cmp = dir.path().join("compare.svg");
     let oe = json_of(
         fts()
             .args(["identify", "oe"])
             .arg(&data)
             .args(["--nb", "5", "--nf", "5", "--nk", "5", "--json", "--plot"])
-            .arg(&svg),
+            .arg(&svg)
+            .arg("--plot-compare")
+            .arg(&cmp),
+    );
+    assert!(
+        std::fs::read_to_string(&cmp)
+            .unwrap()
+            .contains("simulation fit")
     );
     assert_eq!(oe["converged"], true);
     assert_eq!(oe["orders"]["nf"], 5);

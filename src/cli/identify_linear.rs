@@ -107,6 +107,9 @@ pub struct OutArgs {
     /// Upper frequency of the plot in Hz (default Nyquist).
     #[arg(long, value_name = "HZ")]
     pub plot_fmax: Option<f64>,
+    /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
+    #[arg(long, value_name = "COMPARE.svg")]
+    pub plot_compare: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -598,6 +601,49 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         write_atomic(path, svg.as_bytes())?;
     }
 
+    if let Some(path) = &out.plot_compare {
+        let rec = p.val.as_ref().unwrap_or(&p.est);
+        let sim = r.model.simulate_fit_ic(&rec.u, &rec.y);
+        let t: Vec<f64> = (0..rec.y.len()).map(|k| k as f64 * p.ts).collect();
+        let err: Vec<f64> = rec.y.iter().zip(&sim).map(|(a, b)| a - b).collect();
+        let fit = crate::ident::metrics::nrmse_fit_percent(&rec.y, &sim);
+        let title = format!(
+            "{} {}: simulation fit {fit:.2} % on {}",
+            r.method.to_uppercase(),
+            r.orders_label,
+            rec.label
+        );
+        let svg = stacked_charts_svg(&[
+            (
+                title.as_str(),
+                "time (s)",
+                "output",
+                vec![
+                    Series {
+                        label: "measured",
+                        x: &t,
+                        y: &rec.y,
+                    },
+                    Series {
+                        label: "simulated (initial conditions estimated)",
+                        x: &t,
+                        y: &sim,
+                    },
+                ],
+            ),
+            (
+                "",
+                "time (s)",
+                "measured - simulated",
+                vec![Series {
+                    label: "simulation error",
+                    x: &t,
+                    y: &err,
+                }],
+            ),
+        ])?;
+        write_atomic(path, svg.as_bytes())?;
+    }
     let noise_note = match (r.noise, white.white) {
         (_, true) => None,
         (NoiseModel::Arx, false) => Some(
@@ -745,7 +791,7 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
     if let Some(path) = &out.out {
         println!("wrote {}", path.display());
     }
-    if let Some(path) = &out.plot {
+    for path in out.plot.iter().chain(&out.plot_compare) {
         println!("wrote {}", path.display());
     }
     Ok(())
