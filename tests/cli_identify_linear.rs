@@ -381,6 +381,27 @@ fn bad_inputs_exit_2_and_leave_nothing() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains("no power"));
+    fts()
+        .arg("bode")
+        .arg(&short)
+        .args(["--overlap", "1.5"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("overlap"));
+    fts()
+        .args(["identify", "arx-struct"])
+        .arg(&constant)
+        .args(["--na", "3:1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--na"));
+    fts()
+        .args(["identify", "arx-struct"])
+        .arg(&constant)
+        .args(["--na", "1", "--nb", "1", "--nk", "1", "--rule", "fit"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("needs validation data"));
     assert_only(
         d,
         &[
