@@ -19,4 +19,6 @@ pub mod cli;
 pub mod ident;
 pub mod io;
 pub mod lti;
+pub mod runtime;
+pub mod sim;
 pub mod synth;

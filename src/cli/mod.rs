@@ -9,9 +9,14 @@
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
 mod bode;
+mod columns;
 mod common;
 mod excite;
+mod hysteresis;
+mod identify;
+mod identify_hysteresis;
 mod identify_linear;
+mod simulate;
 mod tf;
 mod zpetc;
 
@@ -32,11 +37,16 @@ pub struct Cli {
 enum Command {
     /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
     Excite(excite::ExciteArgs),
+    /// Identify a model from measured data.
+    #[command(subcommand)]
+    Identify(identify::IdentifyCommand),
+    /// Use hysteresis models: analytic inverse, run on a signal.
+    #[command(subcommand)]
+    Hysteresis(hysteresis::HysteresisCommand),
+    /// Simulate a closed loop (pid, pid+hc, pid+hc+zpec) on the virtual FTS or a plant model.
+    Simulate(simulate::SimulateArgs),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
-    /// Identify linear models (ARX, OE, IV, structure selection) from input/output data.
-    #[command(subcommand)]
-    Identify(identify_linear::IdentifyLinear),
     /// Empirical frequency response (Welch with coherence, or ETFE) of input/output data.
     Bode(bode::BodeArgs),
     /// Inspect transfer-function files.
@@ -66,9 +76,11 @@ pub fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Excite(args) => excite::run(args),
+        Command::Identify(cmd) => identify::run(cmd),
+        Command::Hysteresis(cmd) => hysteresis::run(cmd),
+        Command::Simulate(args) => simulate::run(args),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),
-        Command::Identify(cmd) => identify_linear::run(cmd),
         Command::Bode(args) => bode::run(args),
     }
 }

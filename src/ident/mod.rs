@@ -11,6 +11,7 @@ pub mod arx;
 pub mod data;
 pub mod excite;
 pub mod freq;
+pub mod hysteresis;
 pub mod iv;
 pub mod linear;
 pub mod ls;

@@ -8,5 +8,7 @@ pub mod tf_json;
 pub mod timeseries;
 
 pub use error::InputError;
+pub mod controller_file;
+pub mod hysteresis_json;
 pub mod plot;
 pub mod zpetc_json;

@@ -1,3 +1,5 @@
 //! Controller and feedforward synthesis.
 
+pub mod composite;
+pub mod pid;
 pub mod zpetc;

@@ -1,0 +1,205 @@
+//! `fts hysteresis invert model.json -o inv.json` and
+//! `fts hysteresis apply model.json data.csv -o out.csv`.
+
+use super::common::{bad, print_json, read_input, write_atomic};
+use crate::ident::hysteresis::analytic_inverse;
+use crate::io::hysteresis_json::{ModelFile, model_to_string, parse_model};
+use crate::io::timeseries::{ColumnRef, HeaderMode, ReadParams, read_table, write_csv};
+use clap::{Args, Subcommand};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Subcommand)]
+pub enum HysteresisCommand {
+    /// Analytic inverse of a classical PI model (symmetric play, positive partial sums).
+    Invert(InvertArgs),
+    /// Run a model on a signal (e.g. the inverse model on a reference: HC feedforward).
+    Apply(ApplyArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct InvertArgs {
+    /// Forward model (`fts.hysteresis/1`).
+    #[arg(value_name = "MODEL.json")]
+    model: PathBuf,
+    /// Write the inverse model here.
+    #[arg(short = 'o', long = "out", value_name = "INV.json")]
+    out: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct ApplyArgs {
+    /// Model (`fts.hysteresis/1`).
+    #[arg(value_name = "MODEL.json")]
+    model: PathBuf,
+    /// Signal to feed the model (CSV or whitespace .dat).
+    #[arg(value_name = "DATA.csv")]
+    data: PathBuf,
+    /// Column that drives the model: header name or 1-based index.
+    #[arg(long, value_name = "COL", default_value = "u")]
+    input: String,
+    /// Time column to copy to the output (header name or index).
+    #[arg(long, value_name = "COL")]
+    time: Option<String>,
+    /// The file has no header row.
+    #[arg(long)]
+    no_header: bool,
+    /// Write `[t,]u,y` here (y = model output).
+    #[arg(short = 'o', long = "out", value_name = "OUT.csv")]
+    out: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(cmd: HysteresisCommand) -> anyhow::Result<()> {
+    match cmd {
+        HysteresisCommand::Invert(args) => invert(args),
+        HysteresisCommand::Apply(args) => apply(args),
+    }
+}
+
+fn load(path: &Path) -> anyhow::Result<ModelFile> {
+    let source = path.display().to_string();
+    Ok(parse_model(&read_input(path)?, &source)?)
+}
+
+/// Grid of the round-trip check: a triangle over the forward model's input range.
+const CHECK_POINTS: usize = 2001;
+
+fn invert(args: InvertArgs) -> anyhow::Result<()> {
+    let source = args.model.display().to_string();
+    let forward = load(&args.model)?;
+    let inverse = analytic_inverse(&forward.model).map_err(|e| bad(format!("{source}: {e}")))?;
+    // Self-check: P^-1[P[u]] = u on 0 -> +A -> -A -> +A/2, A just above the
+    // largest threshold (the range the model was identified on).
+    let n = forward.model.operators() as f64;
+    let amplitude =
+        forward.model.thresholds.last().copied().unwrap_or(1.0) * n / (n - 1.0).max(1.0);
+    let amplitude = if amplitude > 0.0 { amplitude } else { 1.0 };
+    let legs = [amplitude, -amplitude, 0.5 * amplitude];
+    let mut u = vec![0.0];
+    let mut last = 0.0;
+    for target in legs {
+        for k in 1..=CHECK_POINTS / 3 {
+            u.push(last + (target - last) * k as f64 / (CHECK_POINTS / 3) as f64);
+        }
+        last = target;
+    }
+    let u = u
+        .into_iter()
+        .map(|x| x + forward.model.input_offset)
+        .collect::<Vec<_>>();
+    let back = inverse.simulate(&forward.model.simulate(&u));
+    let round_trip = u
+        .iter()
+        .zip(&back)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let file = ModelFile {
+        model: inverse,
+        input: forward.output.clone(),
+        output: forward.input.clone(),
+        fit: None,
+    };
+    if let Some(path) = &args.out {
+        write_atomic(path, model_to_string(&file).as_bytes())?;
+    }
+    if args.json {
+        return print_json(&json!({
+            "mapping": file.mapping(),
+            "thresholds": file.model.thresholds,
+            "weights": file.model.weights,
+            "cbrt_gain": file.model.cbrt_gain,
+            "offset": file.model.offset,
+            "input_offset": file.model.input_offset,
+            "round_trip_max_error": round_trip,
+            "round_trip_amplitude": amplitude,
+            "model_file": args.out.as_ref().map(|p| p.display().to_string()),
+        }));
+    }
+    println!(
+        "analytic inverse of {source} ({} -> {}), {} operators",
+        forward.mapping(),
+        file.mapping(),
+        file.model.operators()
+    );
+    println!("  {:>3} {:>14} {:>14}", "i", "r'_i", "w'_i");
+    for (i, (r, w)) in file
+        .model
+        .thresholds
+        .iter()
+        .zip(&file.model.weights)
+        .enumerate()
+    {
+        println!("  {i:>3} {r:>14.6} {w:>14.6}");
+    }
+    println!(
+        "check: max |u - inverse(forward(u))| = {round_trip:.3e} on a triangle of amplitude {amplitude:.6}"
+    );
+    if let Some(path) = &args.out {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn apply(args: ApplyArgs) -> anyhow::Result<()> {
+    let model_file = load(&args.model)?;
+    let source = args.data.display().to_string();
+    let text = read_input(&args.data)?;
+    let params = ReadParams {
+        columns: vec![ColumnRef::parse(&args.input)],
+        time: args.time.as_deref().map(ColumnRef::parse),
+        header: if args.no_header {
+            HeaderMode::Absent
+        } else {
+            HeaderMode::Detect
+        },
+        min_rows: 1,
+    };
+    let mut table = read_table(&text, &source, &params)?;
+    let u = table.columns.pop().unwrap_or_default();
+    // Allocation-free per-sample evaluation with explicit state, as a
+    // real-time loop would run it.
+    let model = &model_file.model;
+    let mut state = model.new_state();
+    let y: Vec<f64> = u.iter().map(|&x| model.step(&mut state, x)).collect();
+    if let Some(path) = &args.out {
+        let csv = match &table.time {
+            Some(t) => write_csv(&["t", "u", "y"], &[t, &u, &y]),
+            None => write_csv(&["u", "y"], &[&u, &y]),
+        };
+        write_atomic(path, csv.as_bytes())?;
+    }
+    let (lo, hi) = y
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    if args.json {
+        return print_json(&json!({
+            "samples": y.len(),
+            "mapping": model_file.mapping(),
+            "model": model.kind.name(),
+            "output_min": lo,
+            "output_max": hi,
+            "output_file": args.out.as_ref().map(|p| p.display().to_string()),
+        }));
+    }
+    println!(
+        "applied {} ({} {}, {}) to {} samples of {source}: output {lo:.6} .. {hi:.6} {}",
+        args.model.display(),
+        model.kind.name(),
+        model.operator.name(),
+        model_file.mapping(),
+        y.len(),
+        model_file.output.unit
+    );
+    if let Some(path) = &args.out {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

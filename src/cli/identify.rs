@@ -1,0 +1,21 @@
+//! `fts identify <model>`: identification subcommands. Each variant's code
+//! lives in its own file (`identify_<variant>.rs`).
+
+use super::{identify_hysteresis, identify_linear};
+use clap::Subcommand;
+
+#[derive(Debug, Subcommand)]
+pub enum IdentifyCommand {
+    /// Identify a PI / MPI hysteresis model (or its inverse) from voltage/displacement data.
+    Hysteresis(identify_hysteresis::HysteresisArgs),
+    /// Linear models: `arx`, `oe`, `iv`, `arx-struct`.
+    #[command(flatten)]
+    Linear(identify_linear::IdentifyLinear),
+}
+
+pub fn run(cmd: IdentifyCommand) -> anyhow::Result<()> {
+    match cmd {
+        IdentifyCommand::Hysteresis(args) => identify_hysteresis::run(args),
+        IdentifyCommand::Linear(cmd) => identify_linear::run(cmd),
+    }
+}

@@ -1,0 +1,298 @@
+//! Prandtl–Ishlinskii models and their modified forms (math.md 1.2-1.4),
+//! evaluated sample by sample with explicit state.
+
+use super::operators::{PlayOperator, ThresholdError, check_thresholds, dead_zone};
+
+/// Which model structure (math.md 1.2-1.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelKind {
+    /// Classical PI: `y = sum_i w_i F_{r_i}[u]` ([Li21] Eq. 3).
+    Pi,
+    /// PI plus a cube-root term `c cbrt(u)` ([Li21] Eq. 4).
+    MpiCbrt,
+    /// PI stage followed by one-sided dead-zone output operators ([Tang17] Eq. 40-43).
+    MpiDeadzone,
+}
+
+impl ModelKind {
+    /// The name used on the command line and in model files.
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelKind::Pi => "pi",
+            ModelKind::MpiCbrt => "mpi-cbrt",
+            ModelKind::MpiDeadzone => "mpi-deadzone",
+        }
+    }
+
+    /// Inverse of [`ModelKind::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "pi" => Some(ModelKind::Pi),
+            "mpi-cbrt" => Some(ModelKind::MpiCbrt),
+            "mpi-deadzone" => Some(ModelKind::MpiDeadzone),
+            _ => None,
+        }
+    }
+}
+
+/// The output stage of MPI-deadzone: `y = sum_j g_j S_{d_j}[v]` ([Tang17] Eq. 41).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeadZoneStage {
+    /// Dead-zone thresholds `d_j`, strictly increasing, `d_0 = 0` normally.
+    pub thresholds: Vec<f64>,
+    /// Output weights `g_j`.
+    pub weights: Vec<f64>,
+}
+
+/// A hysteresis model
+/// `y = offset + c cbrt(x) + Out[ sum_i w_i F_{r_i}[x] ]`, `x = u - input_offset`,
+/// where `Out` is the identity, or the dead-zone stage for MPI-deadzone.
+///
+/// `offset` absorbs the sensor offset of real records (on by default when
+/// identifying); `input_offset` is 0 for identified models and is what an
+/// analytic inverse needs to undo the forward model's `offset`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HysteresisModel {
+    /// Model structure.
+    pub kind: ModelKind,
+    /// Play operator form of every operator in the model.
+    pub operator: PlayOperator,
+    /// Play thresholds `r_i`, strictly increasing, non-negative.
+    pub thresholds: Vec<f64>,
+    /// Play weights `w_i`.
+    pub weights: Vec<f64>,
+    /// Cube-root gain `c` (0 unless MPI-cbrt).
+    pub cbrt_gain: f64,
+    /// Constant added to the output.
+    pub offset: f64,
+    /// Constant subtracted from the input before the operators.
+    pub input_offset: f64,
+    /// Output stage (MPI-deadzone only).
+    pub dead_zone: Option<DeadZoneStage>,
+}
+
+/// A model that cannot be evaluated as given.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    /// Two lists that must have one entry per operator differ in length.
+    #[error("'{field}' has {found} entries but '{reference}' has {expected}; they must match")]
+    LengthMismatch {
+        /// The list that is off.
+        field: &'static str,
+        /// The list it is compared with.
+        reference: &'static str,
+        /// Length of `reference`.
+        expected: usize,
+        /// Length of `field`.
+        found: usize,
+    },
+    /// Bad thresholds.
+    #[error("'{field}': {source}")]
+    Thresholds {
+        /// Which threshold list.
+        field: &'static str,
+        /// What is wrong with it.
+        source: ThresholdError,
+    },
+    /// A coefficient is NaN or infinite.
+    #[error("'{field}' must be finite")]
+    NonFinite {
+        /// The coefficient.
+        field: &'static str,
+    },
+    /// The parts present do not match the model kind.
+    #[error("{0}")]
+    Inconsistent(String),
+}
+
+impl HysteresisModel {
+    /// Checks lengths, thresholds, finiteness and kind consistency.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        check_thresholds(&self.thresholds).map_err(|source| ModelError::Thresholds {
+            field: "thresholds",
+            source,
+        })?;
+        if self.weights.len() != self.thresholds.len() {
+            return Err(ModelError::LengthMismatch {
+                field: "weights",
+                reference: "thresholds",
+                expected: self.thresholds.len(),
+                found: self.weights.len(),
+            });
+        }
+        if self.weights.iter().any(|w| !w.is_finite()) {
+            return Err(ModelError::NonFinite { field: "weights" });
+        }
+        for (field, v) in [
+            ("cbrt_gain", self.cbrt_gain),
+            ("offset", self.offset),
+            ("input_offset", self.input_offset),
+        ] {
+            if !v.is_finite() {
+                return Err(ModelError::NonFinite { field });
+            }
+        }
+        if self.kind != ModelKind::MpiCbrt && self.cbrt_gain != 0.0 {
+            return Err(ModelError::Inconsistent(format!(
+                "a '{}' model has no cube-root term, but cbrt_gain is {}",
+                self.kind.name(),
+                self.cbrt_gain
+            )));
+        }
+        match (&self.dead_zone, self.kind) {
+            (Some(dz), ModelKind::MpiDeadzone) => {
+                check_thresholds(&dz.thresholds).map_err(|source| ModelError::Thresholds {
+                    field: "dead_zone.thresholds",
+                    source,
+                })?;
+                if dz.weights.len() != dz.thresholds.len() {
+                    return Err(ModelError::LengthMismatch {
+                        field: "dead_zone.weights",
+                        reference: "dead_zone.thresholds",
+                        expected: dz.thresholds.len(),
+                        found: dz.weights.len(),
+                    });
+                }
+                if dz.weights.iter().any(|w| !w.is_finite()) {
+                    return Err(ModelError::NonFinite {
+                        field: "dead_zone.weights",
+                    });
+                }
+            }
+            (None, ModelKind::MpiDeadzone) => {
+                return Err(ModelError::Inconsistent(
+                    "an 'mpi-deadzone' model needs a dead-zone stage".into(),
+                ));
+            }
+            (Some(_), kind) => {
+                return Err(ModelError::Inconsistent(format!(
+                    "a '{}' model has no dead-zone stage",
+                    kind.name()
+                )));
+            }
+            (None, _) => {}
+        }
+        Ok(())
+    }
+
+    /// Number of play operators.
+    pub fn operators(&self) -> usize {
+        self.thresholds.len()
+    }
+
+    /// A fresh (demagnetised) state for this model.
+    pub fn new_state(&self) -> ModelState {
+        ModelState {
+            play: vec![PlayOperator::INITIAL_STATE; self.thresholds.len()],
+        }
+    }
+
+    /// Evaluates one sample and advances the state. Allocation-free.
+    ///
+    /// # Panics
+    /// If `state` was made for a model with a different number of operators.
+    #[inline]
+    pub fn step(&self, state: &mut ModelState, u: f64) -> f64 {
+        assert_eq!(
+            state.play.len(),
+            self.thresholds.len(),
+            "state of another model"
+        );
+        let x = u - self.input_offset;
+        let mut v = 0.0;
+        // [Li21] Eq. 3 / [Tang17] Eq. 39: weighted sum of play outputs.
+        for ((s, &r), &w) in state
+            .play
+            .iter_mut()
+            .zip(&self.thresholds)
+            .zip(&self.weights)
+        {
+            *s = self.operator.step(r, x, *s);
+            v += w * *s;
+        }
+        let out = match &self.dead_zone {
+            // [Tang17] Eq. 41: y = sum_j g_j S_{d_j}[v].
+            Some(dz) => dz
+                .thresholds
+                .iter()
+                .zip(&dz.weights)
+                .map(|(&d, &g)| g * dead_zone(d, v))
+                .sum(),
+            None => v,
+        };
+        // [Li21] Eq. 4: the cube-root term (cbrt_gain is 0 for other kinds).
+        self.offset + self.cbrt_gain * x.cbrt() + out
+    }
+
+    /// Runs the model over a signal from the demagnetised state.
+    pub fn simulate(&self, u: &[f64]) -> Vec<f64> {
+        let mut state = self.new_state();
+        u.iter().map(|&x| self.step(&mut state, x)).collect()
+    }
+
+    /// Partial sums `W_i = w_0 + ... + w_i` of the play weights: the slopes of
+    /// the model's loading curve. All positive means strictly increasing
+    /// (invertible) for a classical PI model (math.md 1.5).
+    pub fn partial_sums(&self) -> Vec<f64> {
+        self.weights
+            .iter()
+            .scan(0.0, |acc, w| {
+                *acc += w;
+                Some(*acc)
+            })
+            .collect()
+    }
+}
+
+/// The memory of a model: one value per play operator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelState {
+    /// Previous output of each play operator.
+    pub play: Vec<f64>,
+}
+
+impl ModelState {
+    /// Back to the demagnetised state, without reallocating.
+    pub fn reset(&mut self) {
+        self.play.fill(PlayOperator::INITIAL_STATE);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pi(weights: Vec<f64>, thresholds: Vec<f64>) -> HysteresisModel {
+        HysteresisModel {
+            kind: ModelKind::Pi,
+            operator: PlayOperator::Lower,
+            thresholds,
+            weights,
+            cbrt_gain: 0.0,
+            offset: 0.0,
+            input_offset: 0.0,
+            dead_zone: None,
+        }
+    }
+
+    #[test]
+    fn pi_loop_by_hand() {
+        // w = [1, 0.5], r = [0, 1]: rising from 0 to 2, y = u + 0.5 max(u - 1, 0).
+        let m = pi(vec![1.0, 0.5], vec![0.0, 1.0]);
+        let y = m.simulate(&[0.0, 1.0, 2.0, 1.5, 1.0]);
+        // Falling from 2: the r = 1 play holds 1 until u < 1, so y = u + 0.5.
+        assert_eq!(y, vec![0.0, 1.0, 2.5, 2.0, 1.5]);
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let m = pi(vec![1.0], vec![0.0, 1.0]);
+        let e = m.validate().unwrap_err();
+        assert!(e.to_string().contains("'weights' has 1 entries"), "{e}");
+        let m = pi(vec![1.0, 1.0], vec![1.0, 0.5]);
+        assert!(m.validate().unwrap_err().to_string().contains("increase"));
+        let mut m = pi(vec![1.0, 1.0], vec![0.0, 0.5]);
+        m.cbrt_gain = 1.0;
+        assert!(matches!(m.validate(), Err(ModelError::Inconsistent(_))));
+    }
+}

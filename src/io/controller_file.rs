@@ -1,0 +1,922 @@
+//! The controller coefficient file `fts.controller/1` and its C header form
+//! (interfaces.md; schema in docs/formats.md).
+//!
+//! The JSON lists the blocks in signal order (ZPETC pre-filter, inverse
+//! hysteresis feedforward, PID), each with every coefficient the real-time
+//! loop needs, plus units, sample time, preview and provenance (fts version,
+//! SHA-256 of each input file). Keys are written in a fixed order and floats
+//! in the shortest form that parses back to the same `f64`, so regenerating
+//! from the same inputs gives the same bytes. The C header carries the same
+//! numbers (shortest round-trip decimal literals, exact under a correctly
+//! rounded `strtod`), and [`parse_c_header`] reads them back for the
+//! four-way consistency test.
+
+use super::InputError;
+use super::tf_json::{check_format, get_f64_array, get_str};
+use crate::runtime::{HysteresisSpec, PidSpec, PlayForm, RuntimeSpec, ZpetcSpec};
+use serde_json::{Map, Value, json};
+use std::fmt::Write;
+
+/// The format tag.
+pub const CONTROLLER_FORMAT: &str = "fts.controller/1";
+
+/// Units of the loop's signals.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Units {
+    /// Reference (and ZPETC output), e.g. `um`.
+    pub reference: String,
+    /// Measurement, e.g. `um`.
+    pub measurement: String,
+    /// Command, e.g. `V`.
+    pub command: String,
+}
+
+impl Default for Units {
+    fn default() -> Self {
+        Self {
+            reference: "um".into(),
+            measurement: "um".into(),
+            command: "V".into(),
+        }
+    }
+}
+
+/// One input file the coefficients were made from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InputHash {
+    /// What it was used for (`zpetc`, `hysteresis_inverse`, ...).
+    pub role: String,
+    /// The file name as given.
+    pub file: String,
+    /// SHA-256 of its bytes, lower-case hex.
+    pub sha256: String,
+}
+
+/// Where the coefficients came from.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Provenance {
+    /// The fts version that wrote the file.
+    pub fts_version: String,
+    /// Hashes of the inputs.
+    pub inputs: Vec<InputHash>,
+}
+
+/// ZPETC pre-filter block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZpetcBlock {
+    /// Samples of reference look-ahead.
+    pub preview: usize,
+    /// Causal numerator, ascending `z^-1`.
+    pub num: Vec<f64>,
+    /// Causal denominator, ascending `z^-1`.
+    pub den: Vec<f64>,
+}
+
+/// Inverse hysteresis feedforward block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HysteresisBlock {
+    /// Model kind name (`pi`, `mpi-cbrt`, `mpi-deadzone`), for people.
+    pub model: String,
+    /// Play operator form.
+    pub operator: PlayForm,
+    /// Play thresholds.
+    pub thresholds: Vec<f64>,
+    /// Play weights.
+    pub weights: Vec<f64>,
+    /// Cube-root gain.
+    pub cbrt_gain: f64,
+    /// Output offset.
+    pub offset: f64,
+    /// Input offset.
+    pub input_offset: f64,
+    /// Dead-zone thresholds (empty without an output stage).
+    pub dead_zone_thresholds: Vec<f64>,
+    /// Dead-zone weights.
+    pub dead_zone_weights: Vec<f64>,
+}
+
+impl ZpetcBlock {
+    /// The block of a designed ZPETC filter.
+    pub fn from_zpetc(z: &crate::synth::zpetc::Zpetc) -> Self {
+        Self {
+            preview: z.preview,
+            num: z.num.coeffs().to_vec(),
+            den: z.den.coeffs().to_vec(),
+        }
+    }
+}
+
+impl HysteresisBlock {
+    /// The block of an (inverse) hysteresis model.
+    pub fn from_model(m: &crate::ident::hysteresis::HysteresisModel) -> Self {
+        use crate::ident::hysteresis::PlayOperator;
+        Self {
+            model: m.kind.name().to_owned(),
+            operator: match m.operator {
+                PlayOperator::Lower => PlayForm::Lower,
+                PlayOperator::Symmetric => PlayForm::Symmetric,
+            },
+            thresholds: m.thresholds.clone(),
+            weights: m.weights.clone(),
+            cbrt_gain: m.cbrt_gain,
+            offset: m.offset,
+            input_offset: m.input_offset,
+            dead_zone_thresholds: m
+                .dead_zone
+                .as_ref()
+                .map(|d| d.thresholds.clone())
+                .unwrap_or_default(),
+            dead_zone_weights: m
+                .dead_zone
+                .as_ref()
+                .map(|d| d.weights.clone())
+                .unwrap_or_default(),
+        }
+    }
+}
+
+/// A whole controller as written to and read from the file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControllerFile {
+    /// Sample time, s.
+    pub ts: f64,
+    /// Signal units.
+    pub units: Units,
+    /// Optional ZPETC.
+    pub zpetc: Option<ZpetcBlock>,
+    /// Optional HC feedforward.
+    pub hysteresis: Option<HysteresisBlock>,
+    /// The PID.
+    pub pid: PidSpec,
+    /// Provenance.
+    pub provenance: Provenance,
+}
+
+fn operator_name(form: PlayForm) -> &'static str {
+    match form {
+        PlayForm::Lower => "play-lower",
+        PlayForm::Symmetric => "play-symmetric",
+    }
+}
+
+impl ControllerFile {
+    /// Borrowed coefficients for [`crate::runtime::RuntimeController::new`].
+    pub fn runtime_spec(&self) -> RuntimeSpec<'_> {
+        RuntimeSpec {
+            zpetc: self.zpetc.as_ref().map(|z| ZpetcSpec {
+                preview: z.preview,
+                num: &z.num,
+                den: &z.den,
+            }),
+            hysteresis: self.hysteresis.as_ref().map(|h| HysteresisSpec {
+                form: h.operator,
+                thresholds: &h.thresholds,
+                weights: &h.weights,
+                cbrt_gain: h.cbrt_gain,
+                offset: h.offset,
+                input_offset: h.input_offset,
+                dead_zone_thresholds: &h.dead_zone_thresholds,
+                dead_zone_weights: &h.dead_zone_weights,
+            }),
+            pid: self.pid,
+        }
+    }
+
+    /// Samples of reference look-ahead the loop must supply.
+    pub fn preview(&self) -> usize {
+        self.zpetc.as_ref().map_or(0, |z| z.preview)
+    }
+
+    /// The controller in the `--controller` grammar, e.g. `pid+hc+zpec`.
+    pub fn stages_name(&self) -> String {
+        let mut s = String::from("pid");
+        if self.hysteresis.is_some() {
+            s.push_str("+hc");
+        }
+        if self.zpetc.is_some() {
+            s.push_str("+zpec");
+        }
+        s
+    }
+
+    /// Names of the blocks in signal order, e.g. `zpetc, hysteresis_inverse, pid`.
+    pub fn block_names(&self) -> Vec<&'static str> {
+        let mut v = Vec::new();
+        if self.zpetc.is_some() {
+            v.push("zpetc");
+        }
+        if self.hysteresis.is_some() {
+            v.push("hysteresis_inverse");
+        }
+        v.push("pid");
+        v
+    }
+
+    /// The JSON document (keys in the documented order).
+    pub fn to_value(&self) -> Value {
+        // serde_json's Map keeps keys sorted unless built from a struct; the
+        // ordered document is built through serde's struct serialisation.
+        #[derive(serde::Serialize)]
+        struct Doc<'a> {
+            format: &'static str,
+            ts: f64,
+            preview: usize,
+            units: UnitsDoc<'a>,
+            blocks: Vec<Value>,
+            provenance: ProvDoc<'a>,
+        }
+        #[derive(serde::Serialize)]
+        struct UnitsDoc<'a> {
+            reference: &'a str,
+            measurement: &'a str,
+            command: &'a str,
+        }
+        #[derive(serde::Serialize)]
+        struct ProvDoc<'a> {
+            fts_version: &'a str,
+            inputs: Vec<InputDoc<'a>>,
+        }
+        #[derive(serde::Serialize)]
+        struct InputDoc<'a> {
+            role: &'a str,
+            file: &'a str,
+            sha256: &'a str,
+        }
+        #[derive(serde::Serialize)]
+        struct ZDoc<'a> {
+            r#type: &'static str,
+            preview: usize,
+            num: &'a [f64],
+            den: &'a [f64],
+        }
+        #[derive(serde::Serialize)]
+        struct HDoc<'a> {
+            r#type: &'static str,
+            model: &'a str,
+            operator: &'static str,
+            thresholds: &'a [f64],
+            weights: &'a [f64],
+            cbrt_gain: f64,
+            offset: f64,
+            input_offset: f64,
+            dead_zone_thresholds: &'a [f64],
+            dead_zone_weights: &'a [f64],
+        }
+        #[derive(serde::Serialize)]
+        struct PDoc {
+            r#type: &'static str,
+            form: &'static str,
+            kp: f64,
+            ki: f64,
+            kd: f64,
+            output_min: f64,
+            output_max: f64,
+            anti_windup: &'static str,
+        }
+        let mut blocks = Vec::new();
+        if let Some(z) = &self.zpetc {
+            blocks.push(
+                serde_json::to_value(ZDoc {
+                    r#type: "zpetc",
+                    preview: z.preview,
+                    num: &z.num,
+                    den: &z.den,
+                })
+                .expect("serialisable"),
+            );
+        }
+        if let Some(h) = &self.hysteresis {
+            blocks.push(
+                serde_json::to_value(HDoc {
+                    r#type: "hysteresis_inverse",
+                    model: &h.model,
+                    operator: operator_name(h.operator),
+                    thresholds: &h.thresholds,
+                    weights: &h.weights,
+                    cbrt_gain: h.cbrt_gain,
+                    offset: h.offset,
+                    input_offset: h.input_offset,
+                    dead_zone_thresholds: &h.dead_zone_thresholds,
+                    dead_zone_weights: &h.dead_zone_weights,
+                })
+                .expect("serialisable"),
+            );
+        }
+        blocks.push(
+            serde_json::to_value(PDoc {
+                r#type: "pid",
+                form: "li21",
+                kp: self.pid.kp,
+                ki: self.pid.ki,
+                kd: self.pid.kd,
+                output_min: self.pid.output_min,
+                output_max: self.pid.output_max,
+                anti_windup: "conditional-integration",
+            })
+            .expect("serialisable"),
+        );
+        serde_json::to_value(Doc {
+            format: CONTROLLER_FORMAT,
+            ts: self.ts,
+            preview: self.preview(),
+            units: UnitsDoc {
+                reference: &self.units.reference,
+                measurement: &self.units.measurement,
+                command: &self.units.command,
+            },
+            blocks,
+            provenance: ProvDoc {
+                fts_version: &self.provenance.fts_version,
+                inputs: self
+                    .provenance
+                    .inputs
+                    .iter()
+                    .map(|i| InputDoc {
+                        role: &i.role,
+                        file: &i.file,
+                        sha256: &i.sha256,
+                    })
+                    .collect(),
+            },
+        })
+        .expect("serialisable")
+    }
+
+    /// The file text: pretty JSON with a trailing newline.
+    pub fn to_json_string(&self) -> String {
+        let mut s = serde_json::to_string_pretty(&self.to_value()).expect("serialisable");
+        s.push('\n');
+        s
+    }
+
+    /// Checks that the file would load into the runtime.
+    pub fn validate(&self, source: &str) -> Result<(), InputError> {
+        if !(self.ts.is_finite() && self.ts > 0.0) {
+            return Err(
+                InputError::new(source, "expected a positive number of seconds").in_field("ts"),
+            );
+        }
+        crate::runtime::RuntimeController::new(&self.runtime_spec())
+            .map(|_| ())
+            .map_err(|e| InputError::new(source, e.to_string()).in_field(runtime_field(&e)))
+    }
+}
+
+fn runtime_field(e: &crate::runtime::RuntimeError) -> &'static str {
+    use crate::runtime::RuntimeError::*;
+    match e {
+        BadLength { field, .. }
+        | LengthMismatch { field }
+        | NonFinite { field }
+        | Invalid { field } => field,
+    }
+}
+
+fn num(obj: &Map<String, Value>, source: &str, key: &str, block: &str) -> Result<f64, InputError> {
+    match obj.get(key) {
+        Some(v) => v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+            InputError::new(source, format!("expected a finite number, found {v}"))
+                .in_field(format!("{block}.{key}"))
+        }),
+        None => Err(InputError::new(source, "missing").in_field(format!("{block}.{key}"))),
+    }
+}
+
+fn block_array(
+    obj: &Map<String, Value>,
+    source: &str,
+    key: &str,
+    block: &str,
+) -> Result<Vec<f64>, InputError> {
+    get_f64_array(obj, source, key).map_err(|mut e| {
+        e.field = e.field.map(|f| format!("{block}.{f}"));
+        e
+    })
+}
+
+fn optional_array(
+    obj: &Map<String, Value>,
+    source: &str,
+    key: &str,
+    block: &str,
+) -> Result<Vec<f64>, InputError> {
+    match obj.get(key) {
+        None => Ok(Vec::new()),
+        Some(Value::Array(a)) if a.is_empty() => Ok(Vec::new()),
+        Some(_) => block_array(obj, source, key, block),
+    }
+}
+
+/// Parses and validates an `fts.controller/1` document.
+pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, InputError> {
+    let value: Value = serde_json::from_str(text)
+        .map_err(|e| InputError::new(source, format!("invalid JSON: {e}")).at_line(e.line()))?;
+    let obj = value
+        .as_object()
+        .ok_or_else(|| InputError::new(source, "expected a JSON object"))?;
+    check_format(obj, source, CONTROLLER_FORMAT)?;
+    let ts = num(obj, source, "ts", "file").map_err(|e| e.in_field("ts"))?;
+    let units = match obj.get("units").and_then(Value::as_object) {
+        Some(u) => Units {
+            reference: get_str(u, source, "reference")?.to_owned(),
+            measurement: get_str(u, source, "measurement")?.to_owned(),
+            command: get_str(u, source, "command")?.to_owned(),
+        },
+        None => return Err(InputError::new(source, "missing units object").in_field("units")),
+    };
+    let blocks = match obj.get("blocks") {
+        Some(Value::Array(b)) => b,
+        _ => return Err(InputError::new(source, "expected an array of blocks").in_field("blocks")),
+    };
+    let order = ["zpetc", "hysteresis_inverse", "pid"];
+    let mut last_rank = None;
+    let mut file = ControllerFile {
+        ts,
+        units,
+        zpetc: None,
+        hysteresis: None,
+        pid: PidSpec {
+            kp: 0.0,
+            ki: 0.0,
+            kd: 0.0,
+            output_min: 0.0,
+            output_max: 0.0,
+        },
+        provenance: Provenance::default(),
+    };
+    let mut have_pid = false;
+    for (i, b) in blocks.iter().enumerate() {
+        let field = format!("blocks[{i}]");
+        let b = b
+            .as_object()
+            .ok_or_else(|| InputError::new(source, "expected an object").in_field(field.clone()))?;
+        let kind = get_str(b, source, "type").map_err(|e| e.in_field(format!("{field}.type")))?;
+        let rank = order.iter().position(|k| *k == kind).ok_or_else(|| {
+            InputError::new(
+                source,
+                format!(
+                    "unknown block type {kind:?}; known blocks, in signal order: {}",
+                    order.join(", ")
+                ),
+            )
+            .in_field(format!("{field}.type"))
+        })?;
+        if last_rank.is_some_and(|r| r >= rank) {
+            return Err(InputError::new(
+                source,
+                format!(
+                    "block {kind:?} is out of order or repeated; blocks must appear in signal order: {}",
+                    order.join(", ")
+                ),
+            )
+            .in_field(format!("{field}.type")));
+        }
+        last_rank = Some(rank);
+        match kind {
+            "zpetc" => {
+                let preview = b.get("preview").and_then(Value::as_u64).ok_or_else(|| {
+                    InputError::new(source, "expected a non-negative whole number of samples")
+                        .in_field(format!("{field}.preview"))
+                })? as usize;
+                file.zpetc = Some(ZpetcBlock {
+                    preview,
+                    num: block_array(b, source, "num", &field)?,
+                    den: block_array(b, source, "den", &field)?,
+                });
+            }
+            "hysteresis_inverse" => {
+                let operator = match get_str(b, source, "operator")
+                    .map_err(|e| e.in_field(format!("{field}.operator")))?
+                {
+                    "play-lower" => PlayForm::Lower,
+                    "play-symmetric" => PlayForm::Symmetric,
+                    other => {
+                        return Err(InputError::new(
+                            source,
+                            format!(
+                                "expected \"play-lower\" or \"play-symmetric\", found {other:?}"
+                            ),
+                        )
+                        .in_field(format!("{field}.operator")));
+                    }
+                };
+                file.hysteresis = Some(HysteresisBlock {
+                    model: b
+                        .get("model")
+                        .and_then(Value::as_str)
+                        .unwrap_or("")
+                        .to_owned(),
+                    operator,
+                    thresholds: block_array(b, source, "thresholds", &field)?,
+                    weights: block_array(b, source, "weights", &field)?,
+                    cbrt_gain: num(b, source, "cbrt_gain", &field)?,
+                    offset: num(b, source, "offset", &field)?,
+                    input_offset: num(b, source, "input_offset", &field)?,
+                    dead_zone_thresholds: optional_array(
+                        b,
+                        source,
+                        "dead_zone_thresholds",
+                        &field,
+                    )?,
+                    dead_zone_weights: optional_array(b, source, "dead_zone_weights", &field)?,
+                });
+            }
+            _ => {
+                if let Some(form) = b.get("form").and_then(Value::as_str)
+                    && form != "li21"
+                {
+                    return Err(InputError::new(
+                        source,
+                        format!("unknown PID form {form:?}; expected \"li21\""),
+                    )
+                    .in_field(format!("{field}.form")));
+                }
+                file.pid = PidSpec {
+                    kp: num(b, source, "kp", &field)?,
+                    ki: num(b, source, "ki", &field)?,
+                    kd: num(b, source, "kd", &field)?,
+                    output_min: num(b, source, "output_min", &field)?,
+                    output_max: num(b, source, "output_max", &field)?,
+                };
+                have_pid = true;
+            }
+        }
+    }
+    if !have_pid {
+        return Err(InputError::new(
+            source,
+            "missing block \"pid\": every controller ends with the feedback PID",
+        )
+        .in_field("blocks"));
+    }
+    if let Some(p) = obj.get("preview") {
+        let declared = p.as_u64();
+        if declared != Some(file.preview() as u64) {
+            return Err(InputError::new(
+                source,
+                format!(
+                    "declares preview {p} but its ZPETC block has {}",
+                    file.preview()
+                ),
+            )
+            .in_field("preview"));
+        }
+    }
+    if let Some(prov) = obj.get("provenance").and_then(Value::as_object) {
+        file.provenance.fts_version = prov
+            .get("fts_version")
+            .and_then(Value::as_str)
+            .unwrap_or("")
+            .to_owned();
+        if let Some(Value::Array(inputs)) = prov.get("inputs") {
+            for i in inputs {
+                let s = |k: &str| i.get(k).and_then(Value::as_str).unwrap_or("").to_owned();
+                file.provenance.inputs.push(InputHash {
+                    role: s("role"),
+                    file: s("file"),
+                    sha256: s("sha256"),
+                });
+            }
+        }
+    }
+    file.validate(source)?;
+    Ok(file)
+}
+
+fn c_array(out: &mut String, name: &str, values: &[f64]) {
+    let _ = writeln!(out, "#define {name}_LEN {}", values.len());
+    let _ = write!(
+        out,
+        "static const double {name}[{}] = {{",
+        values.len().max(1)
+    );
+    if values.is_empty() {
+        out.push_str(" 0.0");
+    }
+    for (i, v) in values.iter().enumerate() {
+        if i > 0 {
+            out.push(',');
+        }
+        let _ = write!(out, " {}", c_double(*v));
+    }
+    out.push_str(" };\n");
+}
+
+/// Shortest round-trip decimal in C syntax (always with an exponent, so the
+/// literal is a double).
+fn c_double(v: f64) -> String {
+    format!("{v:e}")
+}
+
+/// The C header with the same numbers as the JSON.
+pub fn to_c_header(file: &ControllerFile) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "/* {CONTROLLER_FORMAT} coefficients, generated by fts {}; do not edit.\n * Blocks in signal order: {}.\n * Units: reference {}, measurement {}, command {}.",
+        file.provenance.fts_version,
+        file.block_names().join(", "),
+        file.units.reference,
+        file.units.measurement,
+        file.units.command
+    );
+    for i in &file.provenance.inputs {
+        let _ = writeln!(out, " * input {} ({}): sha256 {}", i.role, i.file, i.sha256);
+    }
+    out.push_str(" */\n#ifndef FTS_CONTROLLER_H\n#define FTS_CONTROLLER_H\n\n");
+    let _ = writeln!(out, "#define FTS_CONTROLLER_FORMAT \"{CONTROLLER_FORMAT}\"");
+    let _ = writeln!(out, "#define FTS_TS {}", c_double(file.ts));
+    let _ = writeln!(out, "#define FTS_PREVIEW {}", file.preview());
+    if let Some(z) = &file.zpetc {
+        out.push_str("\n/* ZPETC pre-filter: run num/den on r(k + FTS_PREVIEW). */\n#define FTS_HAS_ZPETC 1\n");
+        c_array(&mut out, "FTS_ZPETC_NUM", &z.num);
+        c_array(&mut out, "FTS_ZPETC_DEN", &z.den);
+    } else {
+        out.push_str("\n#define FTS_HAS_ZPETC 0\n");
+    }
+    if let Some(h) = &file.hysteresis {
+        let _ = writeln!(
+            out,
+            "\n/* Inverse hysteresis ({}, {}): u_ff = OFFSET + CBRT_GAIN cbrt(x) + Out[sum_i W_i F_i[x]], x = r_f - INPUT_OFFSET. */\n#define FTS_HAS_HYSTERESIS 1\n#define FTS_HYST_SYMMETRIC_PLAY {}",
+            h.model,
+            operator_name(h.operator),
+            u8::from(h.operator == PlayForm::Symmetric)
+        );
+        c_array(&mut out, "FTS_HYST_THRESHOLDS", &h.thresholds);
+        c_array(&mut out, "FTS_HYST_WEIGHTS", &h.weights);
+        let _ = writeln!(out, "#define FTS_HYST_CBRT_GAIN {}", c_double(h.cbrt_gain));
+        let _ = writeln!(out, "#define FTS_HYST_OFFSET {}", c_double(h.offset));
+        let _ = writeln!(
+            out,
+            "#define FTS_HYST_INPUT_OFFSET {}",
+            c_double(h.input_offset)
+        );
+        c_array(
+            &mut out,
+            "FTS_HYST_DEAD_ZONE_THRESHOLDS",
+            &h.dead_zone_thresholds,
+        );
+        c_array(&mut out, "FTS_HYST_DEAD_ZONE_WEIGHTS", &h.dead_zone_weights);
+    } else {
+        out.push_str("\n#define FTS_HAS_HYSTERESIS 0\n");
+    }
+    let p = &file.pid;
+    let _ = writeln!(
+        out,
+        "\n/* PID ([Li21] Eq. 5): u = u_ff + KP e + KI sum(e) - KD (x(k) - x(k-1)), clamped, conditional-integration anti-windup. */"
+    );
+    for (name, v) in [
+        ("FTS_PID_KP", p.kp),
+        ("FTS_PID_KI", p.ki),
+        ("FTS_PID_KD", p.kd),
+        ("FTS_PID_OUTPUT_MIN", p.output_min),
+        ("FTS_PID_OUTPUT_MAX", p.output_max),
+    ] {
+        let _ = writeln!(out, "#define {name} {}", c_double(v));
+    }
+    out.push_str("\n#endif /* FTS_CONTROLLER_H */\n");
+    out
+}
+
+/// Reads back a header written by [`to_c_header`] (for consistency tests and
+/// for checking a header that a build system vendored).
+pub fn parse_c_header(text: &str, source: &str) -> Result<ControllerFile, InputError> {
+    let mut defines: Map<String, Value> = Map::new();
+    let mut arrays: Map<String, Value> = Map::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if let Some(rest) = line.strip_prefix("#define ") {
+            let mut parts = rest.splitn(2, ' ');
+            let (Some(name), Some(value)) = (parts.next(), parts.next()) else {
+                continue;
+            };
+            defines.insert(name.to_owned(), Value::String(value.trim().to_owned()));
+        } else if let Some(rest) = line.strip_prefix("static const double ") {
+            let name = rest.split('[').next().unwrap_or("").to_owned();
+            let body = rest
+                .split_once('{')
+                .and_then(|(_, b)| b.split_once('}'))
+                .map(|(b, _)| b)
+                .ok_or_else(|| InputError::new(source, "malformed array").at_line(n + 1))?;
+            let values: Result<Vec<f64>, _> =
+                body.split(',').map(|v| v.trim().parse::<f64>()).collect();
+            let values = values.map_err(|_| {
+                InputError::new(source, "malformed number")
+                    .at_line(n + 1)
+                    .in_field(name.clone())
+            })?;
+            let len_key = format!("{name}_LEN");
+            let len: usize = defines
+                .get(&len_key)
+                .and_then(Value::as_str)
+                .and_then(|s| s.parse().ok())
+                .ok_or_else(|| {
+                    InputError::new(source, "array without its _LEN define").in_field(name.clone())
+                })?;
+            arrays.insert(name, json!(values[..len.min(values.len())].to_vec()));
+        }
+    }
+    let d = |k: &str| -> Result<f64, InputError> {
+        defines
+            .get(k)
+            .and_then(Value::as_str)
+            .and_then(|s| s.parse::<f64>().ok())
+            .ok_or_else(|| InputError::new(source, "missing or not a number").in_field(k))
+    };
+    let a = |k: &str| -> Vec<f64> {
+        arrays
+            .get(k)
+            .and_then(Value::as_array)
+            .map(|v| v.iter().filter_map(Value::as_f64).collect())
+            .unwrap_or_default()
+    };
+    let flag = |k: &str| defines.get(k).and_then(Value::as_str) == Some("1");
+    let format = defines
+        .get("FTS_CONTROLLER_FORMAT")
+        .and_then(Value::as_str)
+        .unwrap_or("");
+    if format != format!("\"{CONTROLLER_FORMAT}\"") {
+        return Err(
+            InputError::new(source, format!("not an {CONTROLLER_FORMAT} header"))
+                .in_field("FTS_CONTROLLER_FORMAT"),
+        );
+    }
+    let file = ControllerFile {
+        ts: d("FTS_TS")?,
+        units: Units::default(),
+        zpetc: if flag("FTS_HAS_ZPETC") {
+            Some(ZpetcBlock {
+                preview: d("FTS_PREVIEW")? as usize,
+                num: a("FTS_ZPETC_NUM"),
+                den: a("FTS_ZPETC_DEN"),
+            })
+        } else {
+            None
+        },
+        hysteresis: if flag("FTS_HAS_HYSTERESIS") {
+            Some(HysteresisBlock {
+                model: String::new(),
+                operator: if flag("FTS_HYST_SYMMETRIC_PLAY") {
+                    PlayForm::Symmetric
+                } else {
+                    PlayForm::Lower
+                },
+                thresholds: a("FTS_HYST_THRESHOLDS"),
+                weights: a("FTS_HYST_WEIGHTS"),
+                cbrt_gain: d("FTS_HYST_CBRT_GAIN")?,
+                offset: d("FTS_HYST_OFFSET")?,
+                input_offset: d("FTS_HYST_INPUT_OFFSET")?,
+                dead_zone_thresholds: a("FTS_HYST_DEAD_ZONE_THRESHOLDS"),
+                dead_zone_weights: a("FTS_HYST_DEAD_ZONE_WEIGHTS"),
+            })
+        } else {
+            None
+        },
+        pid: PidSpec {
+            kp: d("FTS_PID_KP")?,
+            ki: d("FTS_PID_KI")?,
+            kd: d("FTS_PID_KD")?,
+            output_min: d("FTS_PID_OUTPUT_MIN")?,
+            output_max: d("FTS_PID_OUTPUT_MAX")?,
+        },
+        provenance: Provenance::default(),
+    };
+    file.validate(source)?;
+    Ok(file)
+}
+
+/// SHA-256 of `bytes` as lower-case hex (provenance of input files).
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    let digest = sha2::Sha256::digest(bytes);
+    let mut s = String::with_capacity(64);
+    for b in digest {
+        let _ = write!(s, "{b:02x}");
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> ControllerFile {
+        ControllerFile {
+            ts: 1e-4,
+            units: Units::default(),
+            zpetc: Some(ZpetcBlock {
+                preview: 5,
+                num: vec![0.2407318247472316, -0.18902262879152626, 0.1 + 0.2],
+                den: vec![1.0, -2.3184882041405874],
+            }),
+            hysteresis: Some(HysteresisBlock {
+                model: "mpi-cbrt".into(),
+                operator: PlayForm::Lower,
+                thresholds: vec![0.0, 0.9677, 1.9354],
+                weights: vec![0.29, -0.063, 1.0 / 3.0],
+                cbrt_gain: -0.0197,
+                offset: 0.0,
+                input_offset: 0.0,
+                dead_zone_thresholds: vec![],
+                dead_zone_weights: vec![],
+            }),
+            pid: PidSpec {
+                kp: 0.05,
+                ki: 0.3,
+                kd: 0.0,
+                output_min: 0.0,
+                output_max: 10.0,
+            },
+            provenance: Provenance {
+                fts_version: "0.1.0".into(),
+                inputs: vec![InputHash {
+                    role: "zpetc".into(),
+                    file: "zpetc.json".into(),
+                    sha256: sha256_hex(b"abc"),
+                }],
+            },
+        }
+    }
+
+    #[test]
+    fn sha256_known_vector() {
+        // FIPS 180-2 example "abc".
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    #[test]
+    fn json_round_trip_is_exact_and_stable() {
+        let f = sample();
+        let text = f.to_json_string();
+        let back = parse_controller(&text, "c.json").unwrap();
+        assert_eq!(back, f);
+        assert_eq!(back.to_json_string(), text);
+    }
+
+    #[test]
+    fn c_header_carries_the_same_numbers() {
+        let f = sample();
+        let header = to_c_header(&f);
+        let back = parse_c_header(&header, "c.h").unwrap();
+        assert_eq!(back.zpetc, f.zpetc);
+        assert_eq!(back.pid, f.pid);
+        let (h0, h1) = (back.hysteresis.unwrap(), f.hysteresis.unwrap());
+        assert_eq!(h0.thresholds, h1.thresholds);
+        assert_eq!(h0.weights, h1.weights);
+        assert_eq!(h0.cbrt_gain.to_bits(), h1.cbrt_gain.to_bits());
+    }
+
+    #[test]
+    fn refuses_bad_files() {
+        let good = sample().to_json_string();
+        let doc: Value = serde_json::from_str(&good).unwrap();
+        let edit = |f: &dyn Fn(&mut Value)| {
+            let mut d = doc.clone();
+            f(&mut d);
+            d.to_string()
+        };
+        let cases: Vec<(String, &str)> = vec![
+            (edit(&|d| d["format"] = json!("fts.controller/2")), "format"),
+            (
+                edit(&|d| d["blocks"][2]["type"] = json!("pidx")),
+                "blocks[2].type",
+            ),
+            (
+                edit(&|d| d["blocks"][2]["kp"] = json!("NaN")),
+                "blocks[2].kp",
+            ),
+            (
+                edit(&|d| d["blocks"][0]["num"][1] = json!(null)),
+                "blocks[0].num[1]",
+            ),
+            (
+                edit(&|d| {
+                    d["blocks"][1]["weights"].as_array_mut().unwrap().pop();
+                }),
+                "hysteresis.weights",
+            ),
+            (edit(&|d| d["preview"] = json!(4)), "preview"),
+            (
+                edit(&|d| d["blocks"][2]["output_min"] = json!(20.0)),
+                "pid.output_min",
+            ),
+        ];
+        for (text, field) in cases {
+            let e = parse_controller(&text, "c.json").unwrap_err();
+            assert_eq!(e.field.as_deref(), Some(field), "{e}");
+        }
+        // Missing PID block.
+        let mut f: Value = serde_json::from_str(&good).unwrap();
+        f["blocks"].as_array_mut().unwrap().pop();
+        let e = parse_controller(&f.to_string(), "c.json").unwrap_err();
+        assert!(e.to_string().contains("missing block \"pid\""), "{e}");
+        // Mis-ordered blocks.
+        let mut f: Value = serde_json::from_str(&good).unwrap();
+        f["blocks"].as_array_mut().unwrap().swap(0, 1);
+        let e = parse_controller(&f.to_string(), "c.json").unwrap_err();
+        assert!(e.to_string().contains("signal order"), "{e}");
+    }
+}

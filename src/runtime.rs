@@ -1,0 +1,585 @@
+//! The real-time controller step: the code a 10 kHz loop runs, and the only
+//! code `fts simulate` runs, so simulation and hardware cannot drift apart.
+//!
+//! Dependency-free and allocation-free: every block keeps its coefficients
+//! and state in fixed-capacity arrays filled once by [`RuntimeController::new`]
+//! from borrowed slices ([`RuntimeSpec`]); [`RuntimeController::step`] does
+//! no allocation, no I/O and no locking. It uses `core` only, plus `f64::cbrt`
+//! (from `libm` on a `no_std` target), so the file can be lifted into an
+//! embedded crate as it is.
+//!
+//! Signal order ([Li21] Fig. 5), per sample `k`:
+//! 1. ZPETC pre-filter: `r_f(k) = (num/den)[r](k + preview)`; the caller
+//!    passes the reference `preview` samples ahead;
+//! 2. inverse-hysteresis feedforward: `u_ff(k) = Y^-1(r_f(k))` ([Li21] Eq. 5);
+//! 3. PID on `e = r_f - x`, derivative on the measurement, output limits with
+//!    conditional-integration anti-windup ([Li21] Eq. 5).
+//!
+//! Without a ZPETC block `r_f = r` and the preview is 0; without a hysteresis
+//! block `u_ff = 0`.
+
+/// Longest polynomial (coefficients) of a filter block.
+pub const MAX_FILTER_LEN: usize = 32;
+/// Most play operators in a hysteresis block.
+pub const MAX_OPERATORS: usize = 64;
+/// Most dead-zone operators in a hysteresis block's output stage.
+pub const MAX_DEAD_ZONES: usize = 16;
+
+/// Why a specification cannot be loaded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RuntimeError {
+    /// A coefficient list is empty or longer than the block's capacity.
+    BadLength {
+        /// The list, e.g. `zpetc.num`.
+        field: &'static str,
+        /// Its length.
+        len: usize,
+        /// The capacity.
+        max: usize,
+    },
+    /// Two lists that must match in length do not.
+    LengthMismatch {
+        /// The list that is off.
+        field: &'static str,
+    },
+    /// A coefficient is NaN or infinite.
+    NonFinite {
+        /// The list or value.
+        field: &'static str,
+    },
+    /// `den[0]` is zero, or limits are not ordered.
+    Invalid {
+        /// The field.
+        field: &'static str,
+    },
+}
+
+impl core::fmt::Display for RuntimeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            RuntimeError::BadLength { field, len, max } => {
+                write!(
+                    f,
+                    "{field}: {len} coefficients, the runtime takes 1 to {max}"
+                )
+            }
+            RuntimeError::LengthMismatch { field } => {
+                write!(f, "{field}: length does not match its partner list")
+            }
+            RuntimeError::NonFinite { field } => write!(f, "{field}: contains a non-finite number"),
+            RuntimeError::Invalid { field } => write!(f, "{field}: invalid value"),
+        }
+    }
+}
+
+impl std::error::Error for RuntimeError {}
+
+/// Play operator form.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlayForm {
+    /// `F(k) = max(u - r, min(u, F(k-1)))` ([Li21] Eq. 3).
+    Lower,
+    /// `F(k) = max(u - r, min(u + r, F(k-1)))` ([Tang17] Eq. 37-39).
+    Symmetric,
+}
+
+/// ZPETC block coefficients (borrowed).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZpetcSpec<'a> {
+    /// Samples of reference look-ahead.
+    pub preview: usize,
+    /// Causal numerator, ascending `z^-1`.
+    pub num: &'a [f64],
+    /// Causal denominator, ascending `z^-1`, `den[0] != 0`.
+    pub den: &'a [f64],
+}
+
+/// Inverse hysteresis block coefficients (borrowed):
+/// `u_ff = offset + c cbrt(x) + Out[sum_i w_i F_{r_i}[x]]`, `x = r_f - input_offset`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HysteresisSpec<'a> {
+    /// Play operator form.
+    pub form: PlayForm,
+    /// Play thresholds.
+    pub thresholds: &'a [f64],
+    /// Play weights.
+    pub weights: &'a [f64],
+    /// Cube-root gain.
+    pub cbrt_gain: f64,
+    /// Output offset.
+    pub offset: f64,
+    /// Input offset.
+    pub input_offset: f64,
+    /// Dead-zone thresholds (empty: no output stage).
+    pub dead_zone_thresholds: &'a [f64],
+    /// Dead-zone weights.
+    pub dead_zone_weights: &'a [f64],
+}
+
+/// PID block coefficients ([Li21] Eq. 5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidSpec {
+    /// Proportional gain.
+    pub kp: f64,
+    /// Integral gain per sample.
+    pub ki: f64,
+    /// Derivative gain per sample, on the measurement.
+    pub kd: f64,
+    /// Lowest command.
+    pub output_min: f64,
+    /// Highest command.
+    pub output_max: f64,
+}
+
+/// A whole controller (borrowed), blocks in signal order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RuntimeSpec<'a> {
+    /// Optional ZPETC pre-filter.
+    pub zpetc: Option<ZpetcSpec<'a>>,
+    /// Optional inverse-hysteresis feedforward.
+    pub hysteresis: Option<HysteresisSpec<'a>>,
+    /// The feedback PID.
+    pub pid: PidSpec,
+}
+
+#[derive(Debug, Clone)]
+struct ZpetcBlock {
+    preview: usize,
+    order: usize,
+    b: [f64; MAX_FILTER_LEN],
+    a: [f64; MAX_FILTER_LEN],
+    state: [f64; MAX_FILTER_LEN],
+}
+
+#[derive(Debug, Clone)]
+struct HysteresisBlock {
+    form: PlayForm,
+    n: usize,
+    thresholds: [f64; MAX_OPERATORS],
+    weights: [f64; MAX_OPERATORS],
+    play: [f64; MAX_OPERATORS],
+    cbrt_gain: f64,
+    offset: f64,
+    input_offset: f64,
+    n_dead_zones: usize,
+    dz_thresholds: [f64; MAX_DEAD_ZONES],
+    dz_weights: [f64; MAX_DEAD_ZONES],
+}
+
+#[derive(Debug, Clone)]
+struct PidBlock {
+    spec: PidSpec,
+    integral: f64,
+    previous_measurement: f64,
+    started: bool,
+}
+
+/// A loaded controller with its state.
+#[derive(Debug, Clone)]
+pub struct RuntimeController {
+    zpetc: Option<ZpetcBlock>,
+    hysteresis: Option<HysteresisBlock>,
+    pid: PidBlock,
+}
+
+fn copy_into<const N: usize>(
+    field: &'static str,
+    src: &[f64],
+    dst: &mut [f64; N],
+) -> Result<usize, RuntimeError> {
+    if src.is_empty() || src.len() > N {
+        return Err(RuntimeError::BadLength {
+            field,
+            len: src.len(),
+            max: N,
+        });
+    }
+    if src.iter().any(|v| !v.is_finite()) {
+        return Err(RuntimeError::NonFinite { field });
+    }
+    dst[..src.len()].copy_from_slice(src);
+    Ok(src.len())
+}
+
+fn finite(field: &'static str, v: f64) -> Result<(), RuntimeError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(RuntimeError::NonFinite { field })
+    }
+}
+
+impl RuntimeController {
+    /// Copies and checks the coefficients; the controller starts at rest.
+    pub fn new(spec: &RuntimeSpec<'_>) -> Result<Self, RuntimeError> {
+        let zpetc = match &spec.zpetc {
+            None => None,
+            Some(z) => {
+                let mut num = [0.0; MAX_FILTER_LEN];
+                let mut den = [0.0; MAX_FILTER_LEN];
+                let nb = copy_into("zpetc.num", z.num, &mut num)?;
+                let na = copy_into("zpetc.den", z.den, &mut den)?;
+                if den[0] == 0.0 {
+                    return Err(RuntimeError::Invalid { field: "zpetc.den" });
+                }
+                // Normalised by a0 exactly as lti::TdfFilter does.
+                let a0 = den[0];
+                let order = nb.max(na) - 1;
+                let mut b = [0.0; MAX_FILTER_LEN];
+                let mut a = [0.0; MAX_FILTER_LEN];
+                for i in 0..nb {
+                    b[i] = num[i] / a0;
+                }
+                for i in 0..na {
+                    a[i] = den[i] / a0;
+                }
+                Some(ZpetcBlock {
+                    preview: z.preview,
+                    order,
+                    b,
+                    a,
+                    state: [0.0; MAX_FILTER_LEN],
+                })
+            }
+        };
+        let hysteresis = match &spec.hysteresis {
+            None => None,
+            Some(h) => {
+                let mut thresholds = [0.0; MAX_OPERATORS];
+                let mut weights = [0.0; MAX_OPERATORS];
+                let n = copy_into("hysteresis.thresholds", h.thresholds, &mut thresholds)?;
+                if copy_into("hysteresis.weights", h.weights, &mut weights)? != n {
+                    return Err(RuntimeError::LengthMismatch {
+                        field: "hysteresis.weights",
+                    });
+                }
+                finite("hysteresis.cbrt_gain", h.cbrt_gain)?;
+                finite("hysteresis.offset", h.offset)?;
+                finite("hysteresis.input_offset", h.input_offset)?;
+                let mut dz_thresholds = [0.0; MAX_DEAD_ZONES];
+                let mut dz_weights = [0.0; MAX_DEAD_ZONES];
+                let n_dead_zones =
+                    if h.dead_zone_thresholds.is_empty() && h.dead_zone_weights.is_empty() {
+                        0
+                    } else {
+                        let m = copy_into(
+                            "hysteresis.dead_zone.thresholds",
+                            h.dead_zone_thresholds,
+                            &mut dz_thresholds,
+                        )?;
+                        if copy_into(
+                            "hysteresis.dead_zone.weights",
+                            h.dead_zone_weights,
+                            &mut dz_weights,
+                        )? != m
+                        {
+                            return Err(RuntimeError::LengthMismatch {
+                                field: "hysteresis.dead_zone.weights",
+                            });
+                        }
+                        m
+                    };
+                Some(HysteresisBlock {
+                    form: h.form,
+                    n,
+                    thresholds,
+                    weights,
+                    play: [0.0; MAX_OPERATORS],
+                    cbrt_gain: h.cbrt_gain,
+                    offset: h.offset,
+                    input_offset: h.input_offset,
+                    n_dead_zones,
+                    dz_thresholds,
+                    dz_weights,
+                })
+            }
+        };
+        let p = spec.pid;
+        finite("pid.kp", p.kp)?;
+        finite("pid.ki", p.ki)?;
+        finite("pid.kd", p.kd)?;
+        finite("pid.output_min", p.output_min)?;
+        finite("pid.output_max", p.output_max)?;
+        if p.output_min >= p.output_max {
+            return Err(RuntimeError::Invalid {
+                field: "pid.output_min",
+            });
+        }
+        Ok(Self {
+            zpetc,
+            hysteresis,
+            pid: PidBlock {
+                spec: p,
+                integral: 0.0,
+                previous_measurement: 0.0,
+                started: false,
+            },
+        })
+    }
+
+    /// Samples of reference look-ahead the caller must supply.
+    pub fn preview(&self) -> usize {
+        self.zpetc.as_ref().map_or(0, |z| z.preview)
+    }
+
+    /// Back to rest (filter, operators and integrator cleared).
+    pub fn reset(&mut self) {
+        if let Some(z) = &mut self.zpetc {
+            z.state = [0.0; MAX_FILTER_LEN];
+        }
+        if let Some(h) = &mut self.hysteresis {
+            h.play = [0.0; MAX_OPERATORS];
+        }
+        self.pid.integral = 0.0;
+        self.pid.previous_measurement = 0.0;
+        self.pid.started = false;
+    }
+
+    /// One command. `reference_ahead` is `r(k + preview())`; `measurement`
+    /// is `x(k)`. Returns the command `u(k)` within the PID's limits.
+    #[inline]
+    pub fn step(&mut self, reference_ahead: f64, measurement: f64) -> f64 {
+        let filtered = match &mut self.zpetc {
+            Some(z) => tdf2_step(z, reference_ahead),
+            None => reference_ahead,
+        };
+        let feedforward = match &mut self.hysteresis {
+            Some(h) => hysteresis_step(h, filtered),
+            None => 0.0,
+        };
+        let p = &mut self.pid;
+        let mut previous = if p.started {
+            Some(p.previous_measurement)
+        } else {
+            None
+        };
+        let command = pid_step(
+            &p.spec,
+            &mut p.integral,
+            &mut previous,
+            filtered,
+            measurement,
+            feedforward,
+        );
+        p.previous_measurement = measurement;
+        p.started = true;
+        command
+    }
+
+    /// One step with the intermediate signals, for traces: `(r_f, u_ff, u)`.
+    #[inline]
+    pub fn step_traced(&mut self, reference_ahead: f64, measurement: f64) -> (f64, f64, f64) {
+        let filtered = match &mut self.zpetc {
+            Some(z) => tdf2_step(z, reference_ahead),
+            None => reference_ahead,
+        };
+        let feedforward = match &mut self.hysteresis {
+            Some(h) => hysteresis_step(h, filtered),
+            None => 0.0,
+        };
+        let p = &mut self.pid;
+        let mut previous = if p.started {
+            Some(p.previous_measurement)
+        } else {
+            None
+        };
+        let command = pid_step(
+            &p.spec,
+            &mut p.integral,
+            &mut previous,
+            filtered,
+            measurement,
+            feedforward,
+        );
+        p.previous_measurement = measurement;
+        p.started = true;
+        (filtered, feedforward, command)
+    }
+}
+
+/// Transposed direct form II, the same arithmetic as `lti::TdfFilter::step`.
+#[inline]
+fn tdf2_step(z: &mut ZpetcBlock, x: f64) -> f64 {
+    let n = z.order;
+    if n == 0 {
+        return z.b[0] * x;
+    }
+    let y = z.b[0] * x + z.state[0];
+    for i in 0..n - 1 {
+        z.state[i] = z.b[i + 1] * x + z.state[i + 1] - z.a[i + 1] * y;
+    }
+    z.state[n - 1] = z.b[n] * x - z.a[n] * y;
+    y
+}
+
+/// The inverse hysteresis model, the same arithmetic as
+/// `ident::hysteresis::HysteresisModel::step`.
+#[inline]
+fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
+    let x = u - h.input_offset;
+    let mut v = 0.0;
+    for i in 0..h.n {
+        let r = h.thresholds[i];
+        let upper = match h.form {
+            PlayForm::Lower => x,
+            PlayForm::Symmetric => x + r,
+        };
+        h.play[i] = (x - r).max(upper.min(h.play[i]));
+        v += h.weights[i] * h.play[i];
+    }
+    let out = if h.n_dead_zones == 0 {
+        v
+    } else {
+        let mut s = 0.0;
+        for j in 0..h.n_dead_zones {
+            let d = h.dz_thresholds[j];
+            let g = h.dz_weights[j];
+            s += g * dead_zone(d, v);
+        }
+        s
+    };
+    h.offset + h.cbrt_gain * x.cbrt() + out
+}
+
+/// `S_d[v] = max(v - d, 0)` for `d > 0`, `S_0[v] = v` ([Tang17] Eq. 41).
+#[inline]
+fn dead_zone(d: f64, v: f64) -> f64 {
+    if d > 0.0 { (v - d).max(0.0) } else { v }
+}
+
+/// The [Li21] Eq. 5 PID step with conditional-integration anti-windup.
+/// `synth::pid::Li21Pid` calls this same function.
+#[inline]
+pub fn pid_step(
+    spec: &PidSpec,
+    integral: &mut f64,
+    previous_measurement: &mut Option<f64>,
+    reference: f64,
+    measurement: f64,
+    feedforward: f64,
+) -> f64 {
+    let error = reference - measurement;
+    // The first sample has no previous measurement: no derivative kick.
+    let derivative = measurement - previous_measurement.unwrap_or(measurement);
+    *previous_measurement = Some(measurement);
+    let candidate = *integral + spec.ki * error;
+    let unclamped = feedforward + spec.kp * error + candidate - spec.kd * derivative;
+    let command = unclamped.clamp(spec.output_min, spec.output_max);
+    // Keep the new integral unless saturated with the error pushing further out.
+    let winding_up = (unclamped > spec.output_max && error > 0.0)
+        || (unclamped < spec.output_min && error < 0.0);
+    if !winding_up {
+        *integral = candidate;
+    }
+    command
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PID: PidSpec = PidSpec {
+        kp: 0.1,
+        ki: 0.3,
+        kd: 0.05,
+        output_min: 0.0,
+        output_max: 10.0,
+    };
+
+    #[test]
+    fn rejects_bad_specs() {
+        let long = [1.0; MAX_FILTER_LEN + 1];
+        let spec = RuntimeSpec {
+            zpetc: Some(ZpetcSpec {
+                preview: 1,
+                num: &long,
+                den: &[1.0],
+            }),
+            hysteresis: None,
+            pid: PID,
+        };
+        assert!(matches!(
+            RuntimeController::new(&spec),
+            Err(RuntimeError::BadLength {
+                field: "zpetc.num",
+                ..
+            })
+        ));
+        let spec = RuntimeSpec {
+            zpetc: Some(ZpetcSpec {
+                preview: 1,
+                num: &[1.0],
+                den: &[0.0, 1.0],
+            }),
+            hysteresis: None,
+            pid: PID,
+        };
+        assert!(matches!(
+            RuntimeController::new(&spec),
+            Err(RuntimeError::Invalid { field: "zpetc.den" })
+        ));
+        let spec = RuntimeSpec {
+            zpetc: None,
+            hysteresis: Some(HysteresisSpec {
+                form: PlayForm::Lower,
+                thresholds: &[0.0, 1.0],
+                weights: &[1.0],
+                cbrt_gain: 0.0,
+                offset: 0.0,
+                input_offset: 0.0,
+                dead_zone_thresholds: &[],
+                dead_zone_weights: &[],
+            }),
+            pid: PID,
+        };
+        assert!(matches!(
+            RuntimeController::new(&spec),
+            Err(RuntimeError::LengthMismatch {
+                field: "hysteresis.weights"
+            })
+        ));
+        let spec = RuntimeSpec {
+            zpetc: None,
+            hysteresis: None,
+            pid: PidSpec {
+                kp: f64::NAN,
+                ..PID
+            },
+        };
+        assert!(matches!(
+            RuntimeController::new(&spec),
+            Err(RuntimeError::NonFinite { field: "pid.kp" })
+        ));
+    }
+
+    #[test]
+    fn zpetc_block_matches_tdf_filter_bit_for_bit() {
+        let num = [0.24, -0.19, 0.17, -0.15, 0.012, 0.008];
+        let den = [1.0, -2.3, 2.46, -1.33, 0.28];
+        let spec = RuntimeSpec {
+            zpetc: Some(ZpetcSpec {
+                preview: 5,
+                num: &num,
+                den: &den,
+            }),
+            hysteresis: None,
+            pid: PidSpec {
+                kp: 1.0,
+                ki: 0.0,
+                kd: 0.0,
+                output_min: -1e9,
+                output_max: 1e9,
+            },
+        };
+        let mut rt = RuntimeController::new(&spec).unwrap();
+        let mut filter = crate::lti::TdfFilter::from_coeffs(&num, &den, 0);
+        for k in 0..1000 {
+            let r = (k as f64 * 0.01).sin();
+            // With kp = 1 and x = 0 the command is r_f itself.
+            let (rf, _, u) = rt.step_traced(r, 0.0);
+            let expect = filter.step(r);
+            assert_eq!(rf.to_bits(), expect.to_bits());
+            assert_eq!(u.to_bits(), expect.to_bits());
+        }
+    }
+}
