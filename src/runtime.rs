@@ -418,33 +418,57 @@ fn tdf2_step(z: &mut ZpetcBlock, x: f64) -> f64 {
 fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
     let x = u - h.input_offset;
     let mut v = 0.0;
-    for i in 0..h.n {
-        let r = h.thresholds[i];
-        let upper = match h.form {
-            PlayForm::Lower => x,
-            PlayForm::Symmetric => x + r,
-        };
-        h.play[i] = (x - r).max(upper.min(h.play[i]));
-        v += h.weights[i] * h.play[i];
+    let n = h.n;
+    // One loop per form keeps the branch out of the operator loop.
+    match h.form {
+        PlayForm::Lower => {
+            for ((s, &r), &w) in h.play[..n]
+                .iter_mut()
+                .zip(&h.thresholds[..n])
+                .zip(&h.weights[..n])
+            {
+                *s = play(x + 0.0, x - r, *s);
+                v += w * *s;
+            }
+        }
+        PlayForm::Symmetric => {
+            for ((s, &r), &w) in h.play[..n]
+                .iter_mut()
+                .zip(&h.thresholds[..n])
+                .zip(&h.weights[..n])
+            {
+                *s = play(x + r, x - r, *s);
+                v += w * *s;
+            }
+        }
     }
     let out = if h.n_dead_zones == 0 {
         v
     } else {
-        let mut s = 0.0;
-        for j in 0..h.n_dead_zones {
-            let d = h.dz_thresholds[j];
-            let g = h.dz_weights[j];
-            s += g * dead_zone(d, v);
-        }
-        s
+        let m = h.n_dead_zones;
+        h.dz_thresholds[..m]
+            .iter()
+            .zip(&h.dz_weights[..m])
+            .map(|(&d, &g)| g * dead_zone(d, v))
+            .sum()
     };
     h.offset + h.cbrt_gain * x.cbrt() + out
 }
 
-/// `S_d[v] = max(v - d, 0)` for `d > 0`, `S_0[v] = v` ([Tang17] Eq. 41).
+/// One play-operator update `max(lower, min(upper, previous))`, written with
+/// the same comparisons as `ident::hysteresis::PlayOperator::step` so that
+/// both give the same bits (signed zeros included).
+#[inline(always)]
+fn play(upper: f64, lower: f64, previous: f64) -> f64 {
+    let clipped = if upper < previous { upper } else { previous };
+    if lower > clipped { lower } else { clipped }
+}
+
+/// `S_d[v] = max(v - d, 0)` for `d != 0`, `S_0[v] = v` ([Tang17] Eq. 41), as
+/// `ident::hysteresis::dead_zone`.
 #[inline]
 fn dead_zone(d: f64, v: f64) -> f64 {
-    if d > 0.0 { (v - d).max(0.0) } else { v }
+    if d == 0.0 { v } else { (v - d).max(0.0) }
 }
 
 /// The [Li21] Eq. 5 PID step with conditional-integration anti-windup.

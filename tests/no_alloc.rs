@@ -49,3 +49,47 @@ fn filter_step_does_not_allocate() {
     assert_eq!(after - before, 0, "the filter allocated");
     assert!(acc.is_finite() && output[9_999].is_finite());
 }
+
+#[test]
+fn runtime_controller_step_does_not_allocate() {
+    use fts::runtime::{
+        HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec,
+    };
+    let thresholds: Vec<f64> = (0..10).map(|i| i as f64).collect();
+    let weights = vec![0.1; 10];
+    let spec = RuntimeSpec {
+        zpetc: Some(ZpetcSpec {
+            preview: 5,
+            num: &[0.24, -0.19, 0.17, -0.15, 0.012, 0.008],
+            den: &[1.0, -2.3, 2.46, -1.33, 0.28],
+        }),
+        hysteresis: Some(HysteresisSpec {
+            form: PlayForm::Lower,
+            thresholds: &thresholds,
+            weights: &weights,
+            cbrt_gain: -0.02,
+            offset: 0.0,
+            input_offset: 0.0,
+            dead_zone_thresholds: &[],
+            dead_zone_weights: &[],
+        }),
+        pid: PidSpec {
+            kp: 0.05,
+            ki: 0.3,
+            kd: 0.0,
+            output_min: 0.0,
+            output_max: 10.0,
+        },
+    };
+    let mut rt = RuntimeController::new(&spec).unwrap();
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let mut acc = 0.0;
+    for k in 0..10_000 {
+        let r = 5.0 + (k as f64 * 0.01).sin();
+        acc += rt.step(r, r - 0.01);
+    }
+    rt.reset();
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert_eq!(after - before, 0, "the runtime step allocated");
+    assert!(acc.is_finite());
+}

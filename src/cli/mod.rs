@@ -11,6 +11,7 @@
 mod bode;
 mod columns;
 mod common;
+mod emit;
 mod excite;
 mod hysteresis;
 mod identify;
@@ -43,6 +44,8 @@ enum Command {
     /// Use hysteresis models: analytic inverse, run on a signal.
     #[command(subcommand)]
     Hysteresis(hysteresis::HysteresisCommand),
+    /// Write the controller coefficient file (fts.controller/1 JSON or C header) for a real-time loop.
+    Emit(emit::EmitArgs),
     /// Simulate a closed loop (pid, pid+hc, pid+hc+zpec) on the virtual FTS or a plant model.
     Simulate(simulate::SimulateArgs),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
@@ -78,6 +81,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Excite(args) => excite::run(args),
         Command::Identify(cmd) => identify::run(cmd),
         Command::Hysteresis(cmd) => hysteresis::run(cmd),
+        Command::Emit(args) => emit::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Zpetc(args) => zpetc::run(args),
         Command::Tf(cmd) => tf::run(cmd),

@@ -1,0 +1,80 @@
+//! The real-time step and the closed-loop simulation.
+//!
+//! Targets (issue 5): the runtime step for PID + HC (10 operators) + ZPETC
+//! (order 5/4) at most 50 ns per sample; the full virtual FTS closed loop
+//! (plant with its internal substeps, sensor noise, delay line, plus the
+//! controller) at least 10 million controller samples per second, i.e. at
+//! most 100 ns per sample.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use fts::runtime::{HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec};
+use fts::sim::closed_loop;
+use fts::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
+use std::hint::black_box;
+
+fn spec<'a>(thresholds: &'a [f64], weights: &'a [f64]) -> RuntimeSpec<'a> {
+    RuntimeSpec {
+        // [Li21] Eq. 12-like filter: z^5 A_c / B_c, numerator order 5, denominator order 4.
+        zpetc: Some(ZpetcSpec {
+            preview: 5,
+            num: &[0.24073, -0.18902, 0.17571, -0.14781, 0.012412, 0.008298],
+            den: &[1.0, -2.31849, 2.46269, -1.32667, 0.277805],
+        }),
+        hysteresis: Some(HysteresisSpec {
+            form: PlayForm::Lower,
+            thresholds,
+            weights,
+            cbrt_gain: -0.0197,
+            offset: 0.0,
+            input_offset: 0.0,
+            dead_zone_thresholds: &[],
+            dead_zone_weights: &[],
+        }),
+        pid: PidSpec {
+            kp: 0.05,
+            ki: 0.3,
+            kd: 0.0,
+            output_min: 0.0,
+            output_max: 10.0,
+        },
+    }
+}
+
+fn benches(c: &mut Criterion) {
+    // [Li21] Table 1 thresholds and weights.
+    let thresholds: Vec<f64> = (0..10).map(|i| i as f64 * 0.9677).collect();
+    let weights = [
+        0.29, -0.063, 0.0075, -0.0267, -0.0015, -0.0215, 0.021, -0.0253, 0.0115, -0.047,
+    ];
+    let mut rt = RuntimeController::new(&spec(&thresholds, &weights)).unwrap();
+    let refs: Vec<f64> = (0..4096)
+        .map(|k| 5.0 + 4.0 * (k as f64 * 0.03).sin())
+        .collect();
+    let mut k = 0usize;
+    c.bench_function("runtime_step/pid+hc10+zpetc5_4", |b| {
+        b.iter(|| {
+            k = (k + 1) & 4095;
+            black_box(rt.step(black_box(refs[k]), black_box(refs[k] - 0.01)))
+        })
+    });
+
+    let n = 100_000;
+    let reference: Vec<f64> = (0..n)
+        .map(|k| 7.0 + 5.0 * (2.0 * std::f64::consts::PI * 100.0 * k as f64 * 1e-4).sin())
+        .collect();
+    let mut group = c.benchmark_group("closed_loop");
+    group.throughput(Throughput::Elements(n as u64));
+    group.sample_size(20);
+    group.bench_function("virtual_fts+pid+hc+zpetc/1e5_samples", |b| {
+        b.iter(|| {
+            let mut plant = VirtualFts::new(VirtualFtsParams::default_plant()).unwrap();
+            let mut ctrl = RuntimeController::new(&spec(&thresholds, &weights)).unwrap();
+            let trace = closed_loop::run(&mut plant, &mut ctrl, black_box(&reference));
+            black_box(trace.command[n - 1])
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(runtime, benches);
+criterion_main!(runtime);

@@ -1,0 +1,220 @@
+//! `fts simulate` and `fts emit` end to end, and their bad inputs.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use std::path::{Path, PathBuf};
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+fn json_of(cmd: &mut Command) -> serde_json::Value {
+    let out = cmd.assert().success().get_output().stdout.clone();
+    serde_json::from_slice(&out).unwrap()
+}
+
+#[test]
+fn simulate_default_identifies_models_and_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("trace.csv");
+    let svg = dir.path().join("track.svg");
+    let v = json_of(
+        fts()
+            .args([
+                "simulate",
+                "--controller",
+                "pid+hc+zpec",
+                "--reference",
+                "sine",
+                "--amplitude",
+                "5",
+                "--freq",
+                "100",
+                "--json",
+                "-o",
+            ])
+            .arg(&trace)
+            .arg("--plot")
+            .arg(&svg),
+    );
+    for key in ["max_abs_error", "rms_error", "max_error_percent"] {
+        assert!(v[key].as_f64().unwrap().is_finite(), "{key}");
+    }
+    assert_eq!(v["controller"], "pid+hc+zpec");
+    assert!(
+        v["models"]
+            .as_str()
+            .unwrap()
+            .contains("identified from the virtual FTS")
+    );
+    let text = std::fs::read_to_string(&trace).unwrap();
+    assert!(text.starts_with("t,r,r_f,u_ff,u,y,e\n"));
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+}
+
+#[test]
+fn emit_then_simulate_from_the_coefficient_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("controller.json");
+    let header = dir.path().join("controller.h");
+    for (format, out) in [("json", &json), ("c-header", &header)] {
+        fts()
+            .args(["emit", "--hysteresis"])
+            .arg(fixture("li21-inverse-mpi.json"))
+            .arg("--closed-loop")
+            .arg(fixture("li21-closed-loop.json"))
+            .args(["--format", format, "-o"])
+            .arg(out)
+            .assert()
+            .success();
+    }
+    let text = std::fs::read_to_string(&json).unwrap();
+    assert!(text.contains("\"format\": \"fts.controller/1\""));
+    assert!(text.contains("\"sha256\""));
+    let h = std::fs::read_to_string(&header).unwrap();
+    assert!(h.contains("#define FTS_PREVIEW 5"));
+    // Byte-identical regeneration.
+    let again = dir.path().join("again.json");
+    fts()
+        .args(["emit", "--hysteresis"])
+        .arg(fixture("li21-inverse-mpi.json"))
+        .arg("--closed-loop")
+        .arg(fixture("li21-closed-loop.json"))
+        .arg("-o")
+        .arg(&again)
+        .assert()
+        .success();
+    assert_eq!(
+        std::fs::read(&json).unwrap(),
+        std::fs::read(&again).unwrap()
+    );
+    // The simulation runs exactly this file.
+    let v = json_of(
+        fts()
+            .args(["simulate", "--json", "--freq", "10", "--controller-file"])
+            .arg(&json),
+    );
+    assert_eq!(v["controller"], "pid+hc+zpec");
+    assert_eq!(v["preview"], 5);
+}
+
+#[test]
+fn bad_coefficient_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.json");
+    fts()
+        .args(["emit", "--hysteresis"])
+        .arg(fixture("li21-inverse-mpi.json"))
+        .arg("--closed-loop")
+        .arg(fixture("li21-closed-loop.json"))
+        .arg("-o")
+        .arg(&good)
+        .assert()
+        .success();
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&good).unwrap()).unwrap();
+    let cases: Vec<(serde_json::Value, &str)> = vec![
+        (
+            {
+                let mut d = doc.clone();
+                d["format"] = "fts.controller/9".into();
+                d
+            },
+            "unsupported format",
+        ),
+        (
+            {
+                let mut d = doc.clone();
+                d["blocks"].as_array_mut().unwrap().pop();
+                d
+            },
+            "missing block \"pid\"",
+        ),
+        (
+            {
+                let mut d = doc.clone();
+                d["blocks"][2]["ki"] = "NaN".into();
+                d
+            },
+            "blocks[2].ki",
+        ),
+        (
+            {
+                let mut d = doc.clone();
+                d["blocks"][1]["weights"].as_array_mut().unwrap().pop();
+                d
+            },
+            "hysteresis.weights",
+        ),
+        (
+            {
+                let mut d = doc.clone();
+                d["blocks"][0]["den"] = serde_json::json!([0.0, 1.0]);
+                d
+            },
+            "zpetc.den",
+        ),
+    ];
+    for (i, (bad, fragment)) in cases.into_iter().enumerate() {
+        let p = dir.path().join(format!("bad{i}.json"));
+        std::fs::write(&p, bad.to_string()).unwrap();
+        let trace = dir.path().join(format!("trace{i}.csv"));
+        fts()
+            .args(["simulate", "--controller-file"])
+            .arg(&p)
+            .arg("-o")
+            .arg(&trace)
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains(format!("bad{i}.json")))
+            .stderr(predicate::str::contains(fragment))
+            .stderr(predicate::str::contains("panicked").not());
+        assert!(!trace.exists());
+    }
+}
+
+#[test]
+fn bad_controller_and_reference_options() {
+    fts()
+        .args(["simulate", "--controller", "pid+zpec+hc"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "valid controllers: pid, pid+hc, pid+zpec, pid+hc+zpec",
+        ));
+    fts()
+        .args([
+            "simulate",
+            "--controller",
+            "pid",
+            "--reference",
+            "sweep",
+            "--f1",
+            "9000",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--f1"));
+    // A reference beyond the stroke is reported, not silently clipped.
+    fts()
+        .args([
+            "simulate",
+            "--controller",
+            "pid",
+            "--amplitude",
+            "9",
+            "--freq",
+            "10",
+        ])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "warning: the command sat on its limits",
+        ));
+}
