@@ -14,7 +14,9 @@ use fts::runtime::RuntimeController;
 use fts::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args().nth(1).unwrap_or_else(|| "controller.json".into());
+    let path = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "controller.json".into());
     let text = std::fs::read_to_string(&path)?;
     // Parsing and validation happen once, before the loop starts.
     let file = parse_controller(&text, &path)?;

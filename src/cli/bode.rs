@@ -8,6 +8,24 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::path::PathBuf;
 
+/// `println!` that does not panic when stdout is closed (`fts ... | head`):
+/// the summary is best effort, the result file is what matters.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `print!` counterpart of `say!`.
+#[allow(unused_macros)]
+macro_rules! say_part {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Method {
     /// Welch-averaged cross spectra `H1 = P_yu/P_uu` with coherence.
@@ -115,7 +133,7 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
             "coherence": h.coherence.as_ref().map(|c| idx.iter().map(|&i| c[i]).collect::<Vec<_>>()),
         }));
     }
-    println!(
+    say!(
         "{} estimate of {} ({} samples, Ts = {} s): {} segment(s) of {} samples, resolution {:.4} Hz{}",
         match a.method {
             Method::Welch => "Welch",
@@ -131,13 +149,17 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
             .map(|c| format!(", mean coherence {c:.3}"))
             .unwrap_or_default()
     );
-    println!(
+    say!(
         "  {:>12} {:>12} {:>10} {:>11} {:>9}",
-        "freq (Hz)", "magnitude", "dB", "phase (deg)", "coherence"
+        "freq (Hz)",
+        "magnitude",
+        "dB",
+        "phase (deg)",
+        "coherence"
     );
     for i in shown {
         let v = h.response[i];
-        println!(
+        say!(
             "  {:>12.4} {:>12.6} {:>10.3} {:>11.2} {:>9}",
             h.freq_hz[i],
             v.norm(),
@@ -149,10 +171,10 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &a.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     if let Some(path) = &a.plot {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -25,6 +25,24 @@ use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
+/// `println!` that does not panic when stdout is closed (`fts ... | head`):
+/// the summary is best effort, the result file is what matters.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `print!` counterpart of `say!`.
+#[allow(unused_macros)]
+macro_rules! say_part {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
+
 /// Lags of the residual tests (MATLAB `resid` default).
 const RESID_LAGS: usize = 25;
 
@@ -710,7 +728,7 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         }
         return print_json(&doc);
     }
-    println!(
+    say!(
         "{} {} from {} ({} samples, Ts = {} s, detrend {})",
         r.method.to_uppercase(),
         r.orders_label,
@@ -728,16 +746,16 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
     } else {
         "A"
     };
-    println!(
+    say!(
         "  {den_name}(z^-1) = {}",
         poly_string(&r.model.a, Some(&r.std_den), 0, true)
     );
-    println!(
+    say!(
         "  B(z^-1) = {}    (input delay z^-{})",
         poly_string(&r.model.b, Some(&r.std_num), 0, false),
         r.model.nk
     );
-    println!(
+    say!(
         "  loss {:.6e}  FPE {:.6e}  AIC {:.4} (nAIC {:.4})  MDL {:.6e}  cond(Phi) {:.3e}",
         r.criteria.loss,
         r.criteria.fpe,
@@ -747,21 +765,24 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         r.condition_number
     );
     if let Some(Value::String(s)) = r.extra.get("iterations_note") {
-        println!("  {s}");
+        say!("  {s}");
     }
-    println!(
+    say!(
         "  fit on estimation data: simulation {:.2} % (zero IC {:.2} %), one-step prediction {:.2} %",
         est_fits.simulation_percent,
         est_fits.simulation_zero_ic_percent,
         est_fits.prediction_percent
     );
     if let (Some(f), Some(v)) = (&val_fits, &p.val) {
-        println!(
+        say!(
             "  fit on validation data ({}): simulation {:.2} % (zero IC {:.2} %), one-step prediction {:.2} %",
-            v.label, f.simulation_percent, f.simulation_zero_ic_percent, f.prediction_percent
+            v.label,
+            f.simulation_percent,
+            f.simulation_zero_ic_percent,
+            f.prediction_percent
         );
     }
-    println!(
+    say!(
         "  residuals: {} (max |r_ee| {:.3}, 99 % bound {:.3}, lags 1..{}); {} of input (max |r_eu| {:.3}, bound {:.3})",
         if white.white { "white" } else { "NOT white" },
         white.max_autocorr,
@@ -776,9 +797,9 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         white.cross_bound
     );
     if let Some(n) = noise_note {
-        println!("  note: {n}");
+        say!("  note: {n}");
     }
-    println!(
+    say!(
         "  poles ({}): {}",
         if stable { "stable" } else { "UNSTABLE" },
         poles
@@ -787,12 +808,12 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    println!("  DC gain {:.6}", tf.dc_gain());
+    say!("  DC gain {:.6}", tf.dc_gain());
     if let Some(path) = &out.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     for path in out.plot.iter().chain(&out.plot_compare) {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }
@@ -1024,7 +1045,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         }
         return print_json(&doc);
     }
-    println!(
+    say!(
         "ARX structure selection on {} ({} samples, Ts = {} s), {} candidates{}",
         p.est.label,
         p.est.y.len(),
@@ -1036,15 +1057,23 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         }
     );
     if let Some((nk, _)) = &delay {
-        println!("  delay estimate (ARX [2 2 nk], nk in {nk_lo}..{nk_hi}): {nk} samples");
+        say!("  delay estimate (ARX [2 2 nk], nk in {nk_lo}..{nk_hi}): {nk} samples");
     }
-    println!(
+    say!(
         "  {:>3} {:>3} {:>3} {:>13} {:>13} {:>13} {:>10} {:>13} {:>9}",
-        "na", "nb", "nk", "loss(est)", "FPE", "MDL", "nAIC", "loss(val)", "fit(val)%"
+        "na",
+        "nb",
+        "nk",
+        "loss(est)",
+        "FPE",
+        "MDL",
+        "nAIC",
+        "loss(val)",
+        "fit(val)%"
     );
     for &i in order.iter().take(a.top) {
         let r = &s.rows[i];
-        println!(
+        say!(
             "  {:>3} {:>3} {:>3} {:>13.6e} {:>13.6e} {:>13.6e} {:>10.4} {:>13} {:>9}",
             r.orders.na,
             r.orders.nb,
@@ -1061,7 +1090,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
                 .unwrap_or_else(|| "-".into()),
         );
     }
-    println!(
+    say!(
         "  best: AIC {}  FPE {}  MDL {}{}",
         s.best_aic,
         s.best_fpe,
@@ -1071,19 +1100,19 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
             _ => String::new(),
         }
     );
-    print!("  recommended ({rule}) {best}");
+    say_part!("  recommended ({rule}) {best}");
     if let Some(f) = val_fit {
-        print!(": validation simulation fit {f:.2} %");
+        say_part!(": validation simulation fit {f:.2} %");
     }
-    println!();
+    say!();
     if !s.skipped.is_empty() {
-        println!(
+        say!(
             "  {} candidates skipped (singular or too short)",
             s.skipped.len()
         );
     }
     if let Some(path) = &a.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }
