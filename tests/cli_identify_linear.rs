@@ -368,6 +368,17 @@ fn bad_inputs_exit_2_and_leave_nothing() {
         "--split",
     );
     bad_run(d, &dir.path().join("absent.csv"), &orders, "cannot read");
+    let mut o2 = orders.to_vec();
+    o2.extend(["--ts", "0.5"]);
+    bad_run(d, &constant, &o2, "but --ts is 0.5 s");
+    let mut text2 = String::from("t,u,y\n");
+    for k in 0..50 {
+        text2.push_str(&format!("{},{},{}\n", 2.0 * k as f64, k % 3, k % 5));
+    }
+    let other_ts = write(d, "other_ts.csv", &text2);
+    let mut o3 = orders.to_vec();
+    o3.extend(["--validate", other_ts.to_str().unwrap()]);
+    bad_run(d, &constant, &o3, "differs from the estimation data");
     fts()
         .args(["identify", "oe"])
         .arg(&constant)
@@ -411,6 +422,7 @@ fn bad_inputs_exit_2_and_leave_nothing() {
             "missing.csv",
             "jitter.csv",
             "plain.dat",
+            "other_ts.csv",
         ],
     );
 }
