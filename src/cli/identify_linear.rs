@@ -724,7 +724,8 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
             json!(noise_note.into_iter().collect::<Vec<_>>()),
         );
         if let Value::Object(extra) = r.extra {
-            obj.extend(extra);
+            // The note is for the human summary; JSON has the raw fields.
+            obj.extend(extra.into_iter().filter(|(k, _)| k != "iterations_note"));
         }
         return print_json(&doc);
     }
