@@ -11,6 +11,7 @@
 mod bode;
 mod columns;
 mod common;
+mod demo;
 mod emit;
 mod excite;
 mod hysteresis;
@@ -36,6 +37,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run the whole Li21 pipeline on the embedded virtual FTS: identify, compensate, ZPETC, verify, emit.
+    Demo(demo::DemoArgs),
     /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
     Excite(excite::ExciteArgs),
     /// Identify a model from measured data.
@@ -78,6 +81,7 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Demo(args) => demo::run(args),
         Command::Excite(args) => excite::run(args),
         Command::Identify(cmd) => identify::run(cmd),
         Command::Hysteresis(cmd) => hysteresis::run(cmd),
