@@ -1,4 +1,5 @@
-//! ARX 5/5/5 on 1e6 samples (target <= 70 ms) and OE 5/5/5 on 1e5 samples
+//! ARX 5/5/5 on 1e6 samples (target <= 70 ms; and on 1e5 to show linear
+//! scaling) and OE 5/5/5 on 1e5 samples
 //! (target < 1 s), on the [Li21] Eq. 11 closed loop with white input and
 //! white measurement noise.
 
@@ -34,6 +35,11 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20).measurement_time(Duration::from_secs(5));
     g.bench_function("arx_5_5_5_1e6", |b| {
         b.iter(|| arx(black_box(&u), black_box(&y), &params).unwrap())
+    });
+    // A tenth of the samples: the time should scale by a tenth (linear).
+    let (u5, y5) = (&u[..100_000], &y[..100_000]);
+    g.bench_function("arx_5_5_5_1e5", |b| {
+        b.iter(|| arx(black_box(u5), black_box(y5), &params).unwrap())
     });
     g.finish();
 

@@ -234,12 +234,20 @@ fn output_noise_arx_flagged_oe_and_iv_summaries() {
     assert_eq!(arx["whiteness"]["white"], false);
     assert!(arx["notes"][0].as_str().unwrap().contains("not white"));
     let svg = dir.path().join("bode.svg");
+    let cmp = dir.path().join("compare.svg");
     let oe = json_of(
         fts()
             .args(["identify", "oe"])
             .arg(&data)
             .args(["--nb", "5", "--nf", "5", "--nk", "5", "--json", "--plot"])
-            .arg(&svg),
+            .arg(&svg)
+            .arg("--plot-compare")
+            .arg(&cmp),
+    );
+    assert!(
+        std::fs::read_to_string(&cmp)
+            .unwrap()
+            .contains("simulation fit")
     );
     assert_eq!(oe["converged"], true);
     assert_eq!(oe["orders"]["nf"], 5);
@@ -360,6 +368,17 @@ fn bad_inputs_exit_2_and_leave_nothing() {
         "--split",
     );
     bad_run(d, &dir.path().join("absent.csv"), &orders, "cannot read");
+    let mut o2 = orders.to_vec();
+    o2.extend(["--ts", "0.5"]);
+    bad_run(d, &constant, &o2, "but --ts is 0.5 s");
+    let mut text2 = String::from("t,u,y\n");
+    for k in 0..50 {
+        text2.push_str(&format!("{},{},{}\n", 2.0 * k as f64, k % 3, k % 5));
+    }
+    let other_ts = write(d, "other_ts.csv", &text2);
+    let mut o3 = orders.to_vec();
+    o3.extend(["--validate", other_ts.to_str().unwrap()]);
+    bad_run(d, &constant, &o3, "differs from the estimation data");
     fts()
         .args(["identify", "oe"])
         .arg(&constant)
@@ -373,6 +392,27 @@ fn bad_inputs_exit_2_and_leave_nothing() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains("no power"));
+    fts()
+        .arg("bode")
+        .arg(&short)
+        .args(["--overlap", "1.5"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("overlap"));
+    fts()
+        .args(["identify", "arx-struct"])
+        .arg(&constant)
+        .args(["--na", "3:1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--na"));
+    fts()
+        .args(["identify", "arx-struct"])
+        .arg(&constant)
+        .args(["--na", "1", "--nb", "1", "--nk", "1", "--rule", "fit"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("needs validation data"));
     assert_only(
         d,
         &[
@@ -382,6 +422,7 @@ fn bad_inputs_exit_2_and_leave_nothing() {
             "missing.csv",
             "jitter.csv",
             "plain.dat",
+            "other_ts.csv",
         ],
     );
 }

@@ -3,10 +3,28 @@
 
 use super::common::{bad, print_json, write_atomic};
 use super::identify_linear::{DataArgs, empirical_plot, prepare};
-use crate::ident::freq::{FreqResponse, WelchParams, etfe, welch};
+use crate::ident::freq::{WelchParams, etfe, welch};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::path::PathBuf;
+
+/// `println!` that does not panic when stdout is closed (`fts ... | head`):
+/// the summary is best effort, the result file is what matters.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `print!` counterpart of `say!`.
+#[allow(unused_macros)]
+macro_rules! say_part {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Method {
@@ -46,34 +64,6 @@ pub struct BodeArgs {
     json: bool,
 }
 
-fn phase_deg(h: &FreqResponse) -> Vec<f64> {
-    // Unwrapped along the grid, skipping bins without input power.
-    let mut out = Vec::with_capacity(h.response.len());
-    let mut offset = 0.0;
-    let mut prev: Option<f64> = None;
-    for v in &h.response {
-        if !v.re.is_finite() {
-            out.push(f64::NAN);
-            continue;
-        }
-        let raw = v.arg().to_degrees();
-        if let Some(p) = prev {
-            let mut d = raw + offset - p;
-            while d > 180.0 {
-                offset -= 360.0;
-                d -= 360.0;
-            }
-            while d < -180.0 {
-                offset += 360.0;
-                d += 360.0;
-            }
-        }
-        prev = Some(raw + offset);
-        out.push(raw + offset);
-    }
-    out
-}
-
 pub fn run(a: BodeArgs) -> anyhow::Result<()> {
     if a.data.validate.is_some() || a.data.split.is_some() {
         return Err(bad("fts bode: --validate and --split do not apply"));
@@ -94,7 +84,7 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
     .map_err(|e| bad(format!("{}: {e}", p.source)))?;
     let nyq = 0.5 / p.ts;
     let fmax = a.fmax.unwrap_or(nyq).min(nyq);
-    let phase = phase_deg(&h);
+    let phase = h.phase_deg_unwrapped();
     let coh = |i: usize| h.coherence.as_ref().map(|c| c[i]);
     if let Some(path) = &a.out {
         let mut s = String::from("freq_hz,magnitude,magnitude_db,phase_deg,coherence,re,im\n");
@@ -143,7 +133,7 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
             "coherence": h.coherence.as_ref().map(|c| idx.iter().map(|&i| c[i]).collect::<Vec<_>>()),
         }));
     }
-    println!(
+    say!(
         "{} estimate of {} ({} samples, Ts = {} s): {} segment(s) of {} samples, resolution {:.4} Hz{}",
         match a.method {
             Method::Welch => "Welch",
@@ -159,13 +149,17 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
             .map(|c| format!(", mean coherence {c:.3}"))
             .unwrap_or_default()
     );
-    println!(
+    say!(
         "  {:>12} {:>12} {:>10} {:>11} {:>9}",
-        "freq (Hz)", "magnitude", "dB", "phase (deg)", "coherence"
+        "freq (Hz)",
+        "magnitude",
+        "dB",
+        "phase (deg)",
+        "coherence"
     );
     for i in shown {
         let v = h.response[i];
-        println!(
+        say!(
             "  {:>12.4} {:>12.6} {:>10.3} {:>11.2} {:>9}",
             h.freq_hz[i],
             v.norm(),
@@ -177,10 +171,10 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &a.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     if let Some(path) = &a.plot {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

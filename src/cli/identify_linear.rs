@@ -15,7 +15,7 @@ use crate::ident::linear::{
 };
 use crate::ident::oe::{OeParams, OeStart, oe};
 use crate::ident::structure::{
-    SelectionRule, StructParams, StructSearch, arx_struct, delay_estimate,
+    SelectionRule, StructParams, StructSearch, arx_struct_observed, delay_estimate,
 };
 use crate::io::plot::{Series, stacked_charts_svg};
 use crate::io::tf_json;
@@ -24,6 +24,24 @@ use crate::lti::{Bode, TransferFunction};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
+
+/// `println!` that does not panic when stdout is closed (`fts ... | head`):
+/// the summary is best effort, the result file is what matters.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `print!` counterpart of `say!`.
+#[allow(unused_macros)]
+macro_rules! say_part {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
 
 /// Lags of the residual tests (MATLAB `resid` default).
 const RESID_LAGS: usize = 25;
@@ -107,6 +125,9 @@ pub struct OutArgs {
     /// Upper frequency of the plot in Hz (default Nyquist).
     #[arg(long, value_name = "HZ")]
     pub plot_fmax: Option<f64>,
+    /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
+    #[arg(long, value_name = "COMPARE.svg")]
+    pub plot_compare: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -146,8 +167,11 @@ pub struct OeArgs {
     #[arg(long)]
     pub nk: usize,
     /// Start estimate of the iteration.
-    #[arg(long, value_enum, default_value_t = StartArg::Iv)]
+    #[arg(long, value_enum, default_value_t = StartArg::Best)]
     pub start: StartArg,
+    /// Initial conditions of the simulation: estimated with the model (MATLAB default) or zero.
+    #[arg(long, value_enum, default_value_t = InitialArg::Estimate)]
+    pub initial: InitialArg,
     /// Maximum Levenberg-Marquardt iterations.
     #[arg(long, default_value_t = OeParams::new(Orders::new(1, 1, 1)).max_iterations)]
     pub max_iter: usize,
@@ -202,7 +226,17 @@ fn pick(s: &StructSearch, rule: RuleArg) -> anyhow::Result<(Orders, &'static str
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum InitialArg {
+    /// Estimate the initial state together with B and F.
+    Estimate,
+    /// Start the simulation from rest.
+    Zero,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum StartArg {
+    /// Whichever of IV and ARX simulates the data better.
+    Best,
     /// Refined instrumental variables.
     Iv,
     /// Least-squares ARX.
@@ -389,6 +423,26 @@ pub fn prepare(d: &DataArgs) -> anyhow::Result<Prepared> {
     })
 }
 
+/// Structure search with a progress bar on stderr (hidden when stderr is
+/// not a terminal).
+fn search(p: &Prepared, sp: &StructParams) -> anyhow::Result<StructSearch> {
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+    let s = arx_struct_observed(
+        &p.est.u,
+        &p.est.y,
+        p.val.as_ref().map(|v| (&v.u[..], &v.y[..])),
+        sp,
+        &mut |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    )
+    .map_err(|e| ident_err(&p.source, e))?;
+    bar.finish_and_clear();
+    Ok(s)
+}
+
 /// Maps identification errors to exit codes: everything about the data or
 /// the structure is bad input (2) and names the file.
 pub fn ident_err(source: &str, e: IdentError) -> anyhow::Error {
@@ -427,7 +481,7 @@ fn residuals(r: &Report, u: &[f64], y: &[f64]) -> Vec<f64> {
     match r.noise {
         NoiseModel::Arx => arx_residuals(&r.model, u, y, start),
         NoiseModel::OutputError => {
-            let s = r.model.simulate(u);
+            let s = r.model.simulate_fit_ic(u, y);
             y.iter().zip(&s).map(|(a, b)| a - b).collect()
         }
     }
@@ -476,15 +530,12 @@ fn bode_plot_svg(
         .filter(|&i| emp.freq_hz[i] <= fmax && emp.response[i].re.is_finite())
         .collect();
     let ef: Vec<f64> = keep.iter().map(|&i| emp.freq_hz[i]).collect();
-    let eb = Bode::from_fn(&ef, {
-        let resp: Vec<_> = keep.iter().map(|&i| emp.response[i]).collect();
-        let ef2 = ef.clone();
-        move |f| {
-            let i = ef2.iter().position(|x| *x == f).unwrap_or(0);
-            resp[i]
-        }
-    });
-    let emag = eb.magnitude_db();
+    let all_phase = emp.phase_deg_unwrapped();
+    let ephase: Vec<f64> = keep.iter().map(|&i| all_phase[i]).collect();
+    let emag: Vec<f64> = keep
+        .iter()
+        .map(|&i| 20.0 * emp.response[i].norm().log10())
+        .collect();
     let coh: Vec<f64> = match &emp.coherence {
         Some(c) => keep.iter().map(|&i| c[i]).collect(),
         None => Vec::new(),
@@ -500,7 +551,7 @@ fn bode_plot_svg(
     let mut phase = vec![Series {
         label: "empirical (Welch H1)",
         x: &ef,
-        y: &eb.phase_deg,
+        y: &ephase,
     }];
     if let (Some(b), Some(m)) = (&mb, &mmag) {
         mag.push(Series {
@@ -568,6 +619,49 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         write_atomic(path, svg.as_bytes())?;
     }
 
+    if let Some(path) = &out.plot_compare {
+        let rec = p.val.as_ref().unwrap_or(&p.est);
+        let sim = r.model.simulate_fit_ic(&rec.u, &rec.y);
+        let t: Vec<f64> = (0..rec.y.len()).map(|k| k as f64 * p.ts).collect();
+        let err: Vec<f64> = rec.y.iter().zip(&sim).map(|(a, b)| a - b).collect();
+        let fit = crate::ident::metrics::nrmse_fit_percent(&rec.y, &sim);
+        let title = format!(
+            "{} {}: simulation fit {fit:.2} % on {}",
+            r.method.to_uppercase(),
+            r.orders_label,
+            rec.label
+        );
+        let svg = stacked_charts_svg(&[
+            (
+                title.as_str(),
+                "time (s)",
+                "output",
+                vec![
+                    Series {
+                        label: "measured",
+                        x: &t,
+                        y: &rec.y,
+                    },
+                    Series {
+                        label: "simulated (initial conditions estimated)",
+                        x: &t,
+                        y: &sim,
+                    },
+                ],
+            ),
+            (
+                "",
+                "time (s)",
+                "measured - simulated",
+                vec![Series {
+                    label: "simulation error",
+                    x: &t,
+                    y: &err,
+                }],
+            ),
+        ])?;
+        write_atomic(path, svg.as_bytes())?;
+    }
     let noise_note = match (r.noise, white.white) {
         (_, true) => None,
         (NoiseModel::Arx, false) => Some(
@@ -630,11 +724,12 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
             json!(noise_note.into_iter().collect::<Vec<_>>()),
         );
         if let Value::Object(extra) = r.extra {
-            obj.extend(extra);
+            // The note is for the human summary; JSON has the raw fields.
+            obj.extend(extra.into_iter().filter(|(k, _)| k != "iterations_note"));
         }
         return print_json(&doc);
     }
-    println!(
+    say!(
         "{} {} from {} ({} samples, Ts = {} s, detrend {})",
         r.method.to_uppercase(),
         r.orders_label,
@@ -652,16 +747,16 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
     } else {
         "A"
     };
-    println!(
+    say!(
         "  {den_name}(z^-1) = {}",
         poly_string(&r.model.a, Some(&r.std_den), 0, true)
     );
-    println!(
+    say!(
         "  B(z^-1) = {}    (input delay z^-{})",
         poly_string(&r.model.b, Some(&r.std_num), 0, false),
         r.model.nk
     );
-    println!(
+    say!(
         "  loss {:.6e}  FPE {:.6e}  AIC {:.4} (nAIC {:.4})  MDL {:.6e}  cond(Phi) {:.3e}",
         r.criteria.loss,
         r.criteria.fpe,
@@ -671,21 +766,24 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         r.condition_number
     );
     if let Some(Value::String(s)) = r.extra.get("iterations_note") {
-        println!("  {s}");
+        say!("  {s}");
     }
-    println!(
+    say!(
         "  fit on estimation data: simulation {:.2} % (zero IC {:.2} %), one-step prediction {:.2} %",
         est_fits.simulation_percent,
         est_fits.simulation_zero_ic_percent,
         est_fits.prediction_percent
     );
     if let (Some(f), Some(v)) = (&val_fits, &p.val) {
-        println!(
+        say!(
             "  fit on validation data ({}): simulation {:.2} % (zero IC {:.2} %), one-step prediction {:.2} %",
-            v.label, f.simulation_percent, f.simulation_zero_ic_percent, f.prediction_percent
+            v.label,
+            f.simulation_percent,
+            f.simulation_zero_ic_percent,
+            f.prediction_percent
         );
     }
-    println!(
+    say!(
         "  residuals: {} (max |r_ee| {:.3}, 99 % bound {:.3}, lags 1..{}); {} of input (max |r_eu| {:.3}, bound {:.3})",
         if white.white { "white" } else { "NOT white" },
         white.max_autocorr,
@@ -700,9 +798,9 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         white.cross_bound
     );
     if let Some(n) = noise_note {
-        println!("  note: {n}");
+        say!("  note: {n}");
     }
-    println!(
+    say!(
         "  poles ({}): {}",
         if stable { "stable" } else { "UNSTABLE" },
         poles
@@ -711,12 +809,12 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    println!("  DC gain {:.6}", tf.dc_gain());
+    say!("  DC gain {:.6}", tf.dc_gain());
     if let Some(path) = &out.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
-    if let Some(path) = &out.plot {
-        println!("wrote {}", path.display());
+    for path in out.plot.iter().chain(&out.plot_compare) {
+        say!("wrote {}", path.display());
     }
     Ok(())
 }
@@ -738,13 +836,7 @@ fn run_arx(a: ArxArgs) -> anyhow::Result<()> {
             ts: p.ts,
             ..Default::default()
         };
-        let s = arx_struct(
-            &p.est.u,
-            &p.est.y,
-            p.val.as_ref().map(|v| (&v.u[..], &v.y[..])),
-            &sp,
-        )
-        .map_err(|e| ident_err(&p.source, e))?;
+        let s = search(&p, &sp)?;
         let (o, rule) = pick(&s, a.rule)?;
         start = Some(s.start);
         eprintln!(
@@ -821,9 +913,11 @@ fn run_oe(a: OeArgs) -> anyhow::Result<()> {
     op.ts = p.ts;
     op.max_iterations = a.max_iter;
     op.start = match a.start {
+        StartArg::Best => OeStart::Best,
         StartArg::Iv => OeStart::Iv,
         StartArg::Arx => OeStart::Arx,
     };
+    op.estimate_initial = a.initial == InitialArg::Estimate;
     let bar = indicatif::ProgressBar::new_spinner();
     bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
     let est = oe(&p.est.u, &p.est.y, &op, &mut |pr| {
@@ -846,6 +940,7 @@ fn run_oe(a: OeArgs) -> anyhow::Result<()> {
         est.start_loss,
         est.criteria.loss,
         match a.start {
+            StartArg::Best => "best of IV/ARX",
             StartArg::Iv => "IV",
             StartArg::Arx => "ARX",
         }
@@ -861,7 +956,7 @@ fn run_oe(a: OeArgs) -> anyhow::Result<()> {
         noise_variance: est.noise_variance,
         condition_number: est.condition_number,
         noise: NoiseModel::OutputError,
-        extra: json!({"iterations": est.iterations, "converged": est.converged, "start_loss": est.start_loss, "iterations_note": note}),
+        extra: json!({"iterations": est.iterations, "converged": est.converged, "start_loss": est.start_loss, "initial_conditions": est.initial_conditions, "iterations_note": note}),
     };
     finish(&p, r, &a.out)
 }
@@ -900,13 +995,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         nk: parse_range(&a.nk, "nk")?,
         ts: p.ts,
     };
-    let s: StructSearch = arx_struct(
-        &p.est.u,
-        &p.est.y,
-        p.val.as_ref().map(|v| (&v.u[..], &v.y[..])),
-        &sp,
-    )
-    .map_err(|e| ident_err(&p.source, e))?;
+    let s: StructSearch = search(&p, &sp)?;
     let nk_lo = *sp.nk.iter().min().unwrap_or(&0);
     let nk_hi = *sp.nk.iter().max().unwrap_or(&0);
     let delay = delay_estimate(&p.est.u, &p.est.y, 2, 2, nk_lo..=nk_hi).ok();
@@ -957,7 +1046,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         }
         return print_json(&doc);
     }
-    println!(
+    say!(
         "ARX structure selection on {} ({} samples, Ts = {} s), {} candidates{}",
         p.est.label,
         p.est.y.len(),
@@ -969,15 +1058,23 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         }
     );
     if let Some((nk, _)) = &delay {
-        println!("  delay estimate (ARX [2 2 nk], nk in {nk_lo}..{nk_hi}): {nk} samples");
+        say!("  delay estimate (ARX [2 2 nk], nk in {nk_lo}..{nk_hi}): {nk} samples");
     }
-    println!(
+    say!(
         "  {:>3} {:>3} {:>3} {:>13} {:>13} {:>13} {:>10} {:>13} {:>9}",
-        "na", "nb", "nk", "loss(est)", "FPE", "MDL", "nAIC", "loss(val)", "fit(val)%"
+        "na",
+        "nb",
+        "nk",
+        "loss(est)",
+        "FPE",
+        "MDL",
+        "nAIC",
+        "loss(val)",
+        "fit(val)%"
     );
     for &i in order.iter().take(a.top) {
         let r = &s.rows[i];
-        println!(
+        say!(
             "  {:>3} {:>3} {:>3} {:>13.6e} {:>13.6e} {:>13.6e} {:>10.4} {:>13} {:>9}",
             r.orders.na,
             r.orders.nb,
@@ -994,7 +1091,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
                 .unwrap_or_else(|| "-".into()),
         );
     }
-    println!(
+    say!(
         "  best: AIC {}  FPE {}  MDL {}{}",
         s.best_aic,
         s.best_fpe,
@@ -1004,19 +1101,19 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
             _ => String::new(),
         }
     );
-    print!("  recommended ({rule}) {best}");
+    say_part!("  recommended ({rule}) {best}");
     if let Some(f) = val_fit {
-        print!(": validation simulation fit {f:.2} %");
+        say_part!(": validation simulation fit {f:.2} %");
     }
-    println!();
+    say!();
     if !s.skipped.is_empty() {
-        println!(
+        say!(
             "  {} candidates skipped (singular or too short)",
             s.skipped.len()
         );
     }
     if let Some(path) = &a.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

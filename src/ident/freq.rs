@@ -72,6 +72,37 @@ pub struct FreqResponse {
     pub segment_len: usize,
 }
 
+impl FreqResponse {
+    /// Phase in degrees, unwrapped along the grid; NaN at bins without
+    /// input power (which the unwrapping skips).
+    pub fn phase_deg_unwrapped(&self) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.response.len());
+        let mut offset = 0.0;
+        let mut prev: Option<f64> = None;
+        for v in &self.response {
+            if !v.re.is_finite() {
+                out.push(f64::NAN);
+                continue;
+            }
+            let raw = v.arg().to_degrees();
+            if let Some(p) = prev {
+                let mut d = raw + offset - p;
+                while d > 180.0 {
+                    offset -= 360.0;
+                    d -= 360.0;
+                }
+                while d < -180.0 {
+                    offset += 360.0;
+                    d += 360.0;
+                }
+            }
+            prev = Some(raw + offset);
+            out.push(raw + offset);
+        }
+        out
+    }
+}
+
 /// Default Welch segment length for `n` samples.
 pub fn default_segment(n: usize) -> usize {
     let target = (n / 8).clamp(64, 8192);

@@ -73,6 +73,7 @@ pub struct IvEstimate {
     pub converged: bool,
 }
 
+#[derive(Clone)]
 struct IvStep {
     theta: Vec<f64>,
     cond: f64,
@@ -200,6 +201,14 @@ pub fn iv(u: &[f64], y: &[f64], params: &IvParams) -> Result<IvEstimate, IdentEr
     let mut iterations = 0;
     let mut converged = o.na == 0; // an FIR model is ARX = IV
     let mut last: Option<IvStep> = None;
+    // Simulation loss (initial conditions fitted) of an iterate: the IV
+    // iteration is not a descent method, so on hard data (short records of
+    // lightly damped systems) it can wander; the best iterate is returned.
+    let sim_loss = |m: &PolyModel| {
+        let s = m.simulate_fit_ic(u, y);
+        y.iter().zip(&s).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / y.len() as f64
+    };
+    let mut best: Option<(f64, PolyModel, Option<IvStep>)> = None;
     while !converged && iterations < params.max_iterations {
         let step = iv_step(u, y, &model, o, params.prefilter)?;
         iterations += 1;
@@ -218,11 +227,18 @@ pub fn iv(u: &[f64], y: &[f64], params: &IvParams) -> Result<IvEstimate, IdentEr
         next.a = stabilize(&next.a);
         model = next;
         converged = change <= params.tolerance * norm.max(f64::MIN_POSITIVE);
+        let l = sim_loss(&model);
+        if l.is_finite() && best.as_ref().is_none_or(|b| l < b.0) {
+            best = Some((l, model.clone(), Some(step.clone())));
+        }
         last = Some(step);
     }
-    let sim = model.simulate(u);
-    let n0 = o.memory();
-    let resid: Vec<f64> = y[n0..].iter().zip(&sim[n0..]).map(|(a, b)| a - b).collect();
+    if !converged && let Some((_, m, step)) = best {
+        model = m;
+        last = step;
+    }
+    let sim = model.simulate_fit_ic(u, y);
+    let resid: Vec<f64> = y.iter().zip(&sim).map(|(a, b)| a - b).collect();
     let rows = resid.len();
     let d = o.params();
     if rows <= d {

@@ -29,10 +29,14 @@ use super::regress::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize
 /// Where the iteration starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum OeStart {
-    /// Refined IV (default): consistent under output noise.
+    /// Whichever of IV and ARX simulates the data better (default): IV is
+    /// consistent under output noise, but on short records of lightly
+    /// damped systems its iteration can wander while ARX is close.
     #[default]
+    Best,
+    /// Refined IV: consistent under output noise.
     Iv,
-    /// Plain ARX: biased under output noise, a worse start.
+    /// Plain ARX: biased under output noise.
     Arx,
 }
 
@@ -43,8 +47,15 @@ pub struct OeParams {
     pub orders: Orders,
     /// Sample time (seconds); default 1.
     pub ts: f64,
-    /// Start estimate (default [`OeStart::Iv`]).
+    /// Start estimate (default [`OeStart::Best`]).
     pub start: OeStart,
+    /// Estimate the initial conditions together with the model (default
+    /// true, MATLAB `InitialCondition = 'estimate'`): the simulation then
+    /// starts from the state that fits the record, so a record that begins
+    /// mid-motion does not bias `B/F` through the start-up transient. They
+    /// enter as weights `c_j` of `h(k - j)`, `h` the impulse response of
+    /// `1/F`, `j < max(nf, nb + nk - 1)`.
+    pub estimate_initial: bool,
     /// Maximum LM iterations (default 100).
     pub max_iterations: usize,
     /// Stop when the relative loss decrease of an accepted step is below
@@ -60,7 +71,8 @@ impl OeParams {
         OeParams {
             orders,
             ts: 1.0,
-            start: OeStart::Iv,
+            start: OeStart::Best,
+            estimate_initial: true,
             max_iterations: 100,
             tolerance: 1e-10,
             initial_damping: 1e-4,
@@ -86,6 +98,10 @@ pub struct OeProgress {
 pub struct OeEstimate {
     /// `z^-nk B/F` (`a` holds `F`).
     pub model: PolyModel,
+    /// Estimated initial conditions (see [`OeParams::estimate_initial`];
+    /// empty when not estimated). `model.simulate_ic(u, ic)` reproduces the
+    /// fitted output.
+    pub initial_conditions: Vec<f64>,
     /// Standard deviations of `f1 .. f_nf`.
     pub std_f: Vec<f64>,
     /// Standard deviations of `b0 ..`.
@@ -104,35 +120,51 @@ pub struct OeEstimate {
     pub converged: bool,
 }
 
-fn theta_of(m: &PolyModel) -> Vec<f64> {
-    m.a[1..].iter().chain(&m.b).copied().collect()
+/// Model and initial conditions as one parameter vector `[f, b, c]`.
+fn theta_of(m: &PolyModel, ic: &[f64]) -> Vec<f64> {
+    m.a[1..].iter().chain(&m.b).chain(ic).copied().collect()
 }
 
-fn model_of(theta: &[f64], o: Orders, ts: f64) -> PolyModel {
+fn model_of(theta: &[f64], o: Orders, ts: f64) -> (PolyModel, Vec<f64>) {
     let mut a = vec![1.0];
     a.extend_from_slice(&theta[..o.na]);
-    PolyModel {
-        a,
-        b: theta[o.na..].to_vec(),
-        nk: o.nk,
-        ts,
-    }
+    let d = o.params();
+    (
+        PolyModel {
+            a,
+            b: theta[o.na..d].to_vec(),
+            nk: o.nk,
+            ts,
+        },
+        theta[d..].to_vec(),
+    )
 }
 
-fn loss_of(m: &PolyModel, u: &[f64], y: &[f64]) -> (f64, Vec<f64>) {
-    let sim = m.simulate(u);
+fn loss_of(m: &PolyModel, ic: &[f64], u: &[f64], y: &[f64]) -> (f64, Vec<f64>) {
+    let sim = m.simulate_ic(u, ic);
     let sse: f64 = y.iter().zip(&sim).map(|(a, b)| (a - b).powi(2)).sum();
     (sse / y.len() as f64, sim)
 }
 
-/// Triangle of `[J | e]` with `J = d y_hat / d theta`, `e = y - y_hat`.
-fn jacobian_triangle(m: &PolyModel, u: &[f64], y: &[f64], sim: &[f64]) -> super::regress::Triangle {
-    let o_na = m.na();
-    let d = o_na + m.nb();
+/// Triangle of `[J | e]` with `J = d y_hat / d [f, b, c]`, `e = y - y_hat`.
+fn jacobian_triangle(
+    m: &PolyModel,
+    nic: usize,
+    u: &[f64],
+    y: &[f64],
+    sim: &[f64],
+) -> super::regress::Triangle {
+    let na = m.na();
+    let d = na + m.nb();
     let uf = filter_ab(&[1.0], &m.a, 0, u);
     let yf = filter_ab(&[1.0], &m.a, 0, sim);
+    let mut imp = vec![0.0; y.len()];
+    if let Some(first) = imp.first_mut() {
+        *first = 1.0;
+    }
+    let h = filter_ab(&[1.0], &m.a, 0, &imp);
     let nk = m.nk;
-    triangularize(d + 1, y.len(), DEFAULT_BLOCK_ROWS, |j, s, out| {
+    triangularize(d + nic + 1, y.len(), DEFAULT_BLOCK_ROWS, |j, s, out| {
         // Shifted copy `sign * src(k - lag)`, zero before the record.
         let shifted = |out: &mut [f64], src: &[f64], lag: usize, sign: f64| {
             for (r, o) in out.iter_mut().enumerate() {
@@ -140,10 +172,12 @@ fn jacobian_triangle(m: &PolyModel, u: &[f64], y: &[f64], sim: &[f64]) -> super:
                 *o = if k >= lag { sign * src[k - lag] } else { 0.0 };
             }
         };
-        if j < o_na {
+        if j < na {
             shifted(out, &yf, j + 1, -1.0);
         } else if j < d {
-            shifted(out, &uf, nk + j - o_na, 1.0);
+            shifted(out, &uf, nk + j - na, 1.0);
+        } else if j < d + nic {
+            shifted(out, &h, j - d, 1.0);
         } else {
             for (r, o) in out.iter_mut().enumerate() {
                 *o = y[s + r] - sim[s + r];
@@ -161,32 +195,66 @@ pub fn oe(
 ) -> Result<OeEstimate, IdentError> {
     check_signals(u, y)?;
     let o = params.orders;
-    let start_model = match params.start {
-        OeStart::Iv => {
-            let mut p = IvParams::new(o);
-            p.ts = params.ts;
-            iv(u, y, &p)?.model
-        }
-        OeStart::Arx => {
-            let mut p = ArxParams::new(o);
-            p.ts = params.ts;
-            arx(u, y, &p)?.model
+    let n = y.len();
+    let d = o.params();
+    let nic = if params.estimate_initial {
+        o.memory().min(n / 4)
+    } else {
+        0
+    };
+    // Each candidate start, stabilised, with its fitted initial conditions.
+    let prepare = |mut m: PolyModel| {
+        m.a = stabilize(&m.a);
+        let mut ic = if nic > 0 {
+            m.initial_conditions(u, y)
+        } else {
+            Vec::new()
+        };
+        ic.resize(nic, 0.0);
+        let (l, _) = loss_of(&m, &ic, u, y);
+        (m, ic, l)
+    };
+    let arx_start = || {
+        let mut p = ArxParams::new(o);
+        p.ts = params.ts;
+        arx(u, y, &p).map(|e| prepare(e.model))
+    };
+    let iv_start = || {
+        let mut p = IvParams::new(o);
+        p.ts = params.ts;
+        iv(u, y, &p).map(|e| prepare(e.model))
+    };
+    let (mut model, mut ic, _) = match params.start {
+        OeStart::Iv => iv_start()?,
+        OeStart::Arx => arx_start()?,
+        OeStart::Best => {
+            let a = arx_start()?;
+            match iv_start() {
+                Ok(i) if i.2 <= a.2 || !a.2.is_finite() => i,
+                _ => a,
+            }
         }
     };
-    let mut model = start_model;
-    model.a = stabilize(&model.a);
-    let d = o.params();
-    let n = y.len();
-    let (mut loss, mut sim) = loss_of(&model, u, y);
+    if n <= d + nic {
+        return Err(IdentError::TooShort {
+            samples: n,
+            rows: n,
+            needed: d + nic + 1,
+            params: d,
+            orders: o.to_string(),
+        });
+    }
+    let (mut loss, mut sim) = loss_of(&model, &ic, u, y);
     let start_loss = loss;
+    let dt = d + nic;
     let mut mu = params.initial_damping;
     let mut iterations = 0;
     let mut converged = false;
     while iterations < params.max_iterations {
         iterations += 1;
-        let tri = jacobian_triangle(&model, u, y, &sim);
-        let theta = theta_of(&model);
-        let scale: Vec<f64> = (0..d)
+        let tri = jacobian_triangle(&model, nic, u, y, &sim);
+        let theta = theta_of(&model, &ic);
+        let scale: Vec<f64> = (0..dt)
             .map(|j| {
                 (0..=j)
                     .map(|i| tri.r[(i, j)].powi(2))
@@ -199,12 +267,12 @@ pub fn oe(
         for _ in 0..30 {
             // Damped step from [R11; sqrt(mu) D] d = [r12; 0].
             let sq = mu.sqrt();
-            let small = triangularize(d + 1, 2 * d, 2 * d, |j, s, out| {
+            let small = triangularize(dt + 1, 2 * dt, 2 * dt, |j, s, out| {
                 for (r, o) in out.iter_mut().enumerate() {
                     let i = s + r;
-                    *o = if i < d {
-                        if j <= d && i <= j { tri.r[(i, j)] } else { 0.0 }
-                    } else if j == i - d {
+                    *o = if i < dt {
+                        if i <= j { tri.r[(i, j)] } else { 0.0 }
+                    } else if j == i - dt {
                         sq * scale[j]
                     } else {
                         0.0
@@ -216,12 +284,12 @@ pub fn oe(
                 continue;
             };
             let trial: Vec<f64> = theta.iter().zip(&step.theta).map(|(a, b)| a + b).collect();
-            let cand = model_of(&trial, o, params.ts);
+            let (cand, cand_ic) = model_of(&trial, o, params.ts);
             if cand.is_stable() {
-                let (l, s) = loss_of(&cand, u, y);
+                let (l, s) = loss_of(&cand, &cand_ic, u, y);
                 if l.is_finite() && l < loss {
                     let norm = step.theta.iter().map(|v| v * v).sum::<f64>().sqrt();
-                    accepted = Some((cand, l, s, norm));
+                    accepted = Some((cand, cand_ic, l, s, norm));
                     break;
                 }
             }
@@ -231,9 +299,10 @@ pub fn oe(
             }
         }
         match accepted {
-            Some((cand, l, s, norm)) => {
+            Some((cand, cand_ic, l, s, norm)) => {
                 let rel = (loss - l) / loss.max(f64::MIN_POSITIVE);
                 model = cand;
+                ic = cand_ic;
                 loss = l;
                 sim = s;
                 mu = (mu / 10.0).max(1e-12);
@@ -262,26 +331,20 @@ pub fn oe(
             }
         }
     }
-    if n <= d {
-        return Err(IdentError::TooShort {
-            samples: n,
-            rows: n,
-            needed: d + 1,
-            params: d,
-            orders: o.to_string(),
-        });
-    }
-    let tri = jacobian_triangle(&model, u, y, &sim);
+    let tri = jacobian_triangle(&model, nic, u, y, &sim);
     let sse = loss * n as f64;
-    let lambda = sse / (n - d) as f64;
+    // The initial conditions are parameters too: they use up degrees of
+    // freedom and their uncertainty widens that of B and F.
+    let lambda = sse / (n - dt) as f64;
     let (sd, cond) = match solve_triangle(&tri) {
         Ok(sol) => (std_devs(&sol.r_inv, lambda), sol.condition_number),
-        Err(_) => (vec![f64::NAN; d], f64::INFINITY),
+        Err(_) => (vec![f64::NAN; dt], f64::INFINITY),
     };
     Ok(OeEstimate {
         std_f: sd[..o.na].to_vec(),
-        std_b: sd[o.na..].to_vec(),
+        std_b: sd[o.na..d].to_vec(),
         model,
+        initial_conditions: ic,
         noise_variance: lambda,
         criteria: Criteria::new(loss, n, d),
         condition_number: cond,

@@ -131,6 +131,18 @@ pub fn arx_struct(
     val: Option<(&[f64], &[f64])>,
     params: &StructParams,
 ) -> Result<StructSearch, IdentError> {
+    arx_struct_observed(u, y, val, params, &mut |_, _| {})
+}
+
+/// [`arx_struct`], calling `observer(done, total)` after each candidate
+/// (for a progress bar: a 1100-candidate grid on 1e6 samples takes a while).
+pub fn arx_struct_observed(
+    u: &[f64],
+    y: &[f64],
+    val: Option<(&[f64], &[f64])>,
+    params: &StructParams,
+    observer: &mut dyn FnMut(usize, usize),
+) -> Result<StructSearch, IdentError> {
     check_signals(u, y)?;
     if let Some((uv, yv)) = val {
         check_signals(uv, yv)?;
@@ -154,6 +166,8 @@ pub fn arx_struct(
         })
         .max()
         .unwrap_or(0);
+    let total = params.na.len() * params.nb.len() * params.nk.len();
+    let mut done = 0;
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
     let mut first_err = None;
@@ -189,6 +203,8 @@ pub fn arx_struct(
                         first_err.get_or_insert(e);
                     }
                 }
+                done += 1;
+                observer(done, total);
             }
         }
     }
