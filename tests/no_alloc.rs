@@ -1,24 +1,31 @@
-//! The per-sample filter step must not allocate: a counting global allocator
-//! sees every allocation of this test binary.
+//! The per-sample filter and runtime steps must not allocate: a counting
+//! global allocator counts the allocations of the current thread (the test
+//! harness runs tests on parallel threads, whose allocations must not count).
 
 use fts::lti::{DiscreteTf, TdfFilter};
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::cell::Cell;
 
 struct Counting;
 
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn allocations() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        ALLOCATIONS.with(|c| c.set(c.get() + 1));
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        ALLOCATIONS.with(|c| c.set(c.get() + 1));
         unsafe { System.realloc(ptr, layout, new_size) }
     }
 }
@@ -38,14 +45,14 @@ fn filter_step_does_not_allocate() {
     let mut filter = TdfFilter::new(&g);
     let input: Vec<f64> = (0..10_000).map(|k| (k as f64 * 0.01).sin()).collect();
     let mut output = vec![0.0; input.len()];
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = allocations();
     let mut acc = 0.0;
     for &x in &input {
         acc += filter.step(x);
     }
     filter.reset();
     filter.run(&input, &mut output);
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = allocations();
     assert_eq!(after - before, 0, "the filter allocated");
     assert!(acc.is_finite() && output[9_999].is_finite());
 }
@@ -82,14 +89,14 @@ fn runtime_controller_step_does_not_allocate() {
         },
     };
     let mut rt = RuntimeController::new(&spec).unwrap();
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = allocations();
     let mut acc = 0.0;
     for k in 0..10_000 {
         let r = 5.0 + (k as f64 * 0.01).sin();
         acc += rt.step(r, r - 0.01);
     }
     rt.reset();
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = allocations();
     assert_eq!(after - before, 0, "the runtime step allocated");
     assert!(acc.is_finite());
 }
