@@ -55,7 +55,12 @@ pub struct EmitArgs {
     #[arg(long, value_enum, default_value_t = Format::Json)]
     format: Format,
     /// Write here (default: stdout).
-    #[arg(short, long, value_name = "CONTROLLER.json")]
+    #[arg(
+        short = 'o',
+        long = "out",
+        visible_alias = "output",
+        value_name = "CONTROLLER.json"
+    )]
     output: Option<PathBuf>,
 }
 

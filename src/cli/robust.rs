@@ -72,7 +72,12 @@ pub struct SynthArgs {
     #[arg(long, value_name = "NU")]
     ncon: usize,
     /// Write the controller (`fts.ss/1`) here.
-    #[arg(short, long, value_name = "K.json")]
+    #[arg(
+        short = 'o',
+        long = "out",
+        visible_alias = "output",
+        value_name = "K.json"
+    )]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -255,7 +260,12 @@ pub struct WeightArgs {
     #[arg(long)]
     hf: Option<f64>,
     /// Write the weight (`fts.ss/1`) here.
-    #[arg(short, long, value_name = "W.json")]
+    #[arg(
+        short = 'o',
+        long = "out",
+        visible_alias = "output",
+        value_name = "W.json"
+    )]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -331,7 +341,12 @@ pub struct MixsynArgs {
     #[arg(long, value_name = "WT.json")]
     wt: Option<PathBuf>,
     /// Write the controller (`fts.ss/1`) here.
-    #[arg(short, long, value_name = "K.json")]
+    #[arg(
+        short = 'o',
+        long = "out",
+        visible_alias = "output",
+        value_name = "K.json"
+    )]
     output: Option<PathBuf>,
     /// Write the augmented plant (`fts.ss/1`) here.
     #[arg(long, value_name = "P.json")]
@@ -434,7 +449,12 @@ pub struct C2dArgs {
     #[arg(long, value_name = "HZ")]
     prewarp: Option<f64>,
     /// Write the discrete system (`fts.ss/1`) here.
-    #[arg(short, long, value_name = "OUT.json")]
+    #[arg(
+        short = 'o',
+        long = "out",
+        visible_alias = "output",
+        value_name = "OUT.json"
+    )]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]

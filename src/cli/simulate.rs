@@ -90,7 +90,12 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     kd: f64,
     /// Write the trace (t, r, u, y, e) here.
-    #[arg(short, long, value_name = "TRACE.csv")]
+    #[arg(
+        short = 'o',
+        long = "out",
+        visible_alias = "output",
+        value_name = "TRACE.csv"
+    )]
     output: Option<PathBuf>,
     /// Plot reference, measurement and error to this SVG.
     #[arg(long, value_name = "TRACK.svg")]
