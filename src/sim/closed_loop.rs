@@ -41,18 +41,35 @@ pub fn run<P: Plant>(
     controller: &mut RuntimeController,
     reference: &[f64],
 ) -> Trace {
+    let mut trace = Trace::default();
+    run_into(plant, controller, reference, &mut trace);
+    trace
+}
+
+/// [`run`] into an existing trace, reusing its buffers (no allocation when
+/// they are already large enough): for repeated runs and benchmarks.
+pub fn run_into<P: Plant>(
+    plant: &mut P,
+    controller: &mut RuntimeController,
+    reference: &[f64],
+    trace: &mut Trace,
+) {
     let n = reference.len();
     let preview = controller.preview();
     let last = reference.last().copied().unwrap_or(0.0);
-    let mut trace = Trace {
-        ts: plant.ts(),
-        reference: reference.to_vec(),
-        filtered_reference: Vec::with_capacity(n),
-        feedforward: Vec::with_capacity(n),
-        command: Vec::with_capacity(n),
-        measurement: Vec::with_capacity(n),
-        position: Vec::with_capacity(n),
-    };
+    trace.ts = plant.ts();
+    trace.reference.clear();
+    trace.reference.extend_from_slice(reference);
+    for v in [
+        &mut trace.filtered_reference,
+        &mut trace.feedforward,
+        &mut trace.command,
+        &mut trace.measurement,
+        &mut trace.position,
+    ] {
+        v.clear();
+        v.reserve(n);
+    }
     for k in 0..n {
         let ahead = *reference.get(k + preview).unwrap_or(&last);
         trace.position.push(plant.true_output());
@@ -64,7 +81,6 @@ pub fn run<P: Plant>(
         trace.command.push(u);
         trace.measurement.push(y);
     }
-    trace
 }
 
 /// Tracking figures over the evaluated window.
