@@ -339,31 +339,7 @@ impl RuntimeController {
     /// is `x(k)`. Returns the command `u(k)` within the PID's limits.
     #[inline]
     pub fn step(&mut self, reference_ahead: f64, measurement: f64) -> f64 {
-        let filtered = match &mut self.zpetc {
-            Some(z) => tdf2_step(z, reference_ahead),
-            None => reference_ahead,
-        };
-        let feedforward = match &mut self.hysteresis {
-            Some(h) => hysteresis_step(h, filtered),
-            None => 0.0,
-        };
-        let p = &mut self.pid;
-        let mut previous = if p.started {
-            Some(p.previous_measurement)
-        } else {
-            None
-        };
-        let command = pid_step(
-            &p.spec,
-            &mut p.integral,
-            &mut previous,
-            filtered,
-            measurement,
-            feedforward,
-        );
-        p.previous_measurement = measurement;
-        p.started = true;
-        command
+        self.step_traced(reference_ahead, measurement).2
     }
 
     /// One step with the intermediate signals, for traces: `(r_f, u_ff, u)`.
