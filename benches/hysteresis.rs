@@ -5,12 +5,13 @@
 //! 1M figures).
 //!
 //! * `regressor_qr_{pi,mpi_cbrt}` — the identification core: play operators streamed into
-//!   the blocked Householder QR and the solve (`Regressor::qr` + `solve_from_r`).
+//!   the blocked Householder QR (`ident::ls::StreamingQr`) and the solve
+//!   (`Regressor::qr` + `solve_from_r`).
 //! * `identify` — the whole `identify()` call: the core plus a sample-by-sample
 //!   simulation of the identified model for the fit report.
 //! * `rows_into_ident_ls` — for comparison, the same regression pushed row by
-//!   row into the general `ident::ls::StreamingLstsq` (faer QR per block),
-//!   250k samples only (it is ~8x slower).
+//!   row into `ident::ls::StreamingLstsq` (the same kernel, rows buffered into
+//!   blocks), 250k samples only.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fts::ident::hysteresis::identify::Regressor;

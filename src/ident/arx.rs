@@ -7,7 +7,7 @@
 //! `theta = [a1 .. a_na, b0 .. b_{nb-1}]`, over the rows
 //! `k = n0 .. N-1`, `n0 = max(na, nb + nk - 1)` (every regressor measured, as
 //! MATLAB `arx` does). The regression is reduced by a streaming Householder
-//! QR ([`super::regress`]); never by the normal equations.
+//! QR ([`super::ls`]); never by the normal equations.
 //!
 //! Parameter covariance `P = lambda (Phi^T Phi)^-1 = lambda R^-1 R^-T` with
 //! `lambda = ||e||^2 / (N - d)` (the unbiased noise variance), standard
@@ -16,7 +16,7 @@
 //! says so ([`super::linear::whiteness`]).
 
 use super::linear::{Criteria, IdentError, PolyModel, check_signals};
-use super::regress::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
+use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
 
 /// Orders of a polynomial model: `na` poles, `nb` numerator coefficients,
 /// `nk` samples of input delay (MATLAB `[na nb nk]`).
@@ -152,11 +152,14 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
             out.copy_from_slice(&y[k0..k0 + len]);
         }
     });
-    let sol = solve_triangle(&tri).map_err(|(rank, cond)| IdentError::Singular {
-        rank,
-        params: d,
-        cond,
-        hint: singular_hint(u, o.nb),
+    let sol = solve_triangle(&tri).map_err(|e| {
+        let (rank, cond) = e.rank_and_condition();
+        IdentError::Singular {
+            rank,
+            params: d,
+            cond,
+            hint: singular_hint(u, o.nb),
+        }
     })?;
     let loss = sol.residual_norm.powi(2) / rows as f64;
     let lambda = sol.residual_norm.powi(2) / (rows - d) as f64;

@@ -19,7 +19,7 @@
 
 use super::arx::{ArxParams, Orders, arx, singular_hint};
 use super::linear::{Criteria, IdentError, PolyModel, check_signals, filter_ab, stabilize};
-use super::regress::{DEFAULT_BLOCK_ROWS, triangularize};
+use super::ls::{DEFAULT_BLOCK_ROWS, triangularize};
 use faer::Mat;
 use faer::prelude::Solve;
 

@@ -3,8 +3,8 @@
 //! estimated initial conditions (MATLAB `compare`), the simulation and
 //! one-step prediction fits, and the residual tests (MATLAB `resid`).
 
+use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, triangularize};
 use super::metrics::nrmse_fit_percent;
-use super::regress::{DEFAULT_BLOCK_ROWS, solve_triangle, triangularize};
 use crate::lti::{DiscreteTf, TfError};
 
 /// Why a linear identification failed. All of these are about the data or

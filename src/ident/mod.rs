@@ -4,7 +4,7 @@
 //! [`iv`] (refined instrumental variables), [`oe`] (output error by
 //! Levenberg–Marquardt), [`structure`] (order and delay selection),
 //! [`freq`] (empirical frequency response), sharing [`linear`] (model,
-//! fits, residual tests), [`regress`] (streaming QR) and [`data`]
+//! fits, residual tests), [`ls`] (the streaming QR least-squares engine) and [`data`]
 //! (detrending, splits).
 
 pub mod arx;
@@ -17,7 +17,6 @@ pub mod linear;
 pub mod ls;
 pub mod metrics;
 pub mod oe;
-pub mod regress;
 pub mod structure;
 #[cfg(test)]
 pub(crate) mod testutil;

@@ -9,7 +9,7 @@
 //! with `u_F = u/F`, `y_F = y_hat/F`, so one Jacobian costs two filters.
 //!
 //! Each iteration reduces `[J | e]` by the streaming QR of
-//! [`super::regress`] once (`||J d - e||^2 = ||R11 d - r12||^2 + r22^2`),
+//! [`super::ls`] once (`||J d - e||^2 = ||R11 d - r12||^2 + r22^2`),
 //! then tries damped steps `min ||R11 d - r12||^2 + mu ||D d||^2` (Marquardt
 //! scaling `D` = column norms of `J`) by the QR of the small stacked matrix
 //! `[R11; sqrt(mu) D]`; never the normal equations. A step is accepted when
@@ -24,7 +24,7 @@
 use super::arx::{ArxParams, Orders, arx};
 use super::iv::{IvParams, iv};
 use super::linear::{Criteria, IdentError, PolyModel, check_signals, filter_ab, stabilize};
-use super::regress::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
+use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
 
 /// Where the iteration starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -153,7 +153,7 @@ fn jacobian_triangle(
     u: &[f64],
     y: &[f64],
     sim: &[f64],
-) -> super::regress::Triangle {
+) -> super::ls::Triangle {
     let na = m.na();
     let d = na + m.nb();
     let uf = filter_ab(&[1.0], &m.a, 0, u);

@@ -8,13 +8,12 @@
 //! `(w, g)` and is identified by alternating least squares.
 
 use super::gd::{GdInfo, GdParams, GdState, gd_lstsq};
-use super::lsq::{
-    BLOCK_ROWS, ColMajor, LsError, PartialSumConstraint, QrAccumulator, solve_from_r,
-};
+use super::lsq::{ColMajor, LsError, PartialSumConstraint, qr_of, solve_from_r};
 use super::model::{DeadZoneStage, HysteresisModel, ModelKind};
 use super::operators::{
     PlayOperator, ThresholdError, check_thresholds, dead_zone, uniform_thresholds,
 };
+use crate::ident::ls::StreamingQr;
 use argmin::core::observers::Observe;
 
 /// How the weights are found.
@@ -283,15 +282,16 @@ impl Regressor {
 
     /// Streams `[Phi | y]` through a QR accumulator: the R factor of the
     /// regression, with O(cols^2) memory whatever the record length.
-    pub fn qr(&self, u: &[f64], y: &[f64]) -> QrAccumulator {
+    pub fn qr(&self, u: &[f64], y: &[f64]) -> StreamingQr {
         let cols = self.cols();
-        let mut acc = QrAccumulator::new(cols + 1);
+        let mut acc = StreamingQr::new(cols + 1);
+        let block_rows = acc.block_rows();
         let mut states = vec![PlayOperator::INITIAL_STATE; self.thresholds.len()];
-        for (ub, yb) in u.chunks(BLOCK_ROWS).zip(y.chunks(BLOCK_ROWS)) {
+        for (ub, yb) in u.chunks(block_rows).zip(y.chunks(block_rows)) {
             let mut block = acc.block_cols_mut();
             self.fill(ub, &mut states, &mut block);
             block[cols][..yb.len()].copy_from_slice(yb);
-            acc.fold(ub.len());
+            acc.fold_block(ub.len());
         }
         acc
     }
@@ -618,8 +618,7 @@ where
     O: Observe<GdState> + 'static,
 {
     let cols = a.cols();
-    let mut acc = QrAccumulator::new(cols + 1);
-    acc.push(a, b);
+    let acc = qr_of(a, b);
     let ls = solve_from_r(acc.r(), cols + 1, free, constraint)?;
     match params.method {
         Method::Ls => Ok((ls.x, ls.condition_number, 0, ls.constraint_active)),

@@ -9,14 +9,12 @@
 //! residual norm of the least-squares solution. This is a QR factorisation
 //! (backward stable); the normal equations `Phi^T Phi` are never formed.
 //!
-//! [`crate::ident::ls::StreamingLstsq`] is the crate's general streaming
-//! solver (rows pushed one at a time, faer QR per block). This one is fed
-//! column blocks, as the play operators generate them, and folds with a
-//! structure-aware Householder sweep; on 1e6 x 12 it is about 8x faster
-//! (`cargo bench --bench hysteresis`), which is what identification on long
-//! records needs.
+//! The QR itself is the crate's engine, [`crate::ident::ls::StreamingQr`],
+//! fed column blocks as the play operators generate them ([`qr_of`] for a
+//! materialised regressor); this module adds what is specific to hysteresis
+//! identification: the solve with the partial-sum constraint and NNLS.
 
-use crate::ident::ls::{LstsqParams, lstsq};
+use crate::ident::ls::{LstsqParams, StreamingQr, lstsq};
 use faer::{Mat, MatRef};
 
 /// A dense column-major matrix that hands out its columns as disjoint slices
@@ -72,247 +70,17 @@ impl ColMajor {
     }
 }
 
-/// Rows per block: the block (`BLOCK_ROWS x p+1` doubles, 26 KiB for p = 12)
-/// stays in L1 cache while the reflectors sweep it.
-pub const BLOCK_ROWS: usize = 256;
-
-/// Accumulates the R factor of a tall matrix fed in row blocks.
-#[derive(Debug, Clone)]
-pub struct QrAccumulator {
-    cols: usize,
-    /// Upper triangular factor, column-major `cols x cols`.
-    r: Vec<f64>,
-    /// Current block, column-major with leading dimension `BLOCK_ROWS`.
-    block: Vec<f64>,
-    rows_seen: usize,
-}
-
-impl QrAccumulator {
-    /// An empty accumulator for `cols` columns (regressors and the target).
-    pub fn new(cols: usize) -> Self {
-        Self {
-            cols,
-            r: vec![0.0; cols * cols],
-            block: vec![0.0; BLOCK_ROWS * cols],
-            rows_seen: 0,
-        }
-    }
-
-    /// Number of columns.
-    pub fn cols(&self) -> usize {
-        self.cols
-    }
-
-    /// Rows folded in so far.
-    pub fn rows_seen(&self) -> usize {
-        self.rows_seen
-    }
-
-    /// Column `j` of the block buffer (`BLOCK_ROWS` long) to be filled.
-    pub fn block_col_mut(&mut self, j: usize) -> &mut [f64] {
-        &mut self.block[j * BLOCK_ROWS..(j + 1) * BLOCK_ROWS]
-    }
-
-    /// Every column of the block buffer (`BLOCK_ROWS` long each), disjoint.
-    pub fn block_cols_mut(&mut self) -> Vec<&mut [f64]> {
-        self.block.chunks_mut(BLOCK_ROWS).collect()
-    }
-
-    /// Folds the first `rows` rows of the block buffer into R: one Householder
-    /// reflector per column zeroes the block column against `R[j, j]`.
-    ///
-    /// On x86-64 CPUs with AVX2 and FMA the same kernel is compiled for them
-    /// and picked at run time (the results then differ from the portable path
-    /// by rounding only).
-    pub fn fold(&mut self, rows: usize) {
-        assert!(rows <= BLOCK_ROWS);
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                // SAFETY: the CPU supports the features `fold_avx2` is compiled for.
-                unsafe { fold_avx2(self.cols, &mut self.r, &mut self.block, rows) };
-                self.rows_seen += rows;
-                return;
-            }
-        }
-        fold_kernel::<false>(self.cols, &mut self.r, &mut self.block, rows);
-        self.rows_seen += rows;
-    }
-
-    /// The R factor, column-major `cols x cols` (upper triangular).
-    pub fn r(&self) -> &[f64] {
-        &self.r
-    }
-
-    /// Feeds a whole matrix `[a | b]` (`a` has `cols - 1` columns).
-    pub fn push(&mut self, a: &ColMajor, b: &[f64]) {
-        assert_eq!(a.cols() + 1, self.cols);
-        assert_eq!(a.rows(), b.len());
-        let rows = a.rows();
-        let mut start = 0;
-        while start < rows {
-            let len = (rows - start).min(BLOCK_ROWS);
-            for j in 0..a.cols() {
-                self.block_col_mut(j)[..len].copy_from_slice(&a.col(j)[start..start + len]);
-            }
-            let last = self.cols - 1;
-            self.block_col_mut(last)[..len].copy_from_slice(&b[start..start + len]);
-            self.fold(len);
-            start += len;
-        }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn fold_avx2(n: usize, r: &mut [f64], block: &mut [f64], rows: usize) {
-    fold_kernel::<true>(n, r, block, rows);
-}
-
-/// The Householder sweep of [`QrAccumulator::fold`]. `FMA` selects fused
-/// multiply-adds (only where the CPU has them: `f64::mul_add` is a slow
-/// library call otherwise).
-///
-/// Reflectors are applied two at a time: for the pair `(j, k = j+1)` each
-/// trailing column needs both dot products (one pass over the block) and one
-/// combined update (a second pass), instead of two passes per reflector. With
-/// `H = I - beta v v^T` and the R parts of `v_j`, `v_k` on different rows,
-/// `v_k^T (H_j c) = v_k^T c - s_j (b_k . b_j)`.
-#[inline(always)]
-fn fold_kernel<const FMA: bool>(n: usize, r: &mut [f64], block: &mut [f64], rows: usize) {
-    let ld = BLOCK_ROWS;
-    // Makes the reflector of column j (R[j, j] becomes alpha); None if the
-    // block column is already zero.
-    let reflector = |r: &mut [f64], bj: &[f64], j: usize| -> Option<(f64, f64)> {
-        let sigma = dot::<FMA>(bj, bj);
-        if sigma == 0.0 {
-            return None;
-        }
-        let x = r[j * n + j];
-        let norm = (x * x + sigma).sqrt();
-        // Sign choice avoids cancellation in v0 = x - alpha (Golub & Van Loan 5.1.3).
-        let alpha = if x > 0.0 { -norm } else { norm };
-        let v0 = x - alpha;
-        r[j * n + j] = alpha;
-        Some((v0, 2.0 / (v0 * v0 + sigma)))
-    };
-    let mut j = 0;
-    while j < n {
-        let (head, tail) = block.split_at_mut((j + 1) * ld);
-        let bj = &head[j * ld..j * ld + rows];
-        let Some((v0j, beta_j)) = reflector(r, bj, j) else {
-            j += 1;
-            continue;
-        };
-        if j + 1 == n {
-            break;
-        }
-        // Column k = j + 1 gets H_j alone, then yields the second reflector.
-        let k = j + 1;
-        let (bk_all, rest) = tail.split_at_mut(ld);
-        let bk = &mut bk_all[..rows];
-        let s = beta_j * (v0j * r[k * n + j] + dot::<FMA>(bj, bk));
-        r[k * n + j] -= s * v0j;
-        axpy::<FMA>(-s, bj, bk);
-        let bk = &bk_all[..rows];
-        match reflector(r, bk, k) {
-            Some((v0k, beta_k)) => {
-                let cross = dot::<FMA>(bk, bj);
-                for l in k + 1..n {
-                    let bl = &mut rest[(l - k - 1) * ld..(l - k - 1) * ld + rows];
-                    let (dj, dk) = dot2::<FMA>(bj, bk, bl);
-                    let s_j = beta_j * (v0j * r[l * n + j] + dj);
-                    let s_k = beta_k * (v0k * r[l * n + k] + dk - s_j * cross);
-                    r[l * n + j] -= s_j * v0j;
-                    r[l * n + k] -= s_k * v0k;
-                    axpy2::<FMA>(-s_j, bj, -s_k, bk, bl);
-                }
-            }
-            None => {
-                for l in k + 1..n {
-                    let bl = &mut rest[(l - k - 1) * ld..(l - k - 1) * ld + rows];
-                    let s = beta_j * (v0j * r[l * n + j] + dot::<FMA>(bj, bl));
-                    r[l * n + j] -= s * v0j;
-                    axpy::<FMA>(-s, bj, bl);
-                }
-            }
-        }
-        j += 2;
-    }
-}
-
-/// `(a . c, b . c)` in one pass.
-#[inline(always)]
-fn dot2<const FMA: bool>(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
-    let n = a.len().min(b.len()).min(c.len());
-    let (a, b, c) = (&a[..n], &b[..n], &c[..n]);
-    let mut acc_a = [0.0f64; 4];
-    let mut acc_b = [0.0f64; 4];
-    let chunks = n / 4;
-    for q in 0..chunks {
-        let (xa, xb, xc) = (
-            &a[4 * q..4 * q + 4],
-            &b[4 * q..4 * q + 4],
-            &c[4 * q..4 * q + 4],
-        );
-        for t in 0..4 {
-            acc_a[t] = madd::<FMA>(xa[t], xc[t], acc_a[t]);
-            acc_b[t] = madd::<FMA>(xb[t], xc[t], acc_b[t]);
-        }
-    }
-    let (mut sa, mut sb) = (
-        (acc_a[0] + acc_a[1]) + (acc_a[2] + acc_a[3]),
-        (acc_b[0] + acc_b[1]) + (acc_b[2] + acc_b[3]),
-    );
-    for i in 4 * chunks..n {
-        sa += a[i] * c[i];
-        sb += b[i] * c[i];
-    }
-    (sa, sb)
-}
-
-/// `c += alpha a + beta b` in one pass.
-#[inline(always)]
-fn axpy2<const FMA: bool>(alpha: f64, a: &[f64], beta: f64, b: &[f64], c: &mut [f64]) {
-    for ((ci, ai), bi) in c.iter_mut().zip(a).zip(b) {
-        *ci = madd::<FMA>(beta, *bi, madd::<FMA>(alpha, *ai, *ci));
-    }
-}
-
-#[inline(always)]
-fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
-    if FMA { a.mul_add(b, c) } else { a * b + c }
-}
-
-/// Dot product with eight accumulators so the compiler can vectorise it
-/// without reassociating a single sum.
-#[inline(always)]
-fn dot<const FMA: bool>(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0f64; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
-    for (x, y) in ca.zip(cb) {
-        for t in 0..8 {
-            acc[t] = madd::<FMA>(x[t], y[t], acc[t]);
-        }
-    }
-    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
-}
-
-#[inline(always)]
-fn axpy<const FMA: bool>(alpha: f64, x: &[f64], y: &mut [f64]) {
-    for (yi, xi) in y.iter_mut().zip(x) {
-        *yi = madd::<FMA>(alpha, *xi, *yi);
-    }
+/// The R factor of `[a | b]` (`a.cols() + 1` columns), streamed through
+/// [`StreamingQr`] in blocks.
+pub fn qr_of(a: &ColMajor, b: &[f64]) -> StreamingQr {
+    assert_eq!(a.rows(), b.len());
+    let cols = a.cols();
+    let mut acc = StreamingQr::new(cols + 1);
+    acc.push_blocks(a.rows(), |j, s, out| {
+        let src = if j < cols { a.col(j) } else { b };
+        out.copy_from_slice(&src[s..s + out.len()]);
+    });
+    acc
 }
 
 /// Why a least-squares problem has no usable solution.
@@ -555,7 +323,7 @@ mod tests {
     #[test]
     fn streaming_qr_matches_known_solution() {
         // y = Phi x_true exactly, with rows spread over several blocks.
-        let rows = 3 * BLOCK_ROWS + 17;
+        let rows = 3 * crate::ident::ls::DEFAULT_BLOCK_ROWS + 17;
         let p = 4;
         let x_true = [1.5, -2.0, 0.25, 3.0];
         let mut seed = 7;
@@ -568,8 +336,7 @@ mod tests {
                 *yi += v * xj;
             }
         }
-        let mut acc = QrAccumulator::new(p + 1);
-        acc.push(&a, &y);
+        let acc = qr_of(&a, &y);
         let sol = solve_from_r(acc.r(), p + 1, p, None).unwrap();
         for (a, b) in sol.x.iter().zip(x_true) {
             assert!((a - b).abs() < 1e-13, "{a} vs {b}");
@@ -577,28 +344,6 @@ mod tests {
         assert!(sol.residual_norm < 1e-12);
         // Condition number of a random +-1 uniform matrix is small.
         assert!(sol.condition_number > 1.0 && sol.condition_number < 5.0);
-    }
-
-    #[test]
-    fn portable_and_dispatched_fold_agree() {
-        // The run-time dispatch may pick the AVX2+FMA build; the portable
-        // kernel must give the same R to rounding.
-        let n = 5;
-        let mut seed = 3;
-        let mut acc = QrAccumulator::new(n);
-        let mut r = vec![0.0; n * n];
-        for _ in 0..3 {
-            let mut block = vec![0.0; BLOCK_ROWS * n];
-            for v in block.iter_mut() {
-                *v = lcg(&mut seed);
-            }
-            acc.block.copy_from_slice(&block);
-            acc.fold(BLOCK_ROWS - 7);
-            fold_kernel::<false>(n, &mut r, &mut block, BLOCK_ROWS - 7);
-        }
-        for (a, b) in acc.r().iter().zip(&r) {
-            assert!((a - b).abs() < 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
-        }
     }
 
     #[test]
@@ -623,8 +368,7 @@ mod tests {
             a.col_mut(0)[i] = i as f64;
             a.col_mut(1)[i] = 2.0 * i as f64;
         }
-        let mut acc = QrAccumulator::new(3);
-        acc.push(&a, &vec![1.0; rows]);
+        let acc = qr_of(&a, &vec![1.0; rows]);
         assert!(matches!(
             solve_from_r(acc.r(), 3, 2, None),
             Err(LsError::RankDeficient {
