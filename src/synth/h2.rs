@@ -47,8 +47,8 @@ pub fn h2syn(
 ) -> Result<H2Result, SynthError> {
     if plant.is_discrete() {
         return Err(SynthError::Dimension(
-            "discrete-time H2 synthesis is not implemented: synthesise in continuous time and \
-             discretise the controller with `fts c2d`"
+            "fts synthesises H2 controllers for continuous-time plants only (the plant has a \
+             sample time): synthesise in continuous time and discretise the controller with `fts c2d`"
                 .into(),
         ));
     }
