@@ -105,24 +105,38 @@ pub enum ModelError {
     Inconsistent(String),
 }
 
+/// One operator stage (play or dead zone): valid thresholds, one finite
+/// weight per threshold.
+fn check_stage(
+    thresholds: &[f64],
+    weights: &[f64],
+    thresholds_field: &'static str,
+    weights_field: &'static str,
+) -> Result<(), ModelError> {
+    check_thresholds(thresholds).map_err(|source| ModelError::Thresholds {
+        field: thresholds_field,
+        source,
+    })?;
+    if weights.len() != thresholds.len() {
+        return Err(ModelError::LengthMismatch {
+            field: weights_field,
+            reference: thresholds_field,
+            expected: thresholds.len(),
+            found: weights.len(),
+        });
+    }
+    if weights.iter().any(|w| !w.is_finite()) {
+        return Err(ModelError::NonFinite {
+            field: weights_field,
+        });
+    }
+    Ok(())
+}
+
 impl HysteresisModel {
     /// Checks lengths, thresholds, finiteness and kind consistency.
     pub fn validate(&self) -> Result<(), ModelError> {
-        check_thresholds(&self.thresholds).map_err(|source| ModelError::Thresholds {
-            field: "thresholds",
-            source,
-        })?;
-        if self.weights.len() != self.thresholds.len() {
-            return Err(ModelError::LengthMismatch {
-                field: "weights",
-                reference: "thresholds",
-                expected: self.thresholds.len(),
-                found: self.weights.len(),
-            });
-        }
-        if self.weights.iter().any(|w| !w.is_finite()) {
-            return Err(ModelError::NonFinite { field: "weights" });
-        }
+        check_stage(&self.thresholds, &self.weights, "thresholds", "weights")?;
         for (field, v) in [
             ("cbrt_gain", self.cbrt_gain),
             ("offset", self.offset),
@@ -141,23 +155,12 @@ impl HysteresisModel {
         }
         match (&self.dead_zone, self.kind) {
             (Some(dz), ModelKind::MpiDeadzone) => {
-                check_thresholds(&dz.thresholds).map_err(|source| ModelError::Thresholds {
-                    field: "dead_zone.thresholds",
-                    source,
-                })?;
-                if dz.weights.len() != dz.thresholds.len() {
-                    return Err(ModelError::LengthMismatch {
-                        field: "dead_zone.weights",
-                        reference: "dead_zone.thresholds",
-                        expected: dz.thresholds.len(),
-                        found: dz.weights.len(),
-                    });
-                }
-                if dz.weights.iter().any(|w| !w.is_finite()) {
-                    return Err(ModelError::NonFinite {
-                        field: "dead_zone.weights",
-                    });
-                }
+                check_stage(
+                    &dz.thresholds,
+                    &dz.weights,
+                    "dead_zone.thresholds",
+                    "dead_zone.weights",
+                )?;
             }
             (None, ModelKind::MpiDeadzone) => {
                 return Err(ModelError::Inconsistent(
