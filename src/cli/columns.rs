@@ -5,31 +5,25 @@ use super::common::bad;
 use crate::io::timeseries::{ColumnRef, HeaderMode, IoColumns, IoData, read_io};
 use clap::Args;
 
-/// `--input/--output/--time/--no-header` plus a sample range.
+/// `--input/--output/--time/--no-header`: which columns of a time-series
+/// file hold the record.
 #[derive(Debug, Clone, Args)]
-pub struct IoColumnArgs {
+pub struct ColumnArgs {
     /// Input column: header name or 1-based index (default `u`, or column 1 without a header).
     #[arg(long, value_name = "COL")]
     pub input: Option<String>,
     /// Output column: header name or 1-based index (default `y`, or column 2 without a header).
     #[arg(long, value_name = "COL")]
     pub output: Option<String>,
-    /// Time column (default `t` when the header has it).
+    /// Time column (default `t` when the header has it); must be uniform.
     #[arg(long, value_name = "COL")]
     pub time: Option<String>,
     /// The file has no header row.
     #[arg(long)]
     pub no_header: bool,
-    /// First sample used (0-based row index among the data rows), e.g. where
-    /// the excitation starts.
-    #[arg(long, value_name = "SAMPLE", default_value_t = 0)]
-    pub start: usize,
-    /// One past the last sample used (default: the end of the record).
-    #[arg(long, value_name = "SAMPLE")]
-    pub end: Option<usize>,
 }
 
-impl IoColumnArgs {
+impl ColumnArgs {
     /// The reader's column choice.
     pub fn columns(&self) -> IoColumns {
         IoColumns {
@@ -43,10 +37,26 @@ impl IoColumnArgs {
             },
         }
     }
+}
 
+/// [`ColumnArgs`] plus a sample range.
+#[derive(Debug, Clone, Args)]
+pub struct IoColumnArgs {
+    #[command(flatten)]
+    pub columns: ColumnArgs,
+    /// First sample used (0-based row index among the data rows), e.g. where
+    /// the excitation starts.
+    #[arg(long, value_name = "SAMPLE", default_value_t = 0)]
+    pub start: usize,
+    /// One past the last sample used (default: the end of the record).
+    #[arg(long, value_name = "SAMPLE")]
+    pub end: Option<usize>,
+}
+
+impl IoColumnArgs {
     /// Reads the record and cuts it to `start..end`.
     pub fn read(&self, text: &str, source: &str) -> anyhow::Result<IoData> {
-        let mut data = read_io(text, source, &self.columns(), 1)?;
+        let mut data = read_io(text, source, &self.columns.columns(), 1)?;
         let n = data.input.len();
         let end = self.end.unwrap_or(n);
         if end > n || self.start >= end {

@@ -5,6 +5,7 @@
 //! `--no-header`); since `--output` names the output *column*, the result
 //! file is `-o FILE` (long form `--out`).
 
+use super::columns::ColumnArgs;
 use super::common::{bad, complex_pairs, fmt_complex, print_json, read_input, write_atomic};
 use crate::ident::arx::{ArxParams, Orders, arx, arx_residuals};
 use crate::ident::data::{Detrend, detrend, split_point};
@@ -19,7 +20,7 @@ use crate::ident::structure::{
 };
 use crate::io::plot::{Series, stacked_charts_svg};
 use crate::io::tf_json;
-use crate::io::timeseries::{ColumnRef, HeaderMode, IoColumns, read_io};
+use crate::io::timeseries::read_io;
 use crate::lti::{Bode, TransferFunction};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value, json};
@@ -84,18 +85,8 @@ pub struct DataArgs {
     /// Input/output record (CSV or whitespace-separated, e.g. DaISy .dat).
     #[arg(value_name = "DATA")]
     pub data: PathBuf,
-    /// Input column: header name or 1-based index (default `u`, or column 1 without header).
-    #[arg(long, value_name = "COL")]
-    pub input: Option<String>,
-    /// Output column: header name or 1-based index (default `y`, or column 2 without header).
-    #[arg(long, value_name = "COL")]
-    pub output: Option<String>,
-    /// Time column (default `t` when the header has one); must be uniform.
-    #[arg(long, value_name = "COL")]
-    pub time: Option<String>,
-    /// The file has no header row.
-    #[arg(long)]
-    pub no_header: bool,
+    #[command(flatten)]
+    pub columns: ColumnArgs,
     /// Sample time in seconds (required when the file has no time column).
     #[arg(long, value_name = "SECONDS")]
     pub ts: Option<f64>,
@@ -312,19 +303,6 @@ pub struct Prepared {
     pub source: String,
 }
 
-fn columns(d: &DataArgs) -> IoColumns {
-    IoColumns {
-        input: d.input.as_deref().map(ColumnRef::parse),
-        output: d.output.as_deref().map(ColumnRef::parse),
-        time: d.time.as_deref().map(ColumnRef::parse),
-        header: if d.no_header {
-            HeaderMode::Absent
-        } else {
-            HeaderMode::Detect
-        },
-    }
-}
-
 fn resolve_ts(file_ts: Option<f64>, arg: Option<f64>, source: &str) -> anyhow::Result<f64> {
     match (file_ts, arg) {
         (_, Some(ts)) if !(ts.is_finite() && ts > 0.0) => Err(bad(format!(
@@ -344,7 +322,7 @@ fn resolve_ts(file_ts: Option<f64>, arg: Option<f64>, source: &str) -> anyhow::R
 /// Reads, splits and detrends the data as the options say.
 pub fn prepare(d: &DataArgs) -> anyhow::Result<Prepared> {
     let source = d.data.display().to_string();
-    let cols = columns(d);
+    let cols = d.columns.columns();
     let io = read_io(&read_input(&d.data)?, &source, &cols, 2)?;
     let ts = resolve_ts(io.ts, d.ts, &source)?;
     let how: Detrend = d.detrend.into();
