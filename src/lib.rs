@@ -19,6 +19,7 @@ pub mod cli;
 pub mod ident;
 pub mod io;
 pub mod lti;
+pub mod pipeline;
 pub mod runtime;
 pub mod sim;
 pub mod synth;

@@ -51,32 +51,8 @@ pub fn read_input(path: &Path) -> anyhow::Result<String> {
 /// flushed and synced, then renamed over the target. On any error the target
 /// is untouched and the temporary file is removed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".fts-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .with_context(|| {
-            format!(
-                "{}: cannot create a temporary file in {}",
-                path.display(),
-                dir.display()
-            )
-        })?;
-    tmp.write_all(bytes)
-        .and_then(|_| tmp.as_file().sync_all())
-        .with_context(|| format!("{}: write failed", path.display()))?;
-    tmp.persist(path).map_err(|e| {
-        anyhow::anyhow!(
-            "{}: cannot move the result into place: {}",
-            path.display(),
-            e.error
-        )
-    })?;
-    Ok(())
+    crate::pipeline::write_atomic(path, bytes)
+        .with_context(|| format!("{}: cannot write the output atomically", path.display()))
 }
 
 /// Prints exactly one JSON object on stdout (the `--json` contract).

@@ -9,6 +9,7 @@
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
 mod bode;
+mod build;
 mod columns;
 mod common;
 mod demo;
@@ -38,6 +39,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Rebuild the outputs of a pipeline manifest (fts.toml) whose inputs changed; --check only reports.
+    Build(build::BuildArgs),
     /// Run the whole Li21 pipeline on the embedded virtual FTS: identify, compensate, ZPETC, verify, emit.
     Demo(demo::DemoArgs),
     /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
@@ -96,6 +99,7 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Build(args) => build::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Excite(args) => excite::run(args),
         Command::Identify(cmd) => identify::run(cmd),

@@ -248,48 +248,52 @@ pub fn track(
     Ok((trace, metrics))
 }
 
-/// Steps 1-3: what fts identifies from the virtual FTS (never from its
-/// true parameters): the inverse hysteresis model, the PID + HC closed-loop
-/// model and its ZPETC.
-pub fn identify_models(
-    params: &ExperimentParams,
-    observer: &mut dyn FnMut(Progress),
-) -> Result<IdentifiedModels, ExperimentError> {
-    let ts = params.plant.ts;
-    let timing = ReferenceTiming {
-        ts,
-        ..ReferenceTiming::default()
-    };
-
-    // 1. Open-loop triangles, inverse hysteresis identified directly.
-    observer(Progress::Step("open-loop triangle excitation"));
+/// The open-loop triangle record of step 1: the command (V) and the
+/// measured displacement (um), unaligned.
+pub fn triangle_record(params: &ExperimentParams) -> Result<(Vec<f64>, Vec<f64>), ExperimentError> {
     let command = excite::triangle(&excite::TriangleParams {
         amplitudes: params.triangle_amplitudes_v.clone(),
         freq_hz: params.triangle_freq_hz,
         cycles: 2,
-        ts,
+        ts: params.plant.ts,
         offset: 0.0,
         bipolar: false,
     })
     .map_err(|e| step_err("triangle excitation")(e.to_string()))?;
     let mut plant = fresh_plant(params, 0)?;
     let measured = plant.run_open_loop(&command);
-    // The plant's delay shifts the response by a few samples; align so the
-    // quasi-static model sees matching pairs.
-    let lag = params.plant.delay_samples + 1;
-    let (u_aligned, y_aligned) = (&command[..command.len() - lag], &measured[lag..]);
-    observer(Progress::Step("inverse hysteresis identification"));
-    // [Li21]: the inverse model maps displacement to command.
-    let inverse = identify(y_aligned, u_aligned, &params.hysteresis)
-        .map_err(|e| step_err("inverse hysteresis identification")(e.to_string()))?;
+    Ok((command, measured))
+}
 
-    // 2. PID + HC closed loop, 0..f1 sweep.
-    observer(Progress::Step("closed-loop sweep with PID + HC"));
+/// The triangle record aligned for the plant's delay (command, displacement),
+/// so a quasi-static model sees matching pairs.
+pub fn align_triangle_record<'a>(
+    params: &ExperimentParams,
+    command: &'a [f64],
+    measured: &'a [f64],
+) -> (&'a [f64], &'a [f64]) {
+    let lag = params.plant.delay_samples + 1;
+    (&command[..command.len() - lag], &measured[lag..])
+}
+
+/// The closed-loop sweep record of step 2: PID + HC (PID alone when
+/// `inverse` is `None`) driven by the 0..f1 sweep; returns the filtered
+/// reference and the measurement (um) after the lead-in.
+pub fn sweep_record(
+    params: &ExperimentParams,
+    inverse: Option<&crate::ident::hysteresis::HysteresisModel>,
+) -> Result<(Vec<f64>, Vec<f64>), ExperimentError> {
+    let ts = params.plant.ts;
+    let timing = ReferenceTiming {
+        ts,
+        ..ReferenceTiming::default()
+    };
+    let stages = if inverse.is_some() { "pid+hc" } else { "pid" };
     let pid_hc = build_controller(
-        Stages::parse("pid+hc").expect("valid"),
+        Stages::parse(stages).expect("valid"),
         ts,
         params.pid,
-        Some(&inverse.model),
+        inverse,
         None,
         Provenance::default(),
     )
@@ -305,9 +309,34 @@ pub fn identify_models(
     .map_err(|e| step_err("sweep")(e.to_string()))?;
     let (trace, _) = track(params, 1, &pid_hc, &sweep_ref)?;
     let from = sweep_ref.evaluate_from;
-    let mut r: Vec<f64> = trace.filtered_reference[from..].to_vec();
-    let mut y: Vec<f64> = trace.measurement[from..].to_vec();
-    let sweep_record = (r.clone(), y.clone());
+    Ok((
+        trace.filtered_reference[from..].to_vec(),
+        trace.measurement[from..].to_vec(),
+    ))
+}
+
+/// Steps 1-3: what fts identifies from the virtual FTS (never from its
+/// true parameters): the inverse hysteresis model, the PID + HC closed-loop
+/// model and its ZPETC.
+pub fn identify_models(
+    params: &ExperimentParams,
+    observer: &mut dyn FnMut(Progress),
+) -> Result<IdentifiedModels, ExperimentError> {
+    let ts = params.plant.ts;
+
+    // 1. Open-loop triangles, inverse hysteresis identified directly.
+    observer(Progress::Step("open-loop triangle excitation"));
+    let (command, measured) = triangle_record(params)?;
+    let (u_aligned, y_aligned) = align_triangle_record(params, &command, &measured);
+    observer(Progress::Step("inverse hysteresis identification"));
+    // [Li21]: the inverse model maps displacement to command.
+    let inverse = identify(y_aligned, u_aligned, &params.hysteresis)
+        .map_err(|e| step_err("inverse hysteresis identification")(e.to_string()))?;
+
+    // 2. PID + HC closed loop, 0..f1 sweep.
+    observer(Progress::Step("closed-loop sweep with PID + HC"));
+    let (mut r, mut y) = sweep_record(params, Some(&inverse.model))?;
+    let record = (r.clone(), y.clone());
 
     observer(Progress::Step("closed-loop ARX identification"));
     detrend(&mut r, Detrend::Mean);
@@ -353,7 +382,7 @@ pub fn identify_models(
     Ok(IdentifiedModels {
         triangle: (command, measured),
         inverse,
-        sweep: sweep_record,
+        sweep: record,
         closed_loop,
         zpetc,
     })

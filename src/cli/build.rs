@@ -1,0 +1,133 @@
+//! `fts build [-f fts.toml] [--check] [--force] [--json]`: regenerate every
+//! output of a pipeline manifest whose inputs or settings changed, or, with
+//! `--check`, report the stale ones without writing anything (exit 1).
+
+use super::common::{bad, print_json};
+use crate::pipeline::{self, Event, PipelineError, Status, StepReport};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct BuildArgs {
+    /// The manifest; paths in it are relative to its folder, and the lock
+    /// file (`<stem>.lock`) sits beside it.
+    #[arg(
+        short = 'f',
+        long = "manifest",
+        value_name = "FTS.toml",
+        default_value = "fts.toml"
+    )]
+    manifest: PathBuf,
+    /// Write nothing; exit 1 naming every stale output and why.
+    #[arg(long, conflicts_with = "force")]
+    check: bool,
+    /// Rebuild every step, whatever the lock file says.
+    #[arg(long)]
+    force: bool,
+    /// Print one JSON object on stdout instead of the per-step lines.
+    #[arg(long)]
+    json: bool,
+}
+
+fn map_err(e: PipelineError) -> anyhow::Error {
+    match e {
+        PipelineError::BadInput(m) => bad(m),
+        PipelineError::Failure(m) => anyhow::anyhow!(m),
+    }
+}
+
+fn line(r: &StepReport) -> String {
+    let mut s = format!(
+        "{:<12} {:<20} {}",
+        r.status.label(),
+        r.name,
+        r.outputs.join(", ")
+    );
+    if r.status == Status::Built {
+        s.push_str(&format!(" ({:.2} s)", r.seconds));
+    }
+    if r.status != Status::UpToDate && !r.reasons.is_empty() {
+        s.push_str(&format!("\n{:<12} because {}", "", r.reasons.join("; ")));
+    }
+    s
+}
+
+pub fn run(args: BuildArgs) -> anyhow::Result<()> {
+    let plan = pipeline::load(&args.manifest).map_err(map_err)?;
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(ProgressStyle::with_template("{spinner} [{elapsed}] {msg}").expect("valid"));
+    let quiet = args.json;
+    let mut observer = |e: Event<'_>| match e {
+        Event::Start(step) => {
+            bar.set_message(format!("{} ({})", step.name, step.kind));
+            bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        }
+        Event::Done(r) => {
+            if !quiet {
+                bar.suspend(|| println!("{}", line(r)));
+            }
+        }
+    };
+    let start = std::time::Instant::now();
+    let result = if args.check {
+        pipeline::check(&plan, &mut observer)
+    } else {
+        pipeline::build(&plan, args.force, &mut observer)
+    };
+    bar.finish_and_clear();
+    let reports = result.map_err(map_err)?;
+    let count = |s: Status| reports.iter().filter(|r| r.status == s).count();
+    let stale: Vec<&StepReport> = reports
+        .iter()
+        .filter(|r| r.status == Status::Stale)
+        .collect();
+    if args.json {
+        print_json(&json!({
+            "manifest": plan.manifest.display().to_string(),
+            "lock": plan.lock.display().to_string(),
+            "check": args.check,
+            "seconds": start.elapsed().as_secs_f64(),
+            "built": count(Status::Built),
+            "up_to_date": count(Status::UpToDate),
+            "stale": count(Status::Stale),
+            "steps": reports.iter().map(|r| json!({
+                "name": r.name,
+                "kind": r.kind,
+                "status": r.status.label(),
+                "reasons": r.reasons,
+                "outputs": r.outputs,
+                "seconds": r.seconds,
+            })).collect::<Vec<_>>(),
+        }))?;
+    } else if args.check {
+        println!(
+            "{}: {} of {} steps up to date",
+            plan.manifest.display(),
+            count(Status::UpToDate),
+            reports.len()
+        );
+    } else {
+        println!(
+            "{}: {} built, {} up to date, {:.2} s; lock {}",
+            plan.manifest.display(),
+            count(Status::Built),
+            count(Status::UpToDate),
+            start.elapsed().as_secs_f64(),
+            plan.lock.display()
+        );
+    }
+    if !stale.is_empty() {
+        let outputs: Vec<String> = stale
+            .iter()
+            .map(|r| format!("{} ({})", r.outputs.join(", "), r.reasons.join("; ")))
+            .collect();
+        return Err(anyhow::anyhow!(
+            "stale outputs: {}; run `fts build -f {}`",
+            outputs.join("; "),
+            plan.manifest.display()
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,871 @@
+//! The pipeline manifest (`fts.toml`): named steps, each a `[step.NAME]`
+//! table with a `kind`, validated into a [`Plan`] (steps in dependency
+//! order). Every error names the manifest, the line and the field.
+
+use super::hash::sha256_hex;
+use crate::ident::arx::Orders;
+use crate::ident::data::Detrend;
+use crate::ident::hysteresis::{IdentifyParams, Method, ModelKind, PlayOperator};
+use crate::io::InputError;
+use crate::io::hysteresis_json::SignalInfo;
+use crate::io::timeseries::{ColumnRef, HeaderMode, IoColumns};
+use crate::runtime::PidSpec;
+use crate::sim::experiment::ExperimentParams;
+use crate::synth::zpetc::ZpetcParams;
+use serde::Deserialize;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Component, Path, PathBuf};
+use toml::{Spanned, Value};
+
+/// A file a step reads or writes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FileRef {
+    /// The manifest field that names it (`data`, `out`, `header`, ...).
+    pub field: String,
+    /// Path relative to the manifest's folder, normalised, with `/`
+    /// separators: the key in the lock file and in provenance records.
+    pub path: String,
+    /// Manifest line of the field.
+    pub line: usize,
+}
+
+/// Columns and sample range of a time-series input.
+#[derive(Debug, Clone)]
+pub struct ColumnSpec {
+    /// Column choice.
+    pub columns: IoColumns,
+    /// First data row used (0-based).
+    pub start: usize,
+    /// One past the last data row used.
+    pub end: Option<usize>,
+}
+
+/// `kind = "hysteresis"`: what `fts identify hysteresis` does.
+#[derive(Debug, Clone)]
+pub struct HysteresisSpec {
+    /// Columns of the record.
+    pub columns: ColumnSpec,
+    /// Identification settings.
+    pub params: IdentifyParams,
+    /// Identify the inverse directly (recorded output drives the model).
+    pub inverse: bool,
+    /// Quantity and unit of the record's input column.
+    pub input_info: SignalInfo,
+    /// Quantity and unit of the record's output column.
+    pub output_info: SignalInfo,
+}
+
+/// `kind = "arx"` / `kind = "oe"`: a transfer function from a record.
+#[derive(Debug, Clone)]
+pub struct LinearSpec {
+    /// Columns of the record.
+    pub columns: ColumnSpec,
+    /// Sample time (required when the file has no time column).
+    pub ts: Option<f64>,
+    /// Trend removal.
+    pub detrend: Detrend,
+    /// `[na nb nk]` (for OE, `na` is `nf`).
+    pub orders: Orders,
+    /// ARX only: try an output-error refinement and keep it when it
+    /// simulates the data better (what `fts demo` does).
+    pub refine_oe: bool,
+    /// OE only: iteration cap.
+    pub max_iterations: Option<usize>,
+}
+
+/// `kind = "controller"`: the `fts.controller/1` file and/or its C header.
+#[derive(Debug, Clone)]
+pub struct ControllerSpec {
+    /// Feedback PID.
+    pub pid: PidSpec,
+    /// Sample time when no ZPETC is given.
+    pub ts: Option<f64>,
+}
+
+/// What a step does.
+#[derive(Debug, Clone)]
+pub enum Action {
+    /// Open-loop triangles on the embedded virtual FTS (`t,u,y` CSV, aligned
+    /// for the plant's delay).
+    VirtualTriangles(Box<ExperimentParams>),
+    /// Closed-loop sweep (PID, + HC with `hysteresis`) on the virtual FTS.
+    VirtualSweep(Box<ExperimentParams>),
+    /// Hysteresis identification.
+    Hysteresis(Box<HysteresisSpec>),
+    /// ARX identification.
+    Arx(LinearSpec),
+    /// Output-error identification.
+    Oe(LinearSpec),
+    /// ZPETC design.
+    Zpetc(ZpetcParams),
+    /// Coefficient file.
+    Controller(ControllerSpec),
+}
+
+/// One validated step.
+#[derive(Debug, Clone)]
+pub struct Step {
+    /// The table name (`[step.NAME]`).
+    pub name: String,
+    /// The `kind` string.
+    pub kind: String,
+    /// Manifest line of the step's table.
+    pub line: usize,
+    /// What it does.
+    pub action: Action,
+    /// Files it reads, in field order.
+    pub inputs: Vec<FileRef>,
+    /// Files it writes.
+    pub outputs: Vec<FileRef>,
+    /// SHA-256 of the step's canonical settings (its manifest table as
+    /// sorted JSON, plus the fts version).
+    pub settings_sha256: String,
+}
+
+impl Step {
+    /// The manifest field an input path came from.
+    pub fn input(&self, field: &str) -> Option<&FileRef> {
+        self.inputs.iter().find(|f| f.field == field)
+    }
+
+    /// The output written for `field`.
+    pub fn output(&self, field: &str) -> Option<&FileRef> {
+        self.outputs.iter().find(|f| f.field == field)
+    }
+}
+
+/// A manifest, validated: steps in an order where every step comes after
+/// the steps whose outputs it reads.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The manifest file as given.
+    pub manifest: PathBuf,
+    /// The folder every path is relative to.
+    pub base: PathBuf,
+    /// The lock file (`<manifest stem>.lock` beside the manifest).
+    pub lock: PathBuf,
+    /// Steps in build order.
+    pub steps: Vec<Step>,
+}
+
+impl Plan {
+    /// Absolute-or-cwd-relative location of a manifest-relative path.
+    pub fn locate(&self, rel: &str) -> PathBuf {
+        self.base.join(rel)
+    }
+
+    /// The step that writes `path`, if any.
+    pub fn producer(&self, path: &str) -> Option<&Step> {
+        self.steps
+            .iter()
+            .find(|s| s.outputs.iter().any(|o| o.path == path))
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawManifest {
+    #[serde(default)]
+    step: BTreeMap<String, Spanned<BTreeMap<String, Spanned<Value>>>>,
+}
+
+/// 1-based line of a byte offset.
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())]
+        .bytes()
+        .filter(|&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// Reads the fields of one step table.
+struct Fields<'a> {
+    source: &'a str,
+    text: &'a str,
+    step: &'a str,
+    map: BTreeMap<String, Spanned<Value>>,
+    inputs: Vec<FileRef>,
+    outputs: Vec<FileRef>,
+}
+
+impl<'a> Fields<'a> {
+    fn err(&self, key: &str, line: usize, message: impl Into<String>) -> InputError {
+        InputError::new(self.source, message)
+            .at_line(line)
+            .in_field(format!("step.{}.{key}", self.step))
+    }
+
+    fn take(&mut self, key: &str) -> Option<(Value, usize)> {
+        self.map.remove(key).map(|v| {
+            let line = line_of(self.text, v.span().start);
+            (v.into_inner(), line)
+        })
+    }
+
+    fn f64_opt(&mut self, key: &str) -> Result<Option<f64>, InputError> {
+        let Some((v, line)) = self.take(key) else {
+            return Ok(None);
+        };
+        let x = match v {
+            Value::Float(x) => x,
+            Value::Integer(i) => i as f64,
+            other => {
+                return Err(self.err(
+                    key,
+                    line,
+                    format!("expected a number, found {}", other.type_str()),
+                ));
+            }
+        };
+        if !x.is_finite() {
+            return Err(self.err(key, line, format!("expected a finite number, got {x}")));
+        }
+        Ok(Some(x))
+    }
+
+    fn f64(&mut self, key: &str, default: f64) -> Result<f64, InputError> {
+        Ok(self.f64_opt(key)?.unwrap_or(default))
+    }
+
+    fn positive(&mut self, key: &str, default: f64) -> Result<f64, InputError> {
+        let line = self.line(key);
+        let x = self.f64(key, default)?;
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(key, line, format!("expected a positive number, got {x}")))
+        }
+    }
+
+    fn line(&self, key: &str) -> usize {
+        self.map
+            .get(key)
+            .map_or(0, |v| line_of(self.text, v.span().start))
+    }
+
+    fn u64_opt(&mut self, key: &str) -> Result<Option<u64>, InputError> {
+        let Some((v, line)) = self.take(key) else {
+            return Ok(None);
+        };
+        match v {
+            Value::Integer(i) if i >= 0 => Ok(Some(i as u64)),
+            other => Err(self.err(
+                key,
+                line,
+                format!(
+                    "expected a non-negative whole number, found {}",
+                    match other {
+                        Value::Integer(i) => i.to_string(),
+                        o => o.type_str().to_string(),
+                    }
+                ),
+            )),
+        }
+    }
+
+    fn usize_opt(&mut self, key: &str) -> Result<Option<usize>, InputError> {
+        Ok(self.u64_opt(key)?.map(|x| x as usize))
+    }
+
+    fn usize_req(&mut self, key: &str, step_line: usize) -> Result<usize, InputError> {
+        self.usize_opt(key)?.ok_or_else(|| {
+            self.err(
+                key,
+                step_line,
+                "missing: this kind of step needs it (a whole number)",
+            )
+        })
+    }
+
+    fn bool(&mut self, key: &str, default: bool) -> Result<bool, InputError> {
+        match self.take(key) {
+            None => Ok(default),
+            Some((Value::Boolean(b), _)) => Ok(b),
+            Some((other, line)) => Err(self.err(
+                key,
+                line,
+                format!("expected true or false, found {}", other.type_str()),
+            )),
+        }
+    }
+
+    fn string_opt(&mut self, key: &str) -> Result<Option<(String, usize)>, InputError> {
+        match self.take(key) {
+            None => Ok(None),
+            Some((Value::String(s), line)) => Ok(Some((s, line))),
+            Some((other, line)) => Err(self.err(
+                key,
+                line,
+                format!("expected a string, found {}", other.type_str()),
+            )),
+        }
+    }
+
+    fn string(&mut self, key: &str, default: &str) -> Result<String, InputError> {
+        Ok(self
+            .string_opt(key)?
+            .map_or_else(|| default.to_string(), |s| s.0))
+    }
+
+    fn choice<T: Copy>(
+        &mut self,
+        key: &str,
+        options: &[(&str, T)],
+    ) -> Result<Option<T>, InputError> {
+        let Some((s, line)) = self.string_opt(key)? else {
+            return Ok(None);
+        };
+        options
+            .iter()
+            .find(|(name, _)| *name == s)
+            .map(|(_, v)| Some(*v))
+            .ok_or_else(|| {
+                let names: Vec<String> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
+                self.err(
+                    key,
+                    line,
+                    format!("expected one of {}, got {s:?}", names.join(", ")),
+                )
+            })
+    }
+
+    fn f64_list(&mut self, key: &str) -> Result<Option<Vec<f64>>, InputError> {
+        let Some((v, line)) = self.take(key) else {
+            return Ok(None);
+        };
+        let Value::Array(items) = v else {
+            return Err(self.err(
+                key,
+                line,
+                format!("expected a list of numbers, found {}", v.type_str()),
+            ));
+        };
+        items
+            .iter()
+            .enumerate()
+            .map(|(i, item)| match item {
+                Value::Float(x) if x.is_finite() => Ok(*x),
+                Value::Integer(n) => Ok(*n as f64),
+                other => Err(self.err(
+                    key,
+                    line,
+                    format!("item {i}: expected a finite number, found {other}"),
+                )),
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map(Some)
+    }
+
+    fn column(&mut self, key: &str) -> Result<Option<ColumnRef>, InputError> {
+        match self.take(key) {
+            None => Ok(None),
+            Some((Value::String(s), _)) => Ok(Some(ColumnRef::parse(&s))),
+            Some((Value::Integer(i), _)) if i >= 1 => Ok(Some(ColumnRef::Index(i as usize))),
+            Some((other, line)) => Err(self.err(
+                key,
+                line,
+                format!("expected a column name or a 1-based column number, found {other}"),
+            )),
+        }
+    }
+
+    fn columns(&mut self) -> Result<ColumnSpec, InputError> {
+        let columns = IoColumns {
+            input: self.column("input")?,
+            output: self.column("output")?,
+            time: self.column("time")?,
+            header: if self.bool("no_header", false)? {
+                HeaderMode::Absent
+            } else {
+                HeaderMode::Detect
+            },
+        };
+        let start = self.usize_opt("start")?.unwrap_or(0);
+        let end = self.usize_opt("end")?;
+        Ok(ColumnSpec {
+            columns,
+            start,
+            end,
+        })
+    }
+
+    fn path(&mut self, key: &str) -> Result<Option<FileRef>, InputError> {
+        let Some((s, line)) = self.string_opt(key)? else {
+            return Ok(None);
+        };
+        let path = normalise(&s).ok_or_else(|| {
+            self.err(
+                key,
+                line,
+                format!("expected a file path relative to the manifest, got {s:?}"),
+            )
+        })?;
+        Ok(Some(FileRef {
+            field: key.to_string(),
+            path,
+            line,
+        }))
+    }
+
+    fn input(&mut self, key: &str, required: bool, step_line: usize) -> Result<(), InputError> {
+        match self.path(key)? {
+            Some(f) => self.inputs.push(f),
+            None if required => {
+                return Err(self.err(key, step_line, "missing: the input file of this step"));
+            }
+            None => {}
+        }
+        Ok(())
+    }
+
+    fn output(&mut self, key: &str, required: bool, step_line: usize) -> Result<(), InputError> {
+        match self.path(key)? {
+            Some(f) => self.outputs.push(f),
+            None if required => {
+                return Err(self.err(key, step_line, "missing: the file this step writes"));
+            }
+            None => {}
+        }
+        Ok(())
+    }
+
+    /// Unknown fields are errors (a typo must not silently fall back to a default).
+    fn finish(self) -> Result<(Vec<FileRef>, Vec<FileRef>), InputError> {
+        if let Some((key, v)) = self.map.iter().next() {
+            return Err(self.err(
+                key,
+                line_of(self.text, v.span().start),
+                "unknown field for this kind of step",
+            ));
+        }
+        Ok((self.inputs, self.outputs))
+    }
+}
+
+/// Lexically normalised relative path with `/` separators; `None` for an
+/// empty or absolute path.
+fn normalise(s: &str) -> Option<String> {
+    let p = Path::new(s);
+    if s.trim().is_empty() || p.is_absolute() || s.starts_with('/') || s.starts_with('\\') {
+        return None;
+    }
+    let mut parts: Vec<String> = Vec::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                if parts.last().is_some_and(|l| l != "..") {
+                    parts.pop();
+                } else {
+                    parts.push("..".into());
+                }
+            }
+            Component::Normal(n) => parts.push(n.to_string_lossy().replace('\\', "/")),
+            Component::RootDir | Component::Prefix(_) => return None,
+        }
+    }
+    if parts.is_empty() || parts.last().is_some_and(|l| l == "..") {
+        return None;
+    }
+    Some(parts.join("/"))
+}
+
+fn pid(f: &mut Fields<'_>) -> Result<PidSpec, InputError> {
+    let d = ExperimentParams::default().pid;
+    let line = f.line("output_max").max(f.line("output_min"));
+    let pid = PidSpec {
+        kp: f.f64("kp", d.kp)?,
+        ki: f.f64("ki", d.ki)?,
+        kd: f.f64("kd", d.kd)?,
+        output_min: f.f64("output_min", d.output_min)?,
+        output_max: f.f64("output_max", d.output_max)?,
+    };
+    if pid.output_min >= pid.output_max {
+        return Err(f.err(
+            "output_max",
+            line,
+            format!(
+                "output_max ({}) must exceed output_min ({})",
+                pid.output_max, pid.output_min
+            ),
+        ));
+    }
+    Ok(pid)
+}
+
+fn experiment(f: &mut Fields<'_>) -> Result<ExperimentParams, InputError> {
+    let mut p = ExperimentParams::default();
+    p.seed = f.u64_opt("seed")?.unwrap_or(p.seed);
+    Ok(p)
+}
+
+/// The step table's canonical settings hash: the table as JSON (sorted
+/// keys), the step name and the fts version.
+fn settings_hash(name: &str, table: &BTreeMap<String, Spanned<Value>>) -> String {
+    let plain: BTreeMap<&str, &Value> = table
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.get_ref()))
+        .collect();
+    let canonical = serde_json::json!({
+        "fts_version": env!("CARGO_PKG_VERSION"),
+        "step": name,
+        "settings": plain,
+    });
+    sha256_hex(canonical.to_string().as_bytes())
+}
+
+fn step(
+    source: &str,
+    text: &str,
+    name: &str,
+    table: Spanned<BTreeMap<String, Spanned<Value>>>,
+) -> Result<Step, InputError> {
+    let line = line_of(text, table.span().start);
+    let table = table.into_inner();
+    let settings_sha256 = settings_hash(name, &table);
+    let mut f = Fields {
+        source,
+        text,
+        step: name,
+        map: table,
+        inputs: Vec::new(),
+        outputs: Vec::new(),
+    };
+    let (kind, kind_line) = f.string_opt("kind")?.ok_or_else(|| {
+        f.err(
+            "kind",
+            line,
+            "missing: one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\"",
+        )
+    })?;
+    let action = match kind.as_str() {
+        "virtual-triangles" => {
+            let mut p = experiment(&mut f)?;
+            if let Some(a) = f.f64_list("amplitudes")? {
+                p.triangle_amplitudes_v = a;
+            }
+            p.triangle_freq_hz = f.positive("freq", p.triangle_freq_hz)?;
+            f.output("out", true, line)?;
+            Action::VirtualTriangles(Box::new(p))
+        }
+        "virtual-sweep" => {
+            let mut p = experiment(&mut f)?;
+            p.pid = pid(&mut f)?;
+            p.sweep_amplitude = f.positive("amplitude", p.sweep_amplitude)?;
+            p.offset = f.f64("offset", p.offset)?;
+            p.sweep_duration = f.positive("duration", p.sweep_duration)?;
+            p.sweep_f1 = f.positive("f1", p.sweep_f1)?;
+            f.input("hysteresis", false, line)?;
+            f.output("out", true, line)?;
+            Action::VirtualSweep(Box::new(p))
+        }
+        "hysteresis" => {
+            let columns = f.columns()?;
+            let mut params = IdentifyParams::default();
+            if let Some(k) = f.choice(
+                "model",
+                &[
+                    ("pi", ModelKind::Pi),
+                    ("mpi-cbrt", ModelKind::MpiCbrt),
+                    ("mpi-deadzone", ModelKind::MpiDeadzone),
+                ],
+            )? {
+                params.kind = k;
+            }
+            params.operator = f.choice(
+                "operator",
+                &[
+                    ("play-lower", PlayOperator::Lower),
+                    ("play-symmetric", PlayOperator::Symmetric),
+                ],
+            )?;
+            params.operators = f.usize_opt("operators")?.unwrap_or(params.operators);
+            params.thresholds = f.f64_list("thresholds")?;
+            params.dead_zone_operators = f
+                .usize_opt("dead_zone_operators")?
+                .unwrap_or(params.dead_zone_operators);
+            if let Some(m) = f.choice("method", &[("ls", Method::Ls), ("gd", Method::Gd)])? {
+                params.method = m;
+            }
+            params.invertible = f.bool("invertible", false)?;
+            params.offset = f.bool("offset", true)?;
+            params.gd.max_iters = f.u64_opt("max_iters")?.unwrap_or(2000);
+            let inverse = f.bool("inverse", false)?;
+            let input_info = SignalInfo {
+                quantity: f.string("input_quantity", "voltage")?,
+                unit: f.string("input_unit", "V")?,
+            };
+            let output_info = SignalInfo {
+                quantity: f.string("output_quantity", "displacement")?,
+                unit: f.string("output_unit", "um")?,
+            };
+            f.input("data", true, line)?;
+            f.output("out", true, line)?;
+            Action::Hysteresis(Box::new(HysteresisSpec {
+                columns,
+                params,
+                inverse,
+                input_info,
+                output_info,
+            }))
+        }
+        "arx" | "oe" => {
+            let columns = f.columns()?;
+            let ts_line = f.line("ts");
+            let ts = f.f64_opt("ts")?;
+            if let Some(t) = ts
+                && t <= 0.0
+            {
+                return Err(f.err(
+                    "ts",
+                    ts_line,
+                    format!("expected a positive number of seconds, got {t}"),
+                ));
+            }
+            let detrend = f
+                .choice(
+                    "detrend",
+                    &[
+                        ("none", Detrend::None),
+                        ("mean", Detrend::Mean),
+                        ("linear", Detrend::Linear),
+                    ],
+                )?
+                .unwrap_or(Detrend::None);
+            let oe = kind == "oe";
+            let na = if oe {
+                f.usize_req("nf", line)?
+            } else {
+                f.usize_req("na", line)?
+            };
+            let orders = Orders::new(na, f.usize_req("nb", line)?, f.usize_req("nk", line)?);
+            let (refine_oe, max_iterations) = if oe {
+                (false, f.usize_opt("max_iterations")?)
+            } else {
+                (f.bool("refine_oe", false)?, None)
+            };
+            f.input("data", true, line)?;
+            f.output("out", true, line)?;
+            let spec = LinearSpec {
+                columns,
+                ts,
+                detrend,
+                orders,
+                refine_oe,
+                max_iterations,
+            };
+            if oe {
+                Action::Oe(spec)
+            } else {
+                Action::Arx(spec)
+            }
+        }
+        "zpetc" => {
+            let d = ZpetcParams::default();
+            let params = ZpetcParams {
+                rho: f.f64("rho", d.rho)?,
+                min_damping: f.f64("min_damping", d.min_damping)?,
+            };
+            f.input("tf", true, line)?;
+            f.output("out", true, line)?;
+            Action::Zpetc(params)
+        }
+        "controller" => {
+            let pid = pid(&mut f)?;
+            let ts = f.f64_opt("ts")?;
+            f.input("hysteresis", false, line)?;
+            f.input("zpetc", false, line)?;
+            f.output("out", false, line)?;
+            f.output("header", false, line)?;
+            if f.outputs.is_empty() {
+                return Err(f.err(
+                    "out",
+                    line,
+                    "missing: a controller step writes `out` (fts.controller/1 JSON), `header` (C header) or both",
+                ));
+            }
+            Action::Controller(ControllerSpec { pid, ts })
+        }
+        other => {
+            return Err(f.err(
+                "kind",
+                kind_line,
+                format!(
+                    "unknown kind {other:?}; expected one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\""
+                ),
+            ));
+        }
+    };
+    let (inputs, outputs) = f.finish()?;
+    Ok(Step {
+        name: name.to_string(),
+        kind,
+        line,
+        action,
+        inputs,
+        outputs,
+        settings_sha256,
+    })
+}
+
+/// Parses and validates a manifest. `source` names it in errors; `base` is
+/// the folder its paths are relative to (used to check that inputs no step
+/// produces exist).
+pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
+    let source = manifest.display().to_string();
+    let base = match manifest.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let raw: RawManifest = toml::from_str(text).map_err(|e| {
+        let err = InputError::new(&source, e.message().trim().to_string());
+        match e.span() {
+            Some(span) => err.at_line(line_of(text, span.start)),
+            None => err,
+        }
+    })?;
+    if raw.step.is_empty() {
+        return Err(InputError::new(
+            &source,
+            "no steps: a manifest declares at least one [step.NAME] table",
+        ));
+    }
+    let mut steps = raw
+        .step
+        .into_iter()
+        .map(|(name, table)| step(&source, text, &name, table))
+        .collect::<Result<Vec<_>, _>>()?;
+    // Declaration order, so independent steps run in the order written.
+    steps.sort_by_key(|s| s.line);
+
+    let lock_name = format!(
+        "{}.lock",
+        manifest
+            .file_stem()
+            .map_or_else(|| "fts".into(), |s| s.to_string_lossy())
+    );
+    let manifest_name = manifest
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+
+    // Who writes what.
+    let mut producer: BTreeMap<&str, usize> = BTreeMap::new();
+    for (i, s) in steps.iter().enumerate() {
+        for o in &s.outputs {
+            let err = |m: String| {
+                InputError::new(&source, m)
+                    .at_line(o.line)
+                    .in_field(format!("step.{}.{}", s.name, o.field))
+            };
+            if o.path == lock_name || o.path == manifest_name {
+                return Err(err(format!(
+                    "{:?} is the manifest or its lock file, not an output",
+                    o.path
+                )));
+            }
+            if let Some(&j) = producer.get(o.path.as_str()) {
+                return Err(err(format!(
+                    "{:?} is already written by step {:?} (line {})",
+                    o.path, steps[j].name, steps[j].line
+                )));
+            }
+            producer.insert(&o.path, i);
+        }
+    }
+    // Edges and missing inputs.
+    let n = steps.len();
+    let mut deps: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
+    for (i, s) in steps.iter().enumerate() {
+        for inp in &s.inputs {
+            match producer.get(inp.path.as_str()) {
+                Some(&j) => {
+                    deps[i].insert(j);
+                }
+                None if !base.join(&inp.path).is_file() => {
+                    return Err(InputError::new(
+                        &source,
+                        format!(
+                            "input {:?} does not exist (relative to {}) and no step writes it",
+                            inp.path,
+                            base.display()
+                        ),
+                    )
+                    .at_line(inp.line)
+                    .in_field(format!("step.{}.{}", s.name, inp.field)));
+                }
+                None => {}
+            }
+        }
+    }
+    // Kahn's algorithm; ties in declaration order.
+    let mut done = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    while order.len() < n {
+        let Some(i) = (0..n).find(|&i| !done[i] && deps[i].iter().all(|&j| done[j])) else {
+            // A cycle: follow unfinished dependencies until a step repeats.
+            let mut path = vec![(0..n).find(|&i| !done[i]).expect("unfinished step")];
+            loop {
+                let last = *path.last().expect("non-empty");
+                let next = *deps[last]
+                    .iter()
+                    .find(|&&j| !done[j])
+                    .expect("an unfinished step has an unfinished dependency");
+                if let Some(pos) = path.iter().position(|&p| p == next) {
+                    let cycle: Vec<usize> = path[pos..].to_vec();
+                    let first = cycle[0];
+                    let mut names: Vec<&str> =
+                        cycle.iter().map(|&k| steps[k].name.as_str()).collect();
+                    names.push(&steps[first].name);
+                    return Err(InputError::new(
+                        &source,
+                        format!(
+                            "the steps form a cycle: {} (each step reads a file the next one writes)",
+                            names.join(" -> ")
+                        ),
+                    )
+                    .at_line(steps[first].line)
+                    .in_field(format!("step.{}", steps[first].name)));
+                }
+                path.push(next);
+            }
+        };
+        done[i] = true;
+        order.push(i);
+    }
+    let mut slots: Vec<Option<Step>> = steps.into_iter().map(Some).collect();
+    let steps = order
+        .into_iter()
+        .map(|i| slots[i].take().expect("each step once"))
+        .collect();
+    Ok(Plan {
+        manifest: manifest.to_path_buf(),
+        lock: base.join(lock_name),
+        base,
+        steps,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normalises_paths() {
+        assert_eq!(normalise("./a/b/../c.csv").as_deref(), Some("a/c.csv"));
+        assert_eq!(
+            normalise("../shared/x.csv").as_deref(),
+            Some("../shared/x.csv")
+        );
+        assert_eq!(normalise("/abs.csv"), None);
+        assert_eq!(normalise(""), None);
+        assert_eq!(normalise("a/.."), None);
+    }
+
+    #[test]
+    fn line_numbers() {
+        assert_eq!(line_of("a\nb\nc", 0), 1);
+        assert_eq!(line_of("a\nb\nc", 2), 2);
+        assert_eq!(line_of("a\nb\nc", 4), 3);
+    }
+}

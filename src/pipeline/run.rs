@@ -1,0 +1,615 @@
+//! Running a [`Plan`]: decide which steps are stale from the lock file,
+//! rebuild them in dependency order with atomic writes, or only report
+//! (`check`).
+
+use super::hash::{Lock, LockEntry, sha256_hex};
+use super::manifest::{Action, FileRef, LinearSpec, Plan, Step, parse_manifest};
+use crate::ident::arx::{ArxParams, arx};
+use crate::ident::data::detrend;
+use crate::ident::hysteresis::{IdentifyError, Method, identify};
+use crate::ident::linear::{IdentError, NoiseModel, fits};
+use crate::ident::oe::{OeParams, oe};
+use crate::io::InputError;
+use crate::io::controller_file::{InputHash, Provenance, to_c_header};
+use crate::io::hysteresis_json::{FitRecord, ModelFile, model_to_string, parse_model};
+use crate::io::timeseries::{IoData, read_io, time_column, write_csv};
+use crate::io::{tf_json, zpetc_json};
+use crate::lti::TransferFunction;
+use crate::sim::experiment::{
+    align_triangle_record, build_controller, sweep_record, triangle_record,
+};
+use crate::synth::composite::Stages;
+use crate::synth::zpetc;
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// Why a build or check stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// Bad manifest, bad input file or bad settings (exit code 2).
+    #[error("{0}")]
+    BadInput(String),
+    /// Anything else: a file cannot be written, a numerical breakdown (exit code 1).
+    #[error("{0}")]
+    Failure(String),
+}
+
+impl From<InputError> for PipelineError {
+    fn from(e: InputError) -> Self {
+        PipelineError::BadInput(e.to_string())
+    }
+}
+
+/// What happened to a step.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Status {
+    /// Every recorded hash matches; nothing was run.
+    UpToDate,
+    /// Run; its outputs were written.
+    Built,
+    /// Out of date (`check` only); the reasons are in [`StepReport::reasons`].
+    Stale,
+}
+
+impl Status {
+    /// `up to date`, `built` or `stale`.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Status::UpToDate => "up to date",
+            Status::Built => "built",
+            Status::Stale => "stale",
+        }
+    }
+}
+
+/// One step's outcome.
+#[derive(Debug, Clone)]
+pub struct StepReport {
+    /// Step name.
+    pub name: String,
+    /// Its kind.
+    pub kind: String,
+    /// Outcome.
+    pub status: Status,
+    /// Why it was (or would be) rebuilt: `never built`, `input data/sweep.csv changed`, ...
+    pub reasons: Vec<String>,
+    /// Its outputs (manifest-relative).
+    pub outputs: Vec<String>,
+    /// Seconds spent running it (0 when not run).
+    pub seconds: f64,
+}
+
+/// Progress, reported as steps start and finish.
+#[derive(Debug, Clone)]
+pub enum Event<'a> {
+    /// A stale step starts running.
+    Start(&'a Step),
+    /// A step is done (built, up to date or, in `check`, found stale).
+    Done(&'a StepReport),
+}
+
+/// Reads and validates a manifest file.
+pub fn load(manifest: &Path) -> Result<Plan, PipelineError> {
+    let text = std::fs::read_to_string(manifest).map_err(|e| {
+        PipelineError::BadInput(format!("{}: cannot read: {e}", manifest.display()))
+    })?;
+    Ok(parse_manifest(&text, manifest)?)
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder,
+/// synced, then renamed over the target. On error the target is untouched.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".fts-").suffix(".tmp");
+    // tempfile creates 0600 files; an output gets the usual 0644 (less the
+    // umask), or keeps the mode of the file it replaces.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(path).map_or(0o644, |m| m.permissions().mode() & 0o7777);
+        builder.permissions(std::fs::Permissions::from_mode(mode));
+    }
+    let mut tmp = builder.tempfile_in(dir)?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+fn read_lock(plan: &Plan) -> Result<(Lock, Option<String>), PipelineError> {
+    match std::fs::read_to_string(&plan.lock) {
+        Ok(text) => Ok((
+            Lock::parse(&text, &plan.lock.display().to_string())?,
+            Some(text),
+        )),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok((Lock::default(), None)),
+        Err(e) => Err(PipelineError::BadInput(format!(
+            "{}: cannot read: {e}",
+            plan.lock.display()
+        ))),
+    }
+}
+
+/// Current SHA-256 of a file, `None` when it does not exist.
+fn file_hash(path: &Path) -> Result<Option<String>, PipelineError> {
+    match std::fs::read(path) {
+        Ok(bytes) => Ok(Some(sha256_hex(&bytes))),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(PipelineError::BadInput(format!(
+            "{}: cannot read: {e}",
+            path.display()
+        ))),
+    }
+}
+
+/// Why `step` is out of date against its lock entry (empty: up to date).
+/// `pending` holds outputs of steps found stale earlier (check only).
+fn stale_reasons(
+    plan: &Plan,
+    step: &Step,
+    entry: Option<&LockEntry>,
+    pending: &BTreeMap<String, String>,
+) -> Result<Vec<String>, PipelineError> {
+    let Some(entry) = entry else {
+        return Ok(vec!["never built".into()]);
+    };
+    let mut reasons = Vec::new();
+    if entry.kind != step.kind || entry.settings_sha256 != step.settings_sha256 {
+        reasons.push(format!(
+            "its settings in {} changed (or fts changed version)",
+            plan.manifest.display()
+        ));
+    }
+    for f in &step.inputs {
+        if let Some(upstream) = pending.get(&f.path) {
+            reasons.push(format!(
+                "input {} is written by stale step {upstream:?}",
+                f.path
+            ));
+            continue;
+        }
+        match (file_hash(&plan.locate(&f.path))?, entry.inputs.get(&f.path)) {
+            (None, _) => reasons.push(format!("input {} is missing", f.path)),
+            (Some(_), None) => reasons.push(format!("input {} is new", f.path)),
+            (Some(now), Some(then)) if &now != then => {
+                reasons.push(format!("input {} changed", f.path))
+            }
+            _ => {}
+        }
+    }
+    for f in &step.outputs {
+        match (
+            file_hash(&plan.locate(&f.path))?,
+            entry.outputs.get(&f.path),
+        ) {
+            (None, _) => reasons.push(format!("output {} is missing", f.path)),
+            (Some(_), None) => reasons.push(format!("output {} is not in the lock file", f.path)),
+            (Some(now), Some(then)) if &now != then => reasons.push(format!(
+                "output {} was modified after it was built (edited by hand?)",
+                f.path
+            )),
+            _ => {}
+        }
+    }
+    Ok(reasons)
+}
+
+fn report(step: &Step, status: Status, reasons: Vec<String>, seconds: f64) -> StepReport {
+    StepReport {
+        name: step.name.clone(),
+        kind: step.kind.clone(),
+        status,
+        reasons,
+        outputs: step.outputs.iter().map(|o| o.path.clone()).collect(),
+        seconds,
+    }
+}
+
+/// Reports which steps are stale and why, writing nothing. A step whose
+/// input comes from a stale step is stale too.
+pub fn check(
+    plan: &Plan,
+    observer: &mut dyn FnMut(Event<'_>),
+) -> Result<Vec<StepReport>, PipelineError> {
+    let (lock, _) = read_lock(plan)?;
+    let mut pending = BTreeMap::new();
+    let mut reports = Vec::new();
+    for step in &plan.steps {
+        let reasons = stale_reasons(plan, step, lock.steps.get(&step.name), &pending)?;
+        let status = if reasons.is_empty() {
+            Status::UpToDate
+        } else {
+            for o in &step.outputs {
+                pending.insert(o.path.clone(), step.name.clone());
+            }
+            Status::Stale
+        };
+        let r = report(step, status, reasons, 0.0);
+        observer(Event::Done(&r));
+        reports.push(r);
+    }
+    Ok(reports)
+}
+
+/// Rebuilds every stale step (every step with `force`), in dependency order.
+///
+/// Each output is written atomically, and only after the whole step has
+/// succeeded; the lock file is rewritten (atomically) after each completed
+/// step. A failing step therefore leaves its previous outputs, the outputs
+/// of the steps after it and their lock entries exactly as they were.
+pub fn build(
+    plan: &Plan,
+    force: bool,
+    observer: &mut dyn FnMut(Event<'_>),
+) -> Result<Vec<StepReport>, PipelineError> {
+    let (old, old_text) = if force {
+        // The old lock is replaced entry by entry as steps complete.
+        (Lock::default(), std::fs::read_to_string(&plan.lock).ok())
+    } else {
+        read_lock(plan)?
+    };
+    let names: BTreeSet<&str> = plan.steps.iter().map(|s| s.name.as_str()).collect();
+    let mut lock = old.clone();
+    if force {
+        // Keep the previous entries of steps not yet rebuilt, when readable.
+        if let Some(text) = &old_text
+            && let Ok(l) = Lock::parse(text, "")
+        {
+            lock = l;
+        }
+    }
+    lock.steps.retain(|name, _| names.contains(name.as_str()));
+    let write_lock = |lock: &Lock| -> Result<(), PipelineError> {
+        write_atomic(&plan.lock, lock.to_json_string().as_bytes()).map_err(|e| {
+            PipelineError::Failure(format!("{}: cannot write: {e}", plan.lock.display()))
+        })
+    };
+    let mut reports = Vec::new();
+    for step in &plan.steps {
+        let reasons = if force {
+            vec!["--force".to_string()]
+        } else {
+            stale_reasons(plan, step, old.steps.get(&step.name), &BTreeMap::new())?
+        };
+        if reasons.is_empty() {
+            let r = report(step, Status::UpToDate, reasons, 0.0);
+            observer(Event::Done(&r));
+            reports.push(r);
+            continue;
+        }
+        observer(Event::Start(step));
+        let start = Instant::now();
+        // Inputs are read once: the bytes hashed are the bytes used.
+        let mut inputs = BTreeMap::new();
+        let mut entry = LockEntry {
+            kind: step.kind.clone(),
+            settings_sha256: step.settings_sha256.clone(),
+            ..LockEntry::default()
+        };
+        for f in &step.inputs {
+            let path = plan.locate(&f.path);
+            let bytes = std::fs::read(&path).map_err(|e| {
+                PipelineError::BadInput(format!(
+                    "{} line {}, field 'step.{}.{}': cannot read {}: {e}",
+                    plan.manifest.display(),
+                    f.line,
+                    step.name,
+                    f.field,
+                    path.display()
+                ))
+            })?;
+            entry.inputs.insert(f.path.clone(), sha256_hex(&bytes));
+            let text = String::from_utf8(bytes).map_err(|_| {
+                PipelineError::BadInput(format!("{}: not UTF-8 text", path.display()))
+            })?;
+            inputs.insert(f.field.clone(), text);
+        }
+        let outputs = execute(plan, step, &inputs).map_err(|e| {
+            let prefix = format!(
+                "{} line {}, step {:?} ({})",
+                plan.manifest.display(),
+                step.line,
+                step.name,
+                step.kind
+            );
+            match e {
+                PipelineError::BadInput(m) => PipelineError::BadInput(format!("{prefix}: {m}")),
+                PipelineError::Failure(m) => PipelineError::Failure(format!("{prefix}: {m}")),
+            }
+        })?;
+        for (f, bytes) in &outputs {
+            let path = plan.locate(&f.path);
+            let hash = sha256_hex(bytes);
+            // Identical content is not rewritten (its time stamp stays).
+            if file_hash(&path).ok().flatten().as_deref() != Some(hash.as_str()) {
+                if let Some(dir) = path.parent()
+                    && !dir.as_os_str().is_empty()
+                {
+                    std::fs::create_dir_all(dir).map_err(|e| {
+                        PipelineError::Failure(format!("{}: cannot create: {e}", dir.display()))
+                    })?;
+                }
+                write_atomic(&path, bytes).map_err(|e| {
+                    PipelineError::Failure(format!("{}: cannot write: {e}", path.display()))
+                })?;
+            }
+            entry.outputs.insert(f.path.clone(), hash);
+        }
+        lock.steps.insert(step.name.clone(), entry);
+        write_lock(&lock)?;
+        let r = report(step, Status::Built, reasons, start.elapsed().as_secs_f64());
+        observer(Event::Done(&r));
+        reports.push(r);
+    }
+    // Entries of steps no longer in the manifest are dropped.
+    let text = lock.to_json_string();
+    if old_text.as_deref() != Some(text.as_str()) {
+        write_lock(&lock)?;
+    }
+    Ok(reports)
+}
+
+fn bad(m: impl Into<String>) -> PipelineError {
+    PipelineError::BadInput(m.into())
+}
+
+fn source(plan: &Plan, f: &FileRef) -> String {
+    plan.locate(&f.path).display().to_string()
+}
+
+fn read_record(
+    text: &str,
+    source: &str,
+    spec: &super::manifest::ColumnSpec,
+    min_rows: usize,
+) -> Result<IoData, PipelineError> {
+    let mut data = read_io(text, source, &spec.columns, min_rows)?;
+    let n = data.input.len();
+    let end = spec.end.unwrap_or(n);
+    if end > n || spec.start >= end {
+        return Err(bad(format!(
+            "{source}: sample range {}..{end} (fields start/end) is empty or outside the {n} data rows",
+            spec.start
+        )));
+    }
+    data.input = data.input[spec.start..end].to_vec();
+    data.output = data.output[spec.start..end].to_vec();
+    Ok(data)
+}
+
+fn ident_err(source: &str, e: IdentError) -> PipelineError {
+    match e {
+        IdentError::Numerical(_) => PipelineError::Failure(format!("{source}: {e}")),
+        other => bad(format!("{source}: {other}")),
+    }
+}
+
+fn linear(
+    spec: &LinearSpec,
+    text: &str,
+    source: &str,
+    oe_model: bool,
+) -> Result<TransferFunction, PipelineError> {
+    let io = read_record(text, source, &spec.columns, 2)?;
+    let ts = match (io.ts, spec.ts) {
+        (Some(f), Some(ts)) if ((f - ts) / ts).abs() > 1e-6 => {
+            return Err(bad(format!(
+                "{source}: the time column gives a sample time of {f} s but field 'ts' is {ts} s"
+            )));
+        }
+        (_, Some(ts)) => ts,
+        (Some(f), None) => f,
+        (None, None) => {
+            return Err(bad(format!(
+                "{source}: no time column, so the sample time is unknown; set field 'ts'"
+            )));
+        }
+    };
+    let (mut u, mut y) = (io.input, io.output);
+    detrend(&mut u, spec.detrend);
+    detrend(&mut y, spec.detrend);
+    let tf = if oe_model {
+        let mut p = OeParams::new(spec.orders);
+        p.ts = ts;
+        if let Some(n) = spec.max_iterations {
+            p.max_iterations = n;
+        }
+        let est = oe(&u, &y, &p, &mut |_| {}).map_err(|e| ident_err(source, e))?;
+        est.model.tf().map_err(|e| ident_err(source, e))?
+    } else {
+        let mut p = ArxParams::new(spec.orders);
+        p.ts = ts;
+        let est = arx(&u, &y, &p).map_err(|e| ident_err(source, e))?;
+        let arx_tf = est.model.tf().map_err(|e| ident_err(source, e))?;
+        let mut chosen = arx_tf;
+        if spec.refine_oe {
+            // As `fts demo`: keep the OE model when it simulates the data better.
+            let arx_fit = fits(&est.model, NoiseModel::Arx, &u, &y);
+            let mut op = OeParams::new(spec.orders);
+            op.ts = ts;
+            if let Ok(o) = oe(&u, &y, &op, &mut |_| {}) {
+                let f = fits(&o.model, NoiseModel::OutputError, &u, &y);
+                if f.simulation_percent > arx_fit.simulation_percent
+                    && o.model.is_stable()
+                    && let Ok(tf) = o.model.tf()
+                {
+                    chosen = tf;
+                }
+            }
+        }
+        chosen
+    };
+    Ok(TransferFunction::Discrete(tf))
+}
+
+/// Runs one step on its inputs' text; returns every output's bytes (nothing
+/// is written here).
+fn execute(
+    plan: &Plan,
+    step: &Step,
+    inputs: &BTreeMap<String, String>,
+) -> Result<Vec<(FileRef, Vec<u8>)>, PipelineError> {
+    let out = |field: &str| step.output(field).cloned();
+    let text_of = |field: &str| -> Option<(&str, String)> {
+        let f = step.input(field)?;
+        inputs.get(field).map(|t| (t.as_str(), source(plan, f)))
+    };
+    let mut files: Vec<(Option<FileRef>, Vec<u8>)> = Vec::new();
+    match &step.action {
+        Action::VirtualTriangles(p) => {
+            let (command, measured) = triangle_record(p).map_err(|e| bad(e.to_string()))?;
+            let (u, y) = align_triangle_record(p, &command, &measured);
+            let t = time_column(u.len(), p.plant.ts);
+            files.push((
+                out("out"),
+                write_csv(&["t", "u", "y"], &[&t, u, y]).into_bytes(),
+            ));
+        }
+        Action::VirtualSweep(p) => {
+            let model = match text_of("hysteresis") {
+                Some((text, src)) => Some(parse_model(text, &src)?.model),
+                None => None,
+            };
+            let (r, y) = sweep_record(p, model.as_ref()).map_err(|e| bad(e.to_string()))?;
+            let t = time_column(r.len(), p.plant.ts);
+            files.push((
+                out("out"),
+                write_csv(&["t", "u", "y"], &[&t, &r, &y]).into_bytes(),
+            ));
+        }
+        Action::Hysteresis(spec) => {
+            let (text, src) = text_of("data").expect("validated: data is required");
+            let record = read_record(text, &src, &spec.columns, 1)?;
+            let (u, y, model_in, model_out) = if spec.inverse {
+                (
+                    &record.output,
+                    &record.input,
+                    spec.output_info.clone(),
+                    spec.input_info.clone(),
+                )
+            } else {
+                (
+                    &record.input,
+                    &record.output,
+                    spec.input_info.clone(),
+                    spec.output_info.clone(),
+                )
+            };
+            let identified = identify(u, y, &spec.params).map_err(|e| match e {
+                IdentifyError::Solver(_) => PipelineError::Failure(e.to_string()),
+                IdentifyError::Thresholds(t) => bad(format!("field 'thresholds': {t}")),
+                IdentifyError::InvalidParams(m) => bad(m),
+                other => bad(format!("{src}: {other}")),
+            })?;
+            let info = &identified.info;
+            let method = match (spec.params.method, spec.params.invertible) {
+                (Method::Gd, _) => "gd",
+                (Method::Ls, true) => "ls-invertible",
+                (Method::Ls, false) => "ls",
+            };
+            let file = ModelFile {
+                model: identified.model.clone(),
+                input: model_in,
+                output: model_out,
+                fit: Some(FitRecord {
+                    rms_percent: info.fit.rms_percent,
+                    max_percent: info.fit.max_percent,
+                    samples: info.fit.samples,
+                    method: method.into(),
+                    condition_number: info.condition_number,
+                    iterations: info.iterations,
+                }),
+            };
+            files.push((out("out"), model_to_string(&file).into_bytes()));
+        }
+        Action::Arx(spec) | Action::Oe(spec) => {
+            let (text, src) = text_of("data").expect("validated: data is required");
+            let g = linear(spec, text, &src, matches!(step.action, Action::Oe(_)))?;
+            files.push((out("out"), tf_json::tf_to_string(&g).into_bytes()));
+        }
+        Action::Zpetc(params) => {
+            let (text, src) = text_of("tf").expect("validated: tf is required");
+            let TransferFunction::Discrete(g) = tf_json::parse_tf(text, &src)? else {
+                return Err(bad(format!(
+                    "{src} field 'var': ZPETC needs a discrete closed loop (\"var\": \"z^-1\")"
+                )));
+            };
+            let filter = zpetc::design(&g, params).map_err(|e| match e {
+                zpetc::ZpetcError::InvalidParams(m) => bad(format!("fields rho/min_damping: {m}")),
+                zpetc::ZpetcError::ZeroAtDc => bad(format!("{src}: {e}")),
+                other => PipelineError::Failure(format!("{src}: {other}")),
+            })?;
+            files.push((
+                out("out"),
+                zpetc_json::zpetc_to_string(&filter).into_bytes(),
+            ));
+        }
+        Action::Controller(spec) => {
+            let mut provenance = Provenance {
+                fts_version: env!("CARGO_PKG_VERSION").into(),
+                inputs: Vec::new(),
+            };
+            let mut hashed = |field: &str, role: &str| -> Option<(&str, String)> {
+                let f = step.input(field)?;
+                let text = inputs.get(field)?;
+                provenance.inputs.push(InputHash {
+                    role: role.into(),
+                    file: f.path.clone(),
+                    sha256: sha256_hex(text.as_bytes()),
+                });
+                Some((text.as_str(), source(plan, f)))
+            };
+            let inverse = match hashed("hysteresis", "hysteresis_inverse") {
+                Some((text, src)) => Some(parse_model(text, &src)?.model),
+                None => None,
+            };
+            let filter = match hashed("zpetc", "zpetc") {
+                Some((text, src)) => Some(zpetc_json::parse_zpetc(text, &src)?),
+                None => None,
+            };
+            let ts = match (filter.as_ref().map(|f| f.ts), spec.ts) {
+                (Some(a), Some(b)) if (a - b).abs() > 1e-12 * a => {
+                    return Err(bad(format!(
+                        "field 'ts' ({b}) disagrees with the ZPETC's sample time {a}"
+                    )));
+                }
+                (Some(a), _) => a,
+                (None, Some(b)) if b > 0.0 => b,
+                _ => {
+                    return Err(bad(
+                        "field 'ts': a positive sample time is needed when no zpetc is given",
+                    ));
+                }
+            };
+            let stages = Stages {
+                hysteresis_compensation: inverse.is_some(),
+                zpetc: filter.is_some(),
+            };
+            let file = build_controller(
+                stages,
+                ts,
+                spec.pid,
+                inverse.as_ref(),
+                filter.as_ref(),
+                provenance,
+            )
+            .map_err(bad)?;
+            if let Some(f) = out("out") {
+                files.push((Some(f), file.to_json_string().into_bytes()));
+            }
+            if let Some(f) = out("header") {
+                files.push((Some(f), to_c_header(&file).into_bytes()));
+            }
+        }
+    }
+    Ok(files
+        .into_iter()
+        .filter_map(|(f, b)| f.map(|f| (f, b)))
+        .collect())
+}
