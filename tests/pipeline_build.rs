@@ -1,0 +1,376 @@
+//! `fts build` from a manifest (issue 6, item 3): identical bytes on every
+//! run and in every folder; `--check` fails after an input changes and passes
+//! after a rebuild; a failing step leaves every previous output intact;
+//! manifest errors exit 2 naming the line and field.
+
+use assert_cmd::Command;
+use fts::io::timeseries::{time_column, write_csv};
+use fts::sim::experiment::{ExperimentParams, align_triangle_record, triangle_record};
+use predicates::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// Every file under `dir` (relative path -> bytes).
+fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
+/// The test manifest: the controller is declared first, so the build order
+/// comes from the dependencies, not from the file.
+const MANIFEST: &str = r#"# test pipeline
+[step.controller]
+kind = "controller"
+hysteresis = "models/inverse.json"
+zpetc = "models/zpetc.json"
+kp = 0.05
+ki = 0.3
+out = "out/controller.json"
+header = "out/controller.h"
+
+[step.zpetc]
+kind = "zpetc"
+tf = "plant.json"
+rho = 0.95
+out = "models/zpetc.json"
+
+[step.inverse]
+kind = "hysteresis"
+data = "data/triangle.csv"
+operators = 5
+inverse = true
+out = "models/inverse.json"
+"#;
+
+/// A project folder: the manifest, a measured-like triangle record (one
+/// 10 V triangle on the virtual FTS) and the [Li21] closed-loop model.
+fn project(dir: &Path) {
+    std::fs::create_dir_all(dir.join("data")).unwrap();
+    let params = ExperimentParams {
+        triangle_amplitudes_v: vec![10.0],
+        triangle_freq_hz: 5.0,
+        ..ExperimentParams::default()
+    };
+    let (command, measured) = triangle_record(&params).unwrap();
+    let (u, y) = align_triangle_record(&params, &command, &measured);
+    let t = time_column(u.len(), params.plant.ts);
+    std::fs::write(
+        dir.join("data/triangle.csv"),
+        write_csv(&["t", "u", "y"], &[&t, u, y]),
+    )
+    .unwrap();
+    std::fs::copy(repo("fixtures/li21-closed-loop.json"), dir.join("plant.json")).unwrap();
+    std::fs::write(dir.join("fts.toml"), MANIFEST).unwrap();
+}
+
+fn build(dir: &Path) -> assert_cmd::assert::Assert {
+    fts()
+        .current_dir(dir)
+        .args(["build", "-f", "fts.toml"])
+        .assert()
+}
+
+fn check(dir: &Path) -> assert_cmd::assert::Assert {
+    fts()
+        .current_dir(dir)
+        .args(["build", "--check"])
+        .assert()
+}
+
+/// Replaces the `y` value of data row `row` (1-based line `row + 1`).
+fn edit_triangle(dir: &Path, line: usize, value: &str) {
+    let p = dir.join("data/triangle.csv");
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut fields: Vec<&str> = lines[line - 1].split(',').collect();
+    fields[2] = value;
+    lines[line - 1] = fields.join(",");
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+}
+
+#[test]
+fn builds_twice_to_identical_bytes_in_any_folder() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    project(a.path());
+    build(a.path())
+        .success()
+        .stdout(predicate::str::contains("built").and(predicate::str::contains("3 built")));
+    let first = snapshot(a.path());
+    for f in [
+        "models/inverse.json",
+        "models/zpetc.json",
+        "out/controller.json",
+        "out/controller.h",
+        "fts.lock",
+    ] {
+        assert!(first.contains_key(f), "{f} written");
+    }
+    // Provenance paths are relative to the manifest; no absolute path leaks.
+    let controller = String::from_utf8(first["out/controller.json"].clone()).unwrap();
+    assert!(controller.contains("\"file\": \"models/zpetc.json\""));
+    let root = a.path().to_string_lossy().into_owned();
+    for (name, bytes) in &first {
+        assert!(
+            !String::from_utf8_lossy(bytes).contains(&root),
+            "{name} holds the absolute path"
+        );
+    }
+
+    // Second run: nothing to do, nothing rewritten.
+    build(a.path())
+        .success()
+        .stdout(predicate::str::contains("0 built, 3 up to date"));
+    assert_eq!(snapshot(a.path()), first);
+    // --force rebuilds everything to the same bytes.
+    fts()
+        .current_dir(a.path())
+        .args(["build", "--force"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("3 built"));
+    assert_eq!(snapshot(a.path()), first);
+
+    // Another folder, invoked from elsewhere: the same bytes, lock included.
+    project(b.path());
+    fts()
+        .args(["build", "-f"])
+        .arg(b.path().join("fts.toml"))
+        .assert()
+        .success();
+    assert_eq!(snapshot(b.path()), first);
+}
+
+#[test]
+fn check_fails_after_an_input_changes_and_passes_after_rebuild() {
+    let d = tempfile::tempdir().unwrap();
+    project(d.path());
+    // Nothing built yet: stale, exit 1.
+    check(d.path())
+        .code(1)
+        .stderr(predicate::str::contains("never built"));
+    assert!(!d.path().join("fts.lock").exists(), "--check writes nothing");
+    build(d.path()).success();
+    check(d.path())
+        .success()
+        .stdout(predicate::str::contains("3 of 3 steps up to date"));
+
+    edit_triangle(d.path(), 200, "3.25");
+    let before = snapshot(d.path());
+    check(d.path())
+        .code(1)
+        .stderr(
+            predicate::str::contains("models/inverse.json")
+                .and(predicate::str::contains("input data/triangle.csv changed"))
+                .and(predicate::str::contains("out/controller.json")),
+        )
+        .stdout(predicate::str::contains("1 of 3 steps up to date"));
+    assert_eq!(snapshot(d.path()), before, "--check writes nothing");
+
+    build(d.path())
+        .success()
+        .stdout(predicate::str::contains("2 built, 1 up to date"));
+    check(d.path()).success();
+
+    // A settings change is stale too.
+    let m = std::fs::read_to_string(d.path().join("fts.toml")).unwrap();
+    std::fs::write(
+        d.path().join("fts.toml"),
+        m.replace("ki = 0.3", "ki = 0.25"),
+    )
+    .unwrap();
+    check(d.path())
+        .code(1)
+        .stderr(predicate::str::contains("settings").and(predicate::str::contains("controller")));
+    build(d.path())
+        .success()
+        .stdout(predicate::str::contains("1 built, 2 up to date"));
+    check(d.path()).success();
+}
+
+#[test]
+fn hand_edited_or_deleted_outputs_are_detected_and_restored() {
+    let d = tempfile::tempdir().unwrap();
+    project(d.path());
+    build(d.path()).success();
+    let built = snapshot(d.path());
+    let header = d.path().join("out/controller.h");
+    let text = std::fs::read_to_string(&header).unwrap();
+    std::fs::write(&header, text.replace("FTS_PID_KP", "FTS_PID_KP_EDITED")).unwrap();
+    std::fs::remove_file(d.path().join("models/zpetc.json")).unwrap();
+    check(d.path()).code(1).stderr(
+        predicate::str::contains("output out/controller.h was modified")
+            .and(predicate::str::contains("output models/zpetc.json is missing")),
+    );
+    build(d.path()).success();
+    assert_eq!(snapshot(d.path()), built);
+}
+
+#[test]
+fn a_failing_step_leaves_previous_outputs_intact() {
+    let d = tempfile::tempdir().unwrap();
+    project(d.path());
+    build(d.path()).success();
+    let built = snapshot(d.path());
+
+    // zpetc (declared before inverse) changes and rebuilds; inverse then
+    // fails on a NaN; controller must not run.
+    let m = std::fs::read_to_string(d.path().join("fts.toml")).unwrap();
+    std::fs::write(
+        d.path().join("fts.toml"),
+        m.replace("rho = 0.95", "rho = 0.9"),
+    )
+    .unwrap();
+    edit_triangle(d.path(), 50, "NaN");
+    build(d.path()).code(2).stderr(
+        predicate::str::contains("fts.toml line 17, step \"inverse\"")
+            .and(predicate::str::contains("data/triangle.csv line 50")),
+    );
+    let after = snapshot(d.path());
+    for f in [
+        "models/inverse.json",
+        "out/controller.json",
+        "out/controller.h",
+    ] {
+        assert_eq!(after[f], built[f], "{f} untouched");
+    }
+    assert_ne!(after["models/zpetc.json"], built["models/zpetc.json"]);
+    assert!(
+        after.keys().all(|k| !k.contains(".fts-")),
+        "no temporary file left: {:?}",
+        after.keys().collect::<Vec<_>>()
+    );
+    // The lock recorded the completed step only.
+    check(d.path()).code(1).stderr(
+        predicate::str::contains("input data/triangle.csv changed")
+            .and(predicate::str::contains("input models/zpetc.json changed"))
+            .and(predicate::str::contains("models/zpetc.json (").not()),
+    );
+
+    // Repair the record: the rebuild completes and everything is current.
+    edit_triangle(
+        d.path(),
+        50,
+        std::str::from_utf8(&built["data/triangle.csv"])
+            .unwrap()
+            .lines()
+            .nth(49)
+            .unwrap()
+            .split(',')
+            .nth(2)
+            .unwrap(),
+    );
+    build(d.path())
+        .success()
+        .stdout(predicate::str::contains("1 built, 2 up to date"));
+    check(d.path()).success();
+    assert_eq!(
+        snapshot(d.path())["models/inverse.json"],
+        built["models/inverse.json"]
+    );
+}
+
+fn manifest_error(text: &str, expected: &[&str]) {
+    let d = tempfile::tempdir().unwrap();
+    project(d.path());
+    std::fs::write(d.path().join("fts.toml"), text).unwrap();
+    let mut stderr = predicate::str::contains("fts.toml line").boxed();
+    for e in expected {
+        stderr = stderr.and(predicate::str::contains(*e)).boxed();
+    }
+    build(d.path()).code(2).stderr(stderr);
+    check(d.path()).code(2);
+    assert!(!d.path().join("models").exists(), "nothing built");
+    assert!(!d.path().join("fts.lock").exists());
+}
+
+#[test]
+fn manifest_errors_name_the_line_and_field() {
+    // A typo in a field name.
+    manifest_error(
+        &MANIFEST.replace("rho = 0.95", "roh = 0.95"),
+        &["line 14", "step.zpetc.roh", "unknown field"],
+    );
+    // An input nobody writes and that does not exist.
+    manifest_error(
+        &MANIFEST.replace("tf = \"plant.json\"", "tf = \"models/plant.json\""),
+        &["line 13", "step.zpetc.tf", "no step writes it"],
+    );
+    // A cycle.
+    manifest_error(
+        &MANIFEST.replace("tf = \"plant.json\"", "tf = \"out/controller.json\""),
+        &["cycle", "controller -> zpetc -> controller"],
+    );
+    // An unknown kind, a wrong type, a missing field, TOML syntax.
+    manifest_error(
+        &MANIFEST.replace("kind = \"zpetc\"", "kind = \"zpetcc\""),
+        &["line 12", "step.zpetc.kind", "unknown kind \"zpetcc\""],
+    );
+    manifest_error(
+        &MANIFEST.replace("operators = 5", "operators = \"five\""),
+        &["line 20", "step.inverse.operators", "whole number"],
+    );
+    manifest_error(
+        &MANIFEST.replace("out = \"models/zpetc.json\"\n", ""),
+        &["line 11", "step.zpetc.out", "missing"],
+    );
+    manifest_error(
+        &MANIFEST.replace("kp = 0.05", "kp = = 0.05"),
+        &["line 6"],
+    );
+    // Two steps writing one file.
+    manifest_error(
+        &MANIFEST.replace("out = \"models/zpetc.json\"", "out = \"models/inverse.json\""),
+        &["already written by step"],
+    );
+}
+
+#[test]
+fn missing_manifest_is_bad_usage() {
+    let d = tempfile::tempdir().unwrap();
+    fts()
+        .current_dir(d.path())
+        .arg("build")
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("fts.toml: cannot read"));
+}
+
+/// The shipped example (virtual experiment -> hysteresis -> sweep -> ARX/OE
+/// -> ZPETC -> coefficient files) built in two folders: the same bytes.
+#[test]
+fn example_manifest_builds_identically_in_two_folders() {
+    let example = repo("examples/pipeline/fts.toml");
+    let mut snaps = Vec::new();
+    for _ in 0..2 {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::copy(&example, d.path().join("fts.toml")).unwrap();
+        build(d.path())
+            .success()
+            .stdout(predicate::str::contains("6 built"));
+        check(d.path()).success();
+        snaps.push(snapshot(d.path()));
+    }
+    assert_eq!(snaps[0], snaps[1]);
+    assert!(snaps[0].contains_key("out/controller.h"));
+}
