@@ -79,7 +79,11 @@ fn project(dir: &Path) {
         write_csv(&["t", "u", "y"], &[&t, u, y]),
     )
     .unwrap();
-    std::fs::copy(repo("fixtures/li21-closed-loop.json"), dir.join("plant.json")).unwrap();
+    std::fs::copy(
+        repo("fixtures/li21-closed-loop.json"),
+        dir.join("plant.json"),
+    )
+    .unwrap();
     std::fs::write(dir.join("fts.toml"), MANIFEST).unwrap();
 }
 
@@ -91,10 +95,7 @@ fn build(dir: &Path) -> assert_cmd::assert::Assert {
 }
 
 fn check(dir: &Path) -> assert_cmd::assert::Assert {
-    fts()
-        .current_dir(dir)
-        .args(["build", "--check"])
-        .assert()
+    fts().current_dir(dir).args(["build", "--check"]).assert()
 }
 
 /// Replaces the `y` value of data row `row` (1-based line `row + 1`).
@@ -169,7 +170,10 @@ fn check_fails_after_an_input_changes_and_passes_after_rebuild() {
     check(d.path())
         .code(1)
         .stderr(predicate::str::contains("never built"));
-    assert!(!d.path().join("fts.lock").exists(), "--check writes nothing");
+    assert!(
+        !d.path().join("fts.lock").exists(),
+        "--check writes nothing"
+    );
     build(d.path()).success();
     check(d.path())
         .success()
@@ -219,8 +223,9 @@ fn hand_edited_or_deleted_outputs_are_detected_and_restored() {
     std::fs::write(&header, text.replace("FTS_PID_KP", "FTS_PID_KP_EDITED")).unwrap();
     std::fs::remove_file(d.path().join("models/zpetc.json")).unwrap();
     check(d.path()).code(1).stderr(
-        predicate::str::contains("output out/controller.h was modified")
-            .and(predicate::str::contains("output models/zpetc.json is missing")),
+        predicate::str::contains("output out/controller.h was modified").and(
+            predicate::str::contains("output models/zpetc.json is missing"),
+        ),
     );
     build(d.path()).success();
     assert_eq!(snapshot(d.path()), built);
@@ -334,13 +339,13 @@ fn manifest_errors_name_the_line_and_field() {
         &MANIFEST.replace("out = \"models/zpetc.json\"\n", ""),
         &["line 11", "step.zpetc.out", "missing"],
     );
-    manifest_error(
-        &MANIFEST.replace("kp = 0.05", "kp = = 0.05"),
-        &["line 6"],
-    );
+    manifest_error(&MANIFEST.replace("kp = 0.05", "kp = = 0.05"), &["line 6"]);
     // Two steps writing one file.
     manifest_error(
-        &MANIFEST.replace("out = \"models/zpetc.json\"", "out = \"models/inverse.json\""),
+        &MANIFEST.replace(
+            "out = \"models/zpetc.json\"",
+            "out = \"models/inverse.json\"",
+        ),
         &["already written by step"],
     );
 }

@@ -151,7 +151,11 @@ pub struct Plan {
 impl Plan {
     /// Absolute-or-cwd-relative location of a manifest-relative path.
     pub fn locate(&self, rel: &str) -> PathBuf {
-        self.base.join(rel)
+        if self.base == Path::new(".") {
+            PathBuf::from(rel)
+        } else {
+            self.base.join(rel)
+        }
     }
 
     /// The step that writes `path`, if any.
@@ -167,6 +171,17 @@ impl Plan {
 struct RawManifest {
     #[serde(default)]
     step: BTreeMap<String, Spanned<BTreeMap<String, Spanned<Value>>>>,
+}
+
+/// A value for an error message: scalars as written, tables and lists by type.
+fn shown(v: &Value) -> String {
+    match v {
+        Value::Integer(i) => i.to_string(),
+        Value::Float(x) => x.to_string(),
+        Value::Boolean(b) => b.to_string(),
+        Value::String(s) => format!("{s:?}"),
+        other => other.type_str().to_string(),
+    }
 }
 
 /// 1-based line of a byte offset.
@@ -349,7 +364,7 @@ impl<'a> Fields<'a> {
                 other => Err(self.err(
                     key,
                     line,
-                    format!("item {i}: expected a finite number, found {other}"),
+                    format!("item {i}: expected a finite number, found {}", shown(other)),
                 )),
             })
             .collect::<Result<Vec<_>, _>>()
@@ -364,7 +379,10 @@ impl<'a> Fields<'a> {
             Some((other, line)) => Err(self.err(
                 key,
                 line,
-                format!("expected a column name or a 1-based column number, found {other}"),
+                format!(
+                    "expected a column name or a 1-based column number, found {}",
+                    shown(&other)
+                ),
             )),
         }
     }
@@ -840,7 +858,11 @@ pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
         .collect();
     Ok(Plan {
         manifest: manifest.to_path_buf(),
-        lock: base.join(lock_name),
+        lock: if base == Path::new(".") {
+            PathBuf::from(lock_name)
+        } else {
+            base.join(lock_name)
+        },
         base,
         steps,
     })
