@@ -9,6 +9,9 @@
 //! * [`synth`] — controller and feedforward synthesis (ZPETC, ...).
 //! * [`io`] — the file contracts of `shared/spec/interfaces.md` (CSV time series,
 //!   `fts.tf/1`, ...), parsed from text so that callers decide where bytes come from.
+//! * [`pipeline`] — pipeline manifests (`fts.toml`) and `fts build`: steps in
+//!   dependency order, rebuilt when the content hash of an input or setting
+//!   changes, atomic writes, the lock file.
 //! * [`cli`] — the command line: the only module that knows about paths,
 //!   exit codes and `anyhow`.
 //!
