@@ -379,3 +379,59 @@ fn example_manifest_builds_identically_in_two_folders() {
     assert_eq!(snaps[0], snaps[1]);
     assert!(snaps[0].contains_key("out/controller.h"));
 }
+
+/// A real record (the SmartHysteresis piezo, headerless, columns 4 = V and
+/// 3 = um, excitation from sample 16286): the manifest's column options give
+/// the same model file, byte for byte, as `fts identify hysteresis`.
+#[test]
+fn real_record_step_matches_the_command_line() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(d.path().join("data")).unwrap();
+    let dataset = repo("../shared/datasets/piezo-smarthysteresis/hysteresis_v_150_1hz.csv");
+    std::fs::copy(&dataset, d.path().join("data/piezo.csv")).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (needs the shared piezo dataset next to the repo)",
+            dataset.display()
+        )
+    });
+    std::fs::write(
+        d.path().join("fts.toml"),
+        r#"[step.piezo]
+kind = "hysteresis"
+data = "data/piezo.csv"
+no_header = true
+input = 4
+output = 3
+start = 16286
+model = "mpi-cbrt"
+out = "piezo.json"
+"#,
+    )
+    .unwrap();
+    build(d.path()).success();
+    fts()
+        .current_dir(d.path())
+        .args([
+            "identify",
+            "hysteresis",
+            "data/piezo.csv",
+            "--no-header",
+            "--input",
+            "4",
+            "--output",
+            "3",
+            "--start",
+            "16286",
+            "--model",
+            "mpi-cbrt",
+            "-o",
+            "cli.json",
+        ])
+        .assert()
+        .success();
+    assert_eq!(
+        std::fs::read(d.path().join("piezo.json")).unwrap(),
+        std::fs::read(d.path().join("cli.json")).unwrap()
+    );
+    check(d.path()).success();
+}
