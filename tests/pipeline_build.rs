@@ -435,3 +435,40 @@ out = "piezo.json"
     );
     check(d.path()).success();
 }
+
+/// A damaged lock file is bad input naming it; `--force` rebuilds past it.
+/// `--json` prints one object with every step's status.
+#[test]
+fn damaged_lock_and_json_summary() {
+    let d = tempfile::tempdir().unwrap();
+    project(d.path());
+    build(d.path()).success();
+    let built = snapshot(d.path());
+    std::fs::write(d.path().join("fts.lock"), "{not json").unwrap();
+    build(d.path())
+        .code(2)
+        .stderr(predicate::str::contains("fts.lock").and(predicate::str::contains("--force")));
+    let out = fts()
+        .current_dir(d.path())
+        .args(["build", "--force", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).expect("one JSON object");
+    assert_eq!(v["built"], 3);
+    assert_eq!(v["steps"][2]["name"], "controller", "dependency order");
+    assert_eq!(snapshot(d.path()), built);
+    let out = fts()
+        .current_dir(d.path())
+        .args(["build", "--check", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert_eq!(v["up_to_date"], 3);
+    assert_eq!(v["stale"], 0);
+}

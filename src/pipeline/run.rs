@@ -248,22 +248,14 @@ pub fn build(
     force: bool,
     observer: &mut dyn FnMut(Event<'_>),
 ) -> Result<Vec<StepReport>, PipelineError> {
-    let (old, old_text) = if force {
-        // The old lock is replaced entry by entry as steps complete.
-        (Lock::default(), std::fs::read_to_string(&plan.lock).ok())
-    } else {
-        read_lock(plan)?
+    // With --force an unreadable lock is simply replaced; entries of steps
+    // not yet rebuilt are kept, so a failure still leaves it accurate.
+    let (old, old_text) = match read_lock(plan) {
+        Err(_) if force => (Lock::default(), None),
+        other => other?,
     };
     let names: BTreeSet<&str> = plan.steps.iter().map(|s| s.name.as_str()).collect();
     let mut lock = old.clone();
-    if force {
-        // Keep the previous entries of steps not yet rebuilt, when readable.
-        if let Some(text) = &old_text
-            && let Ok(l) = Lock::parse(text, "")
-        {
-            lock = l;
-        }
-    }
     lock.steps.retain(|name, _| names.contains(name.as_str()));
     let write_lock = |lock: &Lock| -> Result<(), PipelineError> {
         write_atomic(&plan.lock, lock.to_json_string().as_bytes()).map_err(|e| {
