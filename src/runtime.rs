@@ -19,7 +19,7 @@
 //! block `u_ff = 0`.
 
 /// Longest polynomial (coefficients) of a filter block.
-pub const MAX_FILTER_LEN: usize = 32;
+pub const MAX_FILTER_LEN: usize = 512;
 /// Most play operators in a hysteresis block.
 pub const MAX_OPERATORS: usize = 64;
 /// Most dead-zone operators in a hysteresis block's output stage.

@@ -95,6 +95,52 @@ fn zpetc_rho_keeps_zeros_and_extends_preview() {
 }
 
 #[test]
+fn zpetc_stable_inversion_of_an_outside_zero() {
+    // B = 1 - 2 z^-1 + 0.75 z^-2 = (1 - 0.5 z^-1)(1 - 1.5 z^-1): 1.5 is
+    // inverted by the series; the product G_z G_c is then 1 to ~1e-9.
+    let dir = tempfile::tempdir().unwrap();
+    let plant = write(
+        dir.path(),
+        "g.json",
+        r#"{"format":"fts.tf/1","var":"z^-1","ts":0.001,"num":[1,-2,0.75],"den":[1,-0.3],"delay":2}"#,
+    );
+    let assert = fts()
+        .args([
+            "zpetc",
+            "--json",
+            "--stable-inversion",
+            "--series-tol",
+            "1e-9",
+            "--tf",
+        ])
+        .arg(&plant)
+        .assert()
+        .success();
+    let v: serde_json::Value = serde_json::from_slice(&assert.get_output().stdout).unwrap();
+    assert_eq!(v["inverted_zeros"].as_array().unwrap().len(), 1);
+    assert_eq!(v["uncancelled_zeros"].as_array().unwrap().len(), 0);
+    let terms = v["series_terms"].as_u64().unwrap();
+    // ln(1e-9) / ln(1/1.5) = 51.1 terms.
+    assert!((50..=56).contains(&terms), "{terms}");
+    assert_eq!(v["preview"].as_u64().unwrap(), 2 + 1 + terms);
+    assert!((v["check"]["dc_gain"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert!(v["check"]["max_phase_error_rad"].as_f64().unwrap() < 1e-7);
+    // The summary names the treatment; a radius of 1 or less is refused.
+    fts()
+        .args(["zpetc", "--stable-inversion", "--tf"])
+        .arg(&plant)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("inverted: anticausal series"));
+    fts()
+        .args(["zpetc", "--stable-inversion", "0.9", "--tf"])
+        .arg(&plant)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("radius must exceed 1"));
+}
+
+#[test]
 fn tf_info_reports_poles_zeros_and_bode_csv() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("bode.csv");

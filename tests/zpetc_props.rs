@@ -76,6 +76,45 @@ proptest! {
     }
 
     #[test]
+    fn stable_inversion_makes_the_product_one(zeros in zero_set(), poles in pole_set(),
+                                              gain in 0.2f64..5.0, delay in 0usize..6) {
+        // Every zero outside radius 1.1 inverted by its series: G_z G_c is then
+        // |B_u|^2/B_u(1)^2 for the ZPETC-kept zeros (inside 1.1) and otherwise 1,
+        // to the series tolerance.
+        let b = Poly::from_z_roots(&zeros, gain);
+        let a = Poly::from_z_roots(&poles, 1.0);
+        let g = DiscreteTf::new(b.coeffs().to_vec(), a.coeffs().to_vec(), delay, 1e-4).unwrap();
+        let tol = 1e-10;
+        let params = ZpetcParams {
+            stable_inversion: Some(zpetc::StableInversion { min_radius: 1.1, tolerance: tol, max_terms: 5000 }),
+            ..Default::default()
+        };
+        let f = zpetc::design(&g, &params).unwrap();
+        let m = f.series_inverted_zeros().count();
+        prop_assert!(f.series_inverted_zeros().all(|z| z.magnitude >= 1.1));
+        prop_assert_eq!(f.preview, delay + f.uncancelled_zeros().count() + m + f.series_terms);
+        let kept: Vec<c64> = f.uncancelled_zeros().map(|z| z.zero).collect();
+        let b_u = Poly::from_z_roots(&kept, 1.0);
+        let dc2 = b_u.sum().powi(2);
+        let scale = (0..=200).map(|i| b_u.eval_unit_circle(PI * i as f64 / 200.0).norm_sqr() / dc2).fold(1.0, f64::max);
+        // The truncation error is relative to the series' l1 norm, which the
+        // inverse's peak gain 1/min|B_o| can exceed: bound by both.
+        let inverted: Vec<c64> = f.series_inverted_zeros().map(|z| z.zero).collect();
+        let b_o = Poly::from_z_roots(&inverted, 1.0);
+        let peak_inverse = (0..=400).map(|i| 1.0 / b_o.eval_unit_circle(PI * i as f64 / 400.0).norm()).fold(1.0, f64::max);
+        let dc_o = b_o.sum().abs();
+        for i in 0..=200 {
+            let w = PI * i as f64 / 200.0;
+            let p = f.response_at_omega(w) * g.response_at_omega(w);
+            let expected = b_u.eval_unit_circle(w).norm_sqr() / dc2;
+            let bound = 1e3 * tol * scale * peak_inverse * dc_o.max(1.0) * (1 + m) as f64;
+            prop_assert!((p - expected).norm() <= bound, "w={} p={} expected={} bound={}", w, p, expected, bound);
+        }
+        let dc = f.response_at_omega(0.0) * g.response_at_omega(0.0);
+        prop_assert!((dc.re - 1.0).abs() < 1e-9 && dc.im.abs() < 1e-12);
+    }
+
+    #[test]
     fn roots_accurate_to_their_condition_number(raw in prop::collection::vec((0.2f64..2.0, 0.1f64..PI - 0.1), 1..8)) {
         // Backward stability plus polishing: each root's error is bounded by
         // a modest multiple of eps times its condition number

@@ -3,7 +3,7 @@
 //! -> verification), with every intermediate file and plot written to DIR and
 //! the tracking table printed beside the paper's.
 
-use super::common::{print_json, write_atomic};
+use super::common::{fmt_complex, print_json, write_atomic};
 use crate::io::controller_file::{Provenance, sha256_hex, to_c_header};
 use crate::io::hysteresis_json::{FitRecord, ModelFile, SignalInfo, model_to_string};
 use crate::io::timeseries::{time_column, write_csv};
@@ -219,8 +219,18 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 "delay": cl.tf.delay(),
                 "simulation_fit_percent": cl.arx_fit.simulation_percent,
                 "oe_simulation_fit_percent": cl.oe_fit.as_ref().map(|f| f.simulation_percent),
+                "reason": cl.reason,
+                "removed_pole_zero_pairs": cl.removed_pairs.iter().map(|(z, p)| json!({"zero": [z.re, z.im], "pole": [p.re, p.im]})).collect::<Vec<_>>(),
             },
-            "zpetc": {"preview": m.zpetc.preview, "max_phase_error_rad": check.max_phase_error_rad, "dc_gain": check.dc_gain},
+            "zpetc": {
+                "preview": m.zpetc.preview,
+                "cancelled_zeros": m.zpetc.cancelled_zeros().count(),
+                "series_inverted_zeros": m.zpetc.series_inverted_zeros().count(),
+                "uncancelled_zeros": m.zpetc.uncancelled_zeros().count(),
+                "series_terms": m.zpetc.series_terms,
+                "max_phase_error_rad": check.max_phase_error_rad,
+                "dc_gain": check.dc_gain,
+            },
             "table": result.table.iter().map(|r| json!({
                 "reference": r.reference,
                 "controller": r.controller,
@@ -258,11 +268,30 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             .map(|f| format!(", {:.1} % (OE)", f.simulation_percent))
             .unwrap_or_default()
     );
+    println!("   {}", cl.reason);
+    if !cl.removed_pairs.is_empty() {
+        println!(
+            "   near pole-zero cancellations removed before the ZPETC (minreal): {}",
+            cl.removed_pairs
+                .iter()
+                .map(|(z, p)| format!(
+                    "zero {} / pole {} ({:.0} Hz)",
+                    fmt_complex(*z),
+                    fmt_complex(*p),
+                    p.arg().abs() / (2.0 * std::f64::consts::PI * cl.tf.ts())
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     println!(
-        "3. ZPETC: preview {} samples, {} of {} zeros cancelled; self-check max phase {:.1e} rad, DC gain {:.12}",
+        "3. ZPETC: preview {} samples; of {} zeros {} cancelled, {} inverted by an anticausal series of {} terms, {} left to phase cancellation; self-check max phase {:.1e} rad, DC gain {:.12}",
         m.zpetc.preview,
-        m.zpetc.cancelled_zeros().count(),
         m.zpetc.zeros.len(),
+        m.zpetc.cancelled_zeros().count(),
+        m.zpetc.series_inverted_zeros().count(),
+        m.zpetc.series_terms,
+        m.zpetc.uncancelled_zeros().count(),
         check.max_phase_error_rad,
         check.dc_gain
     );

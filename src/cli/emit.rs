@@ -34,10 +34,10 @@ pub struct EmitArgs {
     #[arg(long, value_name = "CL.json")]
     closed_loop: Option<PathBuf>,
     /// PID proportional gain.
-    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = crate::sim::experiment::DEFAULT_PID.kp, allow_hyphen_values = true)]
     kp: f64,
     /// PID integral gain per sample.
-    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = crate::sim::experiment::DEFAULT_PID.ki, allow_hyphen_values = true)]
     ki: f64,
     /// PID derivative gain per sample (on the measurement).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]

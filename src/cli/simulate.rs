@@ -81,10 +81,10 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "CTRL.json", conflicts_with_all = ["hysteresis", "zpetc", "closed_loop"])]
     controller_file: Option<PathBuf>,
     /// PID proportional gain (V/um).
-    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = crate::sim::experiment::DEFAULT_PID.kp, allow_hyphen_values = true)]
     kp: f64,
     /// PID integral gain per sample (V/um).
-    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = crate::sim::experiment::DEFAULT_PID.ki, allow_hyphen_values = true)]
     ki: f64,
     /// PID derivative gain per sample (V/um), on the measurement.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
@@ -123,11 +123,13 @@ fn virtual_params(args: &SimulateArgs) -> anyhow::Result<VirtualFtsParams> {
     Ok(p)
 }
 
-fn build_reference(args: &SimulateArgs, ts: f64) -> anyhow::Result<Reference> {
+/// The reference; its tail covers the controller's preview.
+fn build_reference(args: &SimulateArgs, ts: f64, preview: usize) -> anyhow::Result<Reference> {
     let timing = ReferenceTiming {
         ts,
         ..ReferenceTiming::default()
-    };
+    }
+    .with_preview(preview);
     let excite_err = |e: crate::ident::excite::ExciteError| {
         bad(format!("--{}: {}", e.field.replace('_', "-"), e.message))
     };
@@ -305,8 +307,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             }
             None => None,
         };
-        let reference = build_reference(&args, g.ts())?;
         let (file, origin) = controller(&args, &vparams, g.ts())?;
+        let reference = build_reference(&args, g.ts(), file.preview())?;
         let mut plant = ModelPlant::new(
             &g,
             hysteresis,
@@ -322,8 +324,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             reference,
         )
     } else {
-        let reference = build_reference(&args, vparams.ts)?;
         let (file, origin) = controller(&args, &vparams, vparams.ts)?;
+        let reference = build_reference(&args, vparams.ts, file.preview())?;
         let mut plant = VirtualFts::new(vparams.clone()).map_err(|e| bad(format!("plant: {e}")))?;
         (
             run_on(&mut plant, &file, &reference)?,
@@ -333,7 +335,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         )
     };
     let limits = (file.pid.output_min, file.pid.output_max);
-    let m = closed_loop::metrics(&trace, reference.evaluate_from, limits);
+    let m = closed_loop::metrics(&trace, reference.evaluated(), limits);
     let error = trace.error();
     let t: Vec<f64> = (0..trace.reference.len())
         .map(|k| k as f64 * trace.ts)

@@ -33,6 +33,14 @@ pub struct ZpetcArgs {
     /// Zeros whose equivalent damping ratio is below this are not cancelled (0..1).
     #[arg(long, value_name = "ZETA", default_value_t = ZpetcParams::default().min_damping)]
     min_damping: f64,
+    /// Invert zeros with |z| >= RADIUS exactly by an anticausal series (stable
+    /// inversion) instead of cancelling only their phase; the preview grows by
+    /// the series length. Without it: classical ZPETC (Tomizuka, [Li21]).
+    #[arg(long, value_name = "RADIUS", num_args = 0..=1, default_missing_value = "1.25")]
+    stable_inversion: Option<f64>,
+    /// Truncation tolerance of the stable-inversion series (relative).
+    #[arg(long, value_name = "TOL", default_value_t = zpetc::StableInversion::default().tolerance, requires = "stable_inversion")]
+    series_tol: f64,
     /// Draw |G_c|, |G_z G_c| and their phase to this SVG file.
     #[arg(long, value_name = "BODE.svg")]
     plot: Option<PathBuf>,
@@ -52,9 +60,17 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
     let params = ZpetcParams {
         rho: args.rho,
         min_damping: args.min_damping,
+        stable_inversion: args
+            .stable_inversion
+            .map(|min_radius| zpetc::StableInversion {
+                min_radius,
+                tolerance: args.series_tol,
+                ..Default::default()
+            }),
     };
     let filter = zpetc::design(&plant, &params).map_err(|e| match e {
         zpetc::ZpetcError::InvalidParams(m) => bad(m),
+        e @ zpetc::ZpetcError::SeriesTooLong { .. } => bad(format!("{source}: {e}")),
         zpetc::ZpetcError::ZeroAtDc => bad(format!("{source}: {e}")),
         other => anyhow::Error::new(other),
     })?;
@@ -116,7 +132,8 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
     }
 
     let d = plant.delay();
-    let s = filter.preview - d;
+    let s = filter.uncancelled_zeros().count();
+    let m = filter.series_inverted_zeros().count();
     println!(
         "closed loop {source}: z^-{d} B_c/A_c, ts = {} s, {} zeros, {} poles, DC gain {:.6}",
         plant.ts(),
@@ -124,10 +141,16 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
         plant.den().trimmed(0.0).degree(),
         plant.dc_gain()
     );
-    println!(
-        "zero map (cancel if |z| < rho = {} and damping >= {}):",
-        params.rho, params.min_damping
-    );
+    match params.stable_inversion {
+        Some(si) => println!(
+            "zero map (invert by series if |z| >= {}; else cancel if |z| < rho = {} and damping >= {}):",
+            si.min_radius, params.rho, params.min_damping
+        ),
+        None => println!(
+            "zero map (cancel if |z| < rho = {} and damping >= {}):",
+            params.rho, params.min_damping
+        ),
+    }
     println!("  {:<26} {:>8} {:>8}  status", "zero", "|z|", "damping");
     for z in &filter.zeros {
         println!(
@@ -138,11 +161,20 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
             z.status.label()
         );
     }
-    println!(
-        "preview: {} samples (delay d = {d}, uncancelled zeros s = {s}) = {:.3} ms",
-        filter.preview,
-        filter.preview as f64 * plant.ts() * 1e3
-    );
+    if m > 0 {
+        println!(
+            "preview: {} samples (delay d = {d}, uncancelled zeros s = {s}, series-inverted zeros m = {m}, series terms N = {}) = {:.3} ms",
+            filter.preview,
+            filter.series_terms,
+            filter.preview as f64 * plant.ts() * 1e3
+        );
+    } else {
+        println!(
+            "preview: {} samples (delay d = {d}, uncancelled zeros s = {s}) = {:.3} ms",
+            filter.preview,
+            filter.preview as f64 * plant.ts() * 1e3
+        );
+    }
     println!("G_z = z^{} num(z^-1)/den(z^-1)", filter.preview);
     println!("  num = {:?}", filter.num.coeffs());
     println!("  den = {:?}", filter.den.coeffs());

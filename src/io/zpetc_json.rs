@@ -4,15 +4,19 @@
 //! {"format": "fts.zpetc/1", "var": "z^-1", "ts": 0.0001,
 //!  "num": [...], "den": [...], "preview": 5,
 //!  "cancelled_zeros": [[re, im], ...], "uncancelled_zeros": [[re, im], ...],
-//!  "rho": 0.95, "min_damping": 0.1}
+//!  "rho": 0.95, "min_damping": 0.1,
+//!  "inverted_zeros": [[re, im], ...], "series_terms": 20,
+//!  "stable_inversion": {"min_radius": 1.25, "tolerance": 1e-9, "max_terms": 1000}}
 //! ```
+//! The last three keys appear only when the filter inverts zeros by the
+//! anticausal series; older files without them read as classical ZPETC.
 //! `G_z = z^preview num(z^-1) / den(z^-1)`: the causal part `num/den` runs on
 //! the reference `preview` samples ahead.
 
 use super::InputError;
 use super::tf_json::{check_format, get_f64_array, get_str};
 use crate::lti::{Poly, c64};
-use crate::synth::zpetc::{ClassifiedZero, ZeroStatus, Zpetc, ZpetcParams};
+use crate::synth::zpetc::{ClassifiedZero, StableInversion, ZeroStatus, Zpetc, ZpetcParams};
 use serde_json::{Value, json};
 
 /// The format tag.
@@ -38,6 +42,12 @@ pub fn zpetc_to_value(z: &Zpetc) -> Value {
         uncancelled_zeros: Value,
         rho: f64,
         min_damping: f64,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        inverted_zeros: Option<Value>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        series_terms: Option<usize>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        stable_inversion: Option<Value>,
     }
     serde_json::to_value(Doc {
         format: ZPETC_FORMAT,
@@ -50,6 +60,14 @@ pub fn zpetc_to_value(z: &Zpetc) -> Value {
         uncancelled_zeros: pairs(z.uncancelled_zeros()),
         rho: z.params.rho,
         min_damping: z.params.min_damping,
+        inverted_zeros: z
+            .params
+            .stable_inversion
+            .map(|_| pairs(z.series_inverted_zeros())),
+        series_terms: z.params.stable_inversion.map(|_| z.series_terms),
+        stable_inversion: z.params.stable_inversion.map(|si| {
+            json!({"min_radius": si.min_radius, "tolerance": si.tolerance, "max_terms": si.max_terms})
+        }),
     })
     .expect("numbers serialise")
 }
@@ -125,6 +143,37 @@ pub fn parse_zpetc(text: &str, source: &str) -> Result<Zpetc, InputError> {
             .get("min_damping")
             .and_then(Value::as_f64)
             .unwrap_or(defaults.min_damping),
+        stable_inversion: match obj.get("stable_inversion") {
+            None | Some(Value::Null) => None,
+            Some(Value::Object(si)) => {
+                let field = |key: &str, fallback: f64| -> Result<f64, InputError> {
+                    match si.get(key) {
+                        None => Ok(fallback),
+                        Some(v) => {
+                            v.as_f64()
+                                .filter(|x| x.is_finite() && *x > 0.0)
+                                .ok_or_else(|| {
+                                    InputError::new(source, "expected a positive number")
+                                        .in_field(format!("stable_inversion.{key}"))
+                                })
+                        }
+                    }
+                };
+                let d = StableInversion::default();
+                Some(StableInversion {
+                    min_radius: field("min_radius", d.min_radius)?,
+                    tolerance: field("tolerance", d.tolerance)?,
+                    max_terms: field("max_terms", d.max_terms as f64)? as usize,
+                })
+            }
+            Some(_) => {
+                return Err(InputError::new(
+                    source,
+                    "expected an object {min_radius, tolerance, max_terms} or null",
+                )
+                .in_field("stable_inversion"));
+            }
+        },
     };
     let classify = |zero: c64, status| ClassifiedZero {
         zero,
@@ -136,6 +185,15 @@ pub fn parse_zpetc(text: &str, source: &str) -> Result<Zpetc, InputError> {
         .into_iter()
         .map(|z| classify(z, ZeroStatus::Cancelled))
         .collect();
+    for z in zero_list(obj, source, "inverted_zeros")? {
+        zeros.push(classify(z, ZeroStatus::InvertedBySeries));
+    }
+    let series_terms = match obj.get("series_terms") {
+        None => 0,
+        Some(v) => v.as_u64().ok_or_else(|| {
+            InputError::new(source, "expected a non-negative whole number").in_field("series_terms")
+        })? as usize,
+    };
     for z in zero_list(obj, source, "uncancelled_zeros")? {
         let status = if z.norm() >= params.rho {
             ZeroStatus::OutsideRadius
@@ -148,6 +206,7 @@ pub fn parse_zpetc(text: &str, source: &str) -> Result<Zpetc, InputError> {
         num: Poly::new(num),
         den: Poly::new(den),
         preview,
+        series_terms,
         ts,
         zeros,
         params,
@@ -170,5 +229,27 @@ mod tests {
         assert_eq!(back.den, z.den);
         assert_eq!(back.preview, z.preview);
         assert_eq!(zpetc_to_string(&back), text);
+    }
+    #[test]
+    fn round_trip_with_stable_inversion() {
+        let g = DiscreteTf::new(vec![1.0, -2.0, 0.75], vec![1.0, -0.3], 2, 1e-3).unwrap();
+        let params = ZpetcParams {
+            stable_inversion: Some(StableInversion::default()),
+            ..Default::default()
+        };
+        let z = design(&g, &params).unwrap();
+        assert_eq!(z.series_inverted_zeros().count(), 1);
+        let text = zpetc_to_string(&z);
+        assert!(text.contains("\"inverted_zeros\""));
+        let back = parse_zpetc(&text, "z.json").unwrap();
+        assert_eq!(back.num, z.num);
+        assert_eq!(back.preview, z.preview);
+        assert_eq!(back.series_terms, z.series_terms);
+        assert_eq!(back.params, z.params);
+        assert_eq!(back.series_inverted_zeros().count(), 1);
+        assert_eq!(zpetc_to_string(&back), text);
+        // Classical files carry none of the new keys.
+        let classical = zpetc_to_string(&design(&g, &ZpetcParams::default()).unwrap());
+        assert!(!classical.contains("inverted_zeros") && !classical.contains("series_terms"));
     }
 }

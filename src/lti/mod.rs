@@ -21,4 +21,6 @@ pub use filter::{TdfFilter, lsim};
 pub use poly::Poly;
 pub use roots::{RootsError, roots_descending};
 pub use ss::{SsError, StateSpace};
-pub use tf::{Bode, ContinuousTf, DiscreteTf, TfError, TransferFunction, linspace, logspace};
+pub use tf::{
+    Bode, ContinuousTf, DiscreteTf, Minreal, TfError, TransferFunction, linspace, logspace,
+};

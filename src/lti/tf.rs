@@ -49,6 +49,16 @@ pub struct DiscreteTf {
     ts: f64,
 }
 
+/// The result of [`DiscreteTf::minreal`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Minreal {
+    /// The reduced transfer function.
+    pub tf: DiscreteTf,
+    /// The removed `(zero, pole)` pairs (one entry per conjugate pair, upper
+    /// half plane).
+    pub removed: Vec<(c64, c64)>,
+}
+
 impl DiscreteTf {
     /// Builds and validates. Trailing exact zeros are trimmed from both
     /// polynomials; leading zeros of the numerator become delay.
@@ -138,6 +148,77 @@ impl DiscreteTf {
     /// All poles strictly inside the unit circle.
     pub fn is_stable(&self) -> Result<bool, RootsError> {
         Ok(self.poles()?.iter().all(|p| p.norm() < 1.0))
+    }
+
+    /// Removes near pole-zero cancellations, as MATLAB's `minreal` does for
+    /// transfer functions, with a tolerance that means something on the unit
+    /// circle: a pair `(z, p)` goes when the factor `(1 - z e^{-jw}) / (1 - p
+    /// e^{-jw})` it contributes stays within `tol` of 1 at every frequency,
+    /// i.e. `|z - p| <= tol |1 - |p||`. Such pairs in identified models are
+    /// mostly the fit absorbing noise or a weak nonlinearity; left in, a
+    /// ZPETC treats the zero on its own (and, near the unit circle, refuses
+    /// to cancel it) although the pole next to it already does. Pairs are
+    /// matched greedily, closest first, conjugates together; the DC gain and
+    /// the delay are kept.
+    pub fn minreal(&self, tol: f64) -> Result<Minreal, RootsError> {
+        let mut zeros = self.zeros()?;
+        let mut poles = self.poles()?;
+        let mut removed = Vec::new();
+        loop {
+            let mut best: Option<(usize, usize, f64)> = None;
+            for (i, z) in zeros.iter().enumerate() {
+                if z.im < 0.0 {
+                    continue;
+                }
+                for (j, p) in poles.iter().enumerate() {
+                    let margin = (1.0 - p.norm()).abs();
+                    let distance = (z - p).norm();
+                    // A real zero pairs with a real pole, a complex one with
+                    // a complex one (conjugates then go together).
+                    if (z.im == 0.0) != (p.im == 0.0) || distance > tol * margin {
+                        continue;
+                    }
+                    let rel = distance / margin.max(f64::MIN_POSITIVE);
+                    if best.is_none_or(|(_, _, r)| rel < r) {
+                        best = Some((i, j, rel));
+                    }
+                }
+            }
+            let Some((i, j, _)) = best else { break };
+            let (z, p) = (zeros[i], poles[j]);
+            removed.push((z, p));
+            zeros.swap_remove(i);
+            poles.swap_remove(j);
+            if z.im > 0.0 {
+                let conj = |v: &[c64], x: c64| {
+                    v.iter()
+                        .position(|w| (w - x.conj()).norm() <= 1e-9 * (1.0 + x.norm()))
+                };
+                if let (Some(zi), Some(pj)) = (conj(&zeros, z), conj(&poles, p)) {
+                    zeros.swap_remove(zi);
+                    poles.swap_remove(pj);
+                }
+            }
+        }
+        if removed.is_empty() {
+            return Ok(Minreal {
+                tf: self.clone(),
+                removed,
+            });
+        }
+        let num = Poly::from_z_roots(&zeros, self.num.coeffs()[0]);
+        let den = Poly::from_z_roots(&poles, 1.0);
+        let mut tf = DiscreteTf {
+            num,
+            den,
+            delay: self.delay,
+            ts: self.ts,
+        };
+        let (before, after) = (self.dc_gain(), tf.dc_gain());
+        if before.is_finite() && after.is_finite() && after != 0.0 {
+            tf.num = tf.num.scale(before / after);
+        }
+        Ok(Minreal { tf, removed })
     }
 
     /// `self * other` (the sample times must agree; the caller checks).
@@ -487,5 +568,44 @@ mod tests {
         assert_eq!(t.num(), &[1.0]);
         assert_eq!(t.den(), &[1.0, 2.0]);
         assert_eq!(g.series(&g).den(), &[1.0, 2.0, 1.0]);
+    }
+    #[test]
+    fn minreal_removes_near_cancellations_only() {
+        // Poles 0.9 e^{+-j0.45} and 0.5; zeros 0.8999 e^{+-j0.4501} (a near
+        // cancellation, distance ~1.4e-4 against 1 - |p| = 0.1), 2.5 and -0.3.
+        let p = [
+            c64::from_polar(0.9, 0.45),
+            c64::from_polar(0.9, -0.45),
+            c64::new(0.5, 0.0),
+        ];
+        let z = [
+            c64::from_polar(0.8999, 0.4501),
+            c64::from_polar(0.8999, -0.4501),
+            c64::new(2.5, 0.0),
+            c64::new(-0.3, 0.0),
+        ];
+        let g = DiscreteTf::new(
+            Poly::from_z_roots(&z, 1.7).coeffs().to_vec(),
+            Poly::from_z_roots(&p, 1.0).coeffs().to_vec(),
+            2,
+            1e-4,
+        )
+        .unwrap();
+        let m = g.minreal(0.01).unwrap();
+        assert_eq!(m.removed.len(), 1);
+        assert!((m.removed[0].0 - z[0]).norm() < 1e-9);
+        assert!((m.removed[0].1 - p[0]).norm() < 1e-9);
+        assert_eq!(m.tf.num().degree(), 2);
+        assert_eq!(m.tf.den().degree(), 1);
+        assert_eq!(m.tf.delay(), 2);
+        assert!((m.tf.dc_gain() - g.dc_gain()).abs() < 1e-12 * g.dc_gain().abs());
+        // The response moves by at most the tolerance (relative), everywhere.
+        for w in linspace(0.0, PI, 501) {
+            let (a, b) = (g.response_at_omega(w), m.tf.response_at_omega(w));
+            assert!((a - b).norm() <= 0.01 * a.norm() + 1e-12, "w {w}");
+        }
+        // A tighter tolerance keeps the pair; nothing else ever pairs.
+        assert!(g.minreal(1e-4).unwrap().removed.is_empty());
+        assert_eq!(g.minreal(0.5).unwrap().removed.len(), 1);
     }
 }

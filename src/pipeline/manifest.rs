@@ -11,7 +11,17 @@ use crate::io::hysteresis_json::SignalInfo;
 use crate::io::timeseries::{ColumnRef, HeaderMode, IoColumns};
 use crate::runtime::PidSpec;
 use crate::sim::experiment::ExperimentParams;
-use crate::synth::zpetc::ZpetcParams;
+use crate::synth::zpetc::{StableInversion, ZpetcParams};
+
+/// Settings of a `zpetc` step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZpetcSpec {
+    /// Classification and stable-inversion settings (`rho`, `min_damping`,
+    /// `stable_inversion` radius, `series_tol`).
+    pub params: ZpetcParams,
+    /// `minreal` tolerance applied to the model first, if any.
+    pub minreal: Option<f64>,
+}
 use serde::Deserialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
@@ -97,7 +107,7 @@ pub enum Action {
     /// Output-error identification.
     Oe(LinearSpec),
     /// ZPETC design.
-    Zpetc(ZpetcParams),
+    Zpetc(ZpetcSpec),
     /// Coefficient file.
     Controller(ControllerSpec),
 }
@@ -680,13 +690,31 @@ fn step(
         }
         "zpetc" => {
             let d = ZpetcParams::default();
+            let si = StableInversion::default();
+            let stable_inversion = f.f64_opt("stable_inversion")?;
+            let series_tol = f.f64("series_tol", si.tolerance)?;
             let params = ZpetcParams {
                 rho: f.f64("rho", d.rho)?,
                 min_damping: f.f64("min_damping", d.min_damping)?,
+                stable_inversion: stable_inversion.map(|min_radius| StableInversion {
+                    min_radius,
+                    tolerance: series_tol,
+                    ..si
+                }),
             };
+            let minreal = f.f64_opt("minreal")?;
+            if let Some(tol) = minreal
+                && !(tol > 0.0 && tol < 1.0)
+            {
+                return Err(f.err(
+                    "minreal",
+                    line,
+                    format!("expected a tolerance in (0, 1), got {tol}"),
+                ));
+            }
             f.input("tf", true, line)?;
             f.output("out", true, line)?;
-            Action::Zpetc(params)
+            Action::Zpetc(ZpetcSpec { params, minreal })
         }
         "controller" => {
             let pid = pid(&mut f)?;

@@ -525,15 +525,25 @@ fn execute(
             let g = linear(spec, text, &src, matches!(step.action, Action::Oe(_)))?;
             files.push((out("out"), tf_json::tf_to_string(&g).into_bytes()));
         }
-        Action::Zpetc(params) => {
+        Action::Zpetc(spec) => {
             let (text, src) = text_of("tf").expect("validated: tf is required");
             let TransferFunction::Discrete(g) = tf_json::parse_tf(text, &src)? else {
                 return Err(bad(format!(
                     "{src} field 'var': ZPETC needs a discrete closed loop (\"var\": \"z^-1\")"
                 )));
             };
-            let filter = zpetc::design(&g, params).map_err(|e| match e {
-                zpetc::ZpetcError::InvalidParams(m) => bad(format!("fields rho/min_damping: {m}")),
+            let g = match spec.minreal {
+                Some(tol) => {
+                    g.minreal(tol)
+                        .map_err(|e| PipelineError::Failure(format!("{src}: {e}")))?
+                        .tf
+                }
+                None => g,
+            };
+            let filter = zpetc::design(&g, &spec.params).map_err(|e| match e {
+                zpetc::ZpetcError::InvalidParams(m) => bad(format!(
+                    "fields rho/min_damping/stable_inversion/series_tol: {m}"
+                )),
                 zpetc::ZpetcError::ZeroAtDc => bad(format!("{src}: {e}")),
                 other => PipelineError::Failure(format!("{src}: {other}")),
             })?;

@@ -103,12 +103,17 @@ pub struct TrackingMetrics {
     pub saturated_samples: usize,
 }
 
-/// Metrics over `trace[start..]`; `limits` are the command limits, to count saturation.
-pub fn metrics(trace: &Trace, start: usize, limits: (f64, f64)) -> TrackingMetrics {
+/// Metrics over `trace[window]`; `limits` are the command limits, to count saturation.
+pub fn metrics(
+    trace: &Trace,
+    window: std::ops::Range<usize>,
+    limits: (f64, f64),
+) -> TrackingMetrics {
     let n = trace.reference.len();
-    let start = start.min(n);
-    let e: Vec<f64> = trace.error()[start..].to_vec();
-    let window = &trace.reference[start..];
+    let end = window.end.min(n);
+    let start = window.start.min(end);
+    let e: Vec<f64> = trace.error()[start..end].to_vec();
+    let window = &trace.reference[start..end];
     let (lo, hi) = window
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &r| {
@@ -132,7 +137,7 @@ pub fn metrics(trace: &Trace, start: usize, limits: (f64, f64)) -> TrackingMetri
         amplitude,
         start,
         samples: e.len(),
-        saturated_samples: trace.command[start..]
+        saturated_samples: trace.command[start..end]
             .iter()
             .filter(|&&u| u <= limits.0 || u >= limits.1)
             .count(),

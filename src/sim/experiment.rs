@@ -25,7 +25,21 @@ use crate::io::controller_file::{
 use crate::lti::DiscreteTf;
 use crate::runtime::{PidSpec, RuntimeController};
 use crate::synth::composite::Stages;
-use crate::synth::zpetc::{self, Zpetc, ZpetcParams};
+use crate::synth::zpetc::{self, StableInversion, Zpetc, ZpetcParams};
+
+/// The PID of the [Li21] loop on the embedded plant: `kp 0.02` V/um, `ki 0.15`
+/// V/um per sample, `kd 0`, command 0-10 V. [Li21] does not print its gains;
+/// these minimise the PID + HC + ZPEC sweep error over `kp` 0-0.05 and `ki`
+/// 0.1-0.3 (docs/li21-experiment.md): higher gains reject the residual
+/// hysteresis better at low frequency but raise the loop's sensitivity peak
+/// at 1-2 kHz, where its harmonics fall.
+pub const DEFAULT_PID: PidSpec = PidSpec {
+    kp: 0.02,
+    ki: 0.15,
+    kd: 0.0,
+    output_min: 0.0,
+    output_max: 10.0,
+};
 
 /// Settings of the experiment. Defaults reproduce [Li21] on the embedded plant.
 #[derive(Debug, Clone)]
@@ -34,7 +48,7 @@ pub struct ExperimentParams {
     pub plant: VirtualFtsParams,
     /// Noise seed (each run derives its own from it).
     pub seed: u64,
-    /// Feedback PID ([Li21] Eq. 5). Default `kp 0.05, ki 0.3, kd 0`, 0-10 V.
+    /// Feedback PID ([Li21] Eq. 5). Default [`DEFAULT_PID`].
     pub pid: PidSpec,
     /// Open-loop triangle amplitudes, V. Default 10, 8, 6, 4, 2.
     pub triangle_amplitudes_v: Vec<f64>,
@@ -58,7 +72,15 @@ pub struct ExperimentParams {
     /// Try an output-error refinement and keep it when its simulation fit is
     /// better. Default true.
     pub refine_oe: bool,
-    /// ZPETC settings.
+    /// Near pole-zero cancellations removed from the closed-loop model before
+    /// the ZPETC ([`DiscreteTf::minreal`] tolerance). Default `Some(0.02)`:
+    /// a pair goes when it changes the model's response by at most 2 % at any
+    /// frequency. The PID + HC sweep models carry such a pair near 700 Hz
+    /// (pole and zero within 1e-3 of each other, |z| = 0.95-0.97), which
+    /// ZPETC would otherwise refuse to cancel (|z| >= rho) and so distort.
+    pub minreal_tol: Option<f64>,
+    /// ZPETC settings. Default: classical classification (rho 0.95, damping
+    /// 0.1) with zeros outside radius 1.25 inverted by the anticausal series.
     pub zpetc: ZpetcParams,
     /// Sine frequencies of the tracking table, Hz. Default 10, 100, 500.
     pub sine_freqs_hz: Vec<f64>,
@@ -75,13 +97,7 @@ impl Default for ExperimentParams {
         Self {
             plant: VirtualFtsParams::default_plant(),
             seed: 1,
-            pid: PidSpec {
-                kp: 0.05,
-                ki: 0.3,
-                kd: 0.0,
-                output_min: 0.0,
-                output_max: 10.0,
-            },
+            pid: DEFAULT_PID,
             triangle_amplitudes_v: vec![10.0, 8.0, 6.0, 4.0, 2.0],
             triangle_freq_hz: 2.0,
             hysteresis: IdentifyParams::default(),
@@ -91,7 +107,12 @@ impl Default for ExperimentParams {
             sweep_f1: 1000.0,
             orders: Orders::new(5, 5, 1),
             refine_oe: true,
-            zpetc: ZpetcParams::default(),
+            minreal_tol: Some(0.02),
+            zpetc: ZpetcParams {
+                rho: 0.999,
+                stable_inversion: Some(StableInversion::default()),
+                ..ZpetcParams::default()
+            },
             sine_freqs_hz: vec![10.0, 100.0, 500.0],
             sine_amplitude: 5.0,
             five_leaf_scale: 0.1,
@@ -134,6 +155,12 @@ pub struct ClosedLoopModel {
     pub arx_tf: DiscreteTf,
     /// Condition number of the ARX regression.
     pub condition_number: f64,
+    /// The identified model before near pole-zero cancellations were removed.
+    pub identified_tf: DiscreteTf,
+    /// The `(zero, pole)` pairs removed (upper half plane for complex pairs).
+    pub removed_pairs: Vec<(crate::lti::c64, crate::lti::c64)>,
+    /// Which model was chosen and why, in words.
+    pub reason: String,
 }
 
 /// One line of the tracking table.
@@ -242,7 +269,7 @@ pub fn track(
     let trace = closed_loop::run(&mut plant, &mut rt, &reference.samples);
     let metrics = closed_loop::metrics(
         &trace,
-        reference.evaluate_from,
+        reference.evaluated(),
         (controller.pid.output_min, controller.pid.output_max),
     );
     Ok((trace, metrics))
@@ -308,10 +335,10 @@ pub fn sweep_record(
     )
     .map_err(|e| step_err("sweep")(e.to_string()))?;
     let (trace, _) = track(params, 1, &pid_hc, &sweep_ref)?;
-    let from = sweep_ref.evaluate_from;
+    let window = sweep_ref.evaluated();
     Ok((
-        trace.filtered_reference[from..].to_vec(),
-        trace.measurement[from..].to_vec(),
+        trace.filtered_reference[window.clone()].to_vec(),
+        trace.measurement[window].to_vec(),
     ))
 }
 
@@ -351,28 +378,56 @@ pub fn identify_models(
     let arx_fit = fits(&est.model, NoiseModel::Arx, &r, &y);
     let mut chosen = (arx_tf.clone(), "arx");
     let mut oe_fit = None;
+    let mut reason = String::from("ARX: output-error refinement not requested");
     if params.refine_oe {
         observer(Progress::Step("output-error refinement"));
         let mut oe_params = OeParams::new(params.orders);
         oe_params.ts = ts;
+        reason = String::from("ARX kept: the output-error refinement did not converge");
         if let Ok(o) = oe(&r, &y, &oe_params, &mut |_| {}) {
             let f = fits(&o.model, NoiseModel::OutputError, &r, &y);
-            if f.simulation_percent > arx_fit.simulation_percent
-                && o.model.is_stable()
-                && let Ok(tf) = o.model.tf()
-            {
-                chosen = (tf, "oe");
+            match o.model.tf() {
+                Ok(tf) => {
+                    if !o.model.is_stable() {
+                        reason = String::from("ARX kept: the OE model is unstable");
+                    } else if f.simulation_percent > arx_fit.simulation_percent {
+                        reason = format!(
+                            "OE chosen: simulation fit {:.2} % against ARX {:.2} %",
+                            f.simulation_percent, arx_fit.simulation_percent
+                        );
+                        chosen = (tf, "oe");
+                    } else {
+                        reason = format!(
+                            "ARX kept: OE did not improve the simulation fit ({:.2} % against {:.2} %)",
+                            f.simulation_percent, arx_fit.simulation_percent
+                        );
+                    }
+                }
+                Err(e) => reason = format!("ARX kept: the OE model is unusable ({e})"),
             }
             oe_fit = Some(f);
         }
     }
+    let (tf, removed_pairs) = match params.minreal_tol {
+        Some(tol) => {
+            let m = chosen
+                .0
+                .minreal(tol)
+                .map_err(|e| step_err("closed-loop model reduction")(e.to_string()))?;
+            (m.tf, m.removed)
+        }
+        None => (chosen.0.clone(), Vec::new()),
+    };
     let closed_loop = ClosedLoopModel {
-        tf: chosen.0,
+        tf,
         method: chosen.1,
         arx_fit,
         oe_fit,
         arx_tf,
         condition_number: est.condition_number,
+        identified_tf: chosen.0,
+        removed_pairs,
+        reason,
     };
 
     // 3. ZPETC.
@@ -400,6 +455,9 @@ pub fn run(
     };
     let models = identify_models(params, observer)?;
     let (inverse, zpetc) = (&models.inverse, &models.zpetc);
+    // Every reference continues past its evaluated part for longer than the
+    // ZPETC looks ahead.
+    let timing = timing.with_preview(zpetc.preview);
 
     // 4. Tracking table.
     let controllers: Vec<(Stages, ControllerFile)> = ["pid", "pid+hc", "pid+hc+zpec"]

@@ -1,7 +1,11 @@
 //! Reference trajectories for tracking runs ([Li21] Sec. 5): sines, the
 //! 0-1000 Hz sweep and the five-leaved trajectory, each preceded by a smooth
 //! lead-in from rest so that the start-up transient is not counted as
-//! tracking error.
+//! tracking error, and followed by a short tail that continues the waveform
+//! past the evaluated part. The tail matters for previewed feedforward: a
+//! ZPETC with preview `p` reads the reference `p` samples ahead, and a
+//! reference that simply stopped (or was held) would make the last `p`
+//! evaluated samples track a trajectory that the cut never had.
 
 use crate::ident::excite::{self, ExciteError};
 use std::f64::consts::PI;
@@ -13,6 +17,8 @@ pub struct Reference {
     pub samples: Vec<f64>,
     /// First sample of the evaluated ("steady") part.
     pub evaluate_from: usize,
+    /// One past the last evaluated sample; the samples after it are the tail.
+    pub evaluate_to: usize,
     /// Description for summaries, e.g. `sine 5 um at 500 Hz`.
     pub label: String,
 }
@@ -36,6 +42,9 @@ pub struct ReferenceTiming {
     pub ramp: f64,
     /// Hold after the ramp, s.
     pub hold: f64,
+    /// Continuation after the evaluated part, s; it should exceed the
+    /// feedforward preview (see [`ReferenceTiming::with_preview`]).
+    pub tail: f64,
 }
 
 impl Default for ReferenceTiming {
@@ -44,12 +53,34 @@ impl Default for ReferenceTiming {
             ts: 1e-4,
             ramp: 0.05,
             hold: 0.05,
+            tail: 0.01,
         }
     }
 }
 
+impl ReferenceTiming {
+    /// The timing with a tail of at least twice `preview` samples (and never
+    /// shorter than the current one).
+    pub fn with_preview(mut self, preview: usize) -> Self {
+        self.tail = self.tail.max(2.0 * preview as f64 * self.ts);
+        self
+    }
+
+    /// Whole samples of the tail.
+    fn tail_samples(&self) -> usize {
+        (self.tail / self.ts).round() as usize
+    }
+
+    /// `duration` plus the tail, in seconds.
+    fn extended(&self, duration: f64) -> f64 {
+        duration + self.tail_samples() as f64 * self.ts
+    }
+}
+
+/// `signal` holds `evaluated` samples of the trajectory followed by its tail.
 fn with_lead_in(
     signal: Vec<f64>,
+    evaluated: usize,
     timing: &ReferenceTiming,
     skip: usize,
     label: String,
@@ -58,12 +89,22 @@ fn with_lead_in(
     let hold = (timing.hold / timing.ts).round() as usize;
     let first = signal.first().copied().unwrap_or(0.0);
     let mut samples = lead_in(0.0, first, ramp, hold);
-    let evaluate_from = samples.len() + skip.min(signal.len());
+    let evaluated = evaluated.min(signal.len());
+    let evaluate_from = samples.len() + skip.min(evaluated);
+    let evaluate_to = samples.len() + evaluated;
     samples.extend(signal);
     Reference {
         samples,
         evaluate_from,
+        evaluate_to,
         label,
+    }
+}
+
+impl Reference {
+    /// The evaluated samples, `evaluate_from..evaluate_to`.
+    pub fn evaluated(&self) -> std::ops::Range<usize> {
+        self.evaluate_from..self.evaluate_to
     }
 }
 
@@ -76,13 +117,18 @@ pub fn sine(
     duration: f64,
     timing: &ReferenceTiming,
 ) -> Result<Reference, ExciteError> {
-    let s = excite::sine(&excite::SineParams {
+    let params = excite::SineParams {
         amplitude,
         freq_hz,
         phase: 0.0,
         offset,
         duration,
         ts: timing.ts,
+    };
+    let evaluated = excite::sine(&params)?.len();
+    let s = excite::sine(&excite::SineParams {
+        duration: timing.extended(duration),
+        ..params
     })?;
     // Skip the first 20 % (at least one period) so integrators and the
     // hysteresis memory have settled.
@@ -91,16 +137,18 @@ pub fn sine(
     } else {
         0
     };
-    let skip = (s.len() / 5).max(period).min(s.len());
+    let skip = (evaluated / 5).max(period).min(evaluated);
     Ok(with_lead_in(
         s,
+        evaluated,
         timing,
         skip,
         format!("sine {amplitude} um at {freq_hz} Hz"),
     ))
 }
 
-/// Linear sine sweep `f0..f1` Hz, evaluated over the whole sweep.
+/// Linear sine sweep `f0..f1` Hz, evaluated over the whole sweep; the tail
+/// continues the sweep at the same rate (up to 0.99 Nyquist).
 pub fn sweep(
     amplitude: f64,
     f0: f64,
@@ -109,7 +157,7 @@ pub fn sweep(
     duration: f64,
     timing: &ReferenceTiming,
 ) -> Result<Reference, ExciteError> {
-    let s = excite::sweep(&excite::SweepParams {
+    let params = excite::SweepParams {
         f0,
         f1,
         duration,
@@ -117,9 +165,22 @@ pub fn sweep(
         offset,
         ts: timing.ts,
         spacing: excite::SweepSpacing::Linear,
+    };
+    let evaluated = excite::sweep(&params)?.len();
+    let rate = (f1 - f0) / duration;
+    let mut extended = timing.extended(duration);
+    let ceiling = 0.99 * 0.5 / timing.ts;
+    if rate > 0.0 && f0 + rate * extended > ceiling {
+        extended = duration.max((ceiling - f0) / rate);
+    }
+    let s = excite::sweep(&excite::SweepParams {
+        f1: f0 + rate * extended,
+        duration: extended,
+        ..params
     })?;
     Ok(with_lead_in(
         s,
+        evaluated,
         timing,
         0,
         format!("sweep {amplitude} um, {f0}-{f1} Hz"),
@@ -133,18 +194,35 @@ pub fn five_leaf(
     duration: f64,
     timing: &ReferenceTiming,
 ) -> Result<Reference, ExciteError> {
-    let s = excite::five_leaf(&excite::FiveLeafParams {
+    let params = excite::FiveLeafParams {
         duration,
         scale,
         offset,
         ts: timing.ts,
+    };
+    let evaluated = excite::five_leaf(&params)?.len();
+    let s = excite::five_leaf(&excite::FiveLeafParams {
+        duration: timing.extended(duration),
+        ..params
     })?;
-    Ok(with_lead_in(s, timing, 0, format!("five-leaf x{scale}")))
+    Ok(with_lead_in(
+        s,
+        evaluated,
+        timing,
+        0,
+        format!("five-leaf x{scale}"),
+    ))
 }
 
 /// A user's samples (already at the controller rate), evaluated throughout.
-pub fn from_samples(samples: Vec<f64>, timing: &ReferenceTiming, label: String) -> Reference {
-    with_lead_in(samples, timing, 0, label)
+/// Their continuation is unknown, so the tail holds the last value: with a
+/// previewed feedforward, the last `preview` evaluated samples then see that
+/// hold. A reference file that carries its own lead-out avoids this.
+pub fn from_samples(mut samples: Vec<f64>, timing: &ReferenceTiming, label: String) -> Reference {
+    let evaluated = samples.len();
+    let last = samples.last().copied().unwrap_or(0.0);
+    samples.extend(std::iter::repeat_n(last, timing.tail_samples()));
+    with_lead_in(samples, evaluated, timing, 0, label)
 }
 
 #[cfg(test)]
@@ -160,11 +238,29 @@ mod tests {
         assert!((r.samples[1000] - 6.0).abs() < 1e-12);
         // 20 % of 1000 sine samples skipped (more than one 100-sample period).
         assert_eq!(r.evaluate_from, 1200);
+        // 1000 evaluated samples, then the 100-sample tail continues the sine.
+        assert_eq!(r.evaluate_to, 2000);
+        assert_eq!(r.samples.len(), 2100);
+        let w = 2.0 * PI * 100.0 * 1e-4;
+        assert!((r.samples[2050] - (6.0 + 5.0 * (w * 1050.0).sin())).abs() < 1e-9);
         let max_step = r
             .samples
             .windows(2)
             .map(|w| (w[1] - w[0]).abs())
             .fold(0.0, f64::max);
         assert!(max_step < 0.32, "{max_step}");
+    }
+
+    #[test]
+    fn sweep_tail_continues_at_the_same_rate() {
+        let timing = ReferenceTiming::default().with_preview(80);
+        assert!((timing.tail - 0.016).abs() < 1e-12);
+        let r = sweep(1.0, 0.0, 1000.0, 0.0, 0.5, &timing).unwrap();
+        let plain = sweep(1.0, 0.0, 1000.0, 0.0, 0.5, &ReferenceTiming::default()).unwrap();
+        assert_eq!(r.evaluated(), plain.evaluated());
+        for k in plain.evaluated() {
+            assert!((r.samples[k] - plain.samples[k]).abs() < 1e-9);
+        }
+        assert_eq!(r.samples.len() - r.evaluate_to, 160);
     }
 }
