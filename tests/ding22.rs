@@ -142,7 +142,7 @@ fn cli_bad_input_exits_2() {
             .args(&args)
             .assert()
             .code(2)
-            .stderr(predicate::str::contains("fts: error:"))
+            .stderr(predicate::str::contains("error"))
             .stderr(predicate::str::contains("panicked").not());
     }
 }

@@ -515,8 +515,12 @@ pub fn bandwidth_hz(plant: &StateSpace, k: &StateSpace) -> Result<f64, Ding22Err
     Ok(f64::INFINITY)
 }
 
-/// Parallel PID with a filtered derivative, `C(s) = kp + ki/s + kd s/(tau s + 1)`,
-/// acting on `r - y`; as a controller of the generalised plant `K = -C`.
+/// Parallel PID with a filtered derivative and a first-order roll-off,
+/// `C(s) = (kp + ki/s + kd s/(tau s + 1)) / (tau s + 1)`, acting on `r - y`;
+/// as a controller of the generalised plant `K = -C`. The roll-off makes `C`
+/// strictly proper: with white sensor noise a biproper controller would
+/// give the force (and so `W_u u`, whose `W_u` is biproper) infinite
+/// variance, i.e. an infinite H2 cost.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidBaseline {
     pub kp: f64,
@@ -526,17 +530,19 @@ pub struct PidBaseline {
 }
 
 impl PidBaseline {
-    /// `K = -C` in state space (states: integrator, derivative filter).
+    /// `K = -C` in state space (states: integrator, derivative filter, roll-off).
     pub fn controller(&self) -> Result<StateSpace, Ding22Error> {
         let (kp, ki, kd, tau) = (self.kp, self.ki, self.kd, self.tau);
-        StateSpace::new(
+        let pid = StateSpace::new(
             Mat::from_fn(2, 2, |i, j| if i == 1 && j == 1 { -1.0 / tau } else { 0.0 }),
             Mat::from_fn(2, 1, |i, _| if i == 0 { 1.0 } else { 1.0 / tau }),
             Mat::from_fn(1, 2, |_, j| if j == 0 { -ki } else { kd / tau }),
             Mat::from_fn(1, 1, |_, _| -(kp + kd / tau)),
             None,
         )
-        .map_err(num_err)
+        .map_err(num_err)?;
+        let roll = tf1(&[1.0], &[tau, 1.0])?;
+        pid.series(&roll).map_err(num_err)
     }
 }
 
@@ -595,9 +601,10 @@ fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, x0: &[f64], step: f64, iters: u
     simplex[0].0.clone()
 }
 
-/// PID baseline tuned for the *same* H2 cost as the optimal design: a
-/// loop-shaping seed (integral crossover at a fraction of the first mode,
-/// derivative filter at 10x the second mode), then Nelder–Mead on
+/// PID baseline tuned for the *same* H2 cost as the optimal design: a grid
+/// of loop-shaping seeds (integral crossover at a fraction of the first
+/// mode, proportional/derivative gains fractions of `k2`, filter and
+/// roll-off at 10x the second mode), then Nelder–Mead on
 /// `log(kp, ki, kd, tau)` minimising `||[W_e e; W_u u]||_2` (unstable loops
 /// cost infinity). Several seeds; the best result is kept.
 pub fn tune_pid(problem: &Ding22Problem) -> Result<(PidBaseline, Evaluation), Ding22Error> {
