@@ -11,7 +11,11 @@ use serde_json::Value;
 
 #[test]
 fn dc_compliance_is_one_over_k2_for_any_parameters() {
-    for (k2, c2, k4) in [(21965.0, 2.28, 56285.0), (1.1e5, 237.7, 1e4), (3e3, 0.0, 1e6)] {
+    for (k2, c2, k4) in [
+        (21965.0, 2.28, 56285.0),
+        (1.1e5, 237.7, 1e4),
+        (3e3, 0.0, 1e6),
+    ] {
         let p = TwoMassParams {
             k2,
             c2,
@@ -71,7 +75,12 @@ fn h2_design_is_stable_with_small_residuals_and_the_budget_adds_up() {
     let d = design(&prob).unwrap();
     assert!(d.h2.stable && d.optimal.stable);
     // Relative residuals as defined in riccati.rs; 1e-10 is the brief's bound.
-    assert!(d.h2.x_residual < 1e-10 && d.h2.y_residual < 1e-10, "{} {}", d.h2.x_residual, d.h2.y_residual);
+    assert!(
+        d.h2.x_residual < 1e-10 && d.h2.y_residual < 1e-10,
+        "{} {}",
+        d.h2.x_residual,
+        d.h2.y_residual
+    );
     // The cost recomputed on the balanced closed loop matches h2syn's (1e-6: two Lyapunov solves).
     assert!((d.optimal.cost / d.h2.h2_norm - 1.0).abs() < 1e-6);
     // Budget identity: independent sources, so sum_i ||T_i||^2 = ||T||^2.
@@ -82,7 +91,12 @@ fn h2_design_is_stable_with_small_residuals_and_the_budget_adds_up() {
     // The grid CAS approximates the exact RMS: 1% (trapezoid on a log grid
     // to 100 kHz; the tail above and the 0-1 mHz segment are tiny).
     let b = budget(&d.optimal, 1e5, 3000).unwrap();
-    assert!((b.rms / d.optimal.rms - 1.0).abs() < 1e-2, "{} {}", b.rms, d.optimal.rms);
+    assert!(
+        (b.rms / d.optimal.rms - 1.0).abs() < 1e-2,
+        "{} {}",
+        b.rms,
+        d.optimal.rms
+    );
     for (g, e) in b.rms_per_source.iter().zip(&d.optimal.rms_per_source) {
         assert!((g / e - 1.0).abs() < 2e-2, "{g} {e}");
     }
@@ -97,7 +111,12 @@ fn h2_is_no_worse_than_the_pid_on_the_same_cost() {
     assert!(ev.stable);
     // H2 optimality: the same cost ||[W_e e; W_u u]||_2 can only be larger
     // for any other stabilising controller (1e-9 slack for rounding).
-    assert!(d.optimal.cost <= ev.cost * (1.0 + 1e-9), "{} vs {} ({pid:?})", d.optimal.cost, ev.cost);
+    assert!(
+        d.optimal.cost <= ev.cost * (1.0 + 1e-9),
+        "{} vs {} ({pid:?})",
+        d.optimal.cost,
+        ev.cost
+    );
 }
 
 #[test]
@@ -179,7 +198,15 @@ fn cli_writes_controller_csv_plot_and_json() {
     assert!(std::fs::read_to_string(&svg).unwrap().contains("polyline"));
     // A 2x1 sweep with JSON output: the best point is on the edge by construction.
     let out = fts()
-        .args(["ding22", "--json", "--no-pid", "--points", "200", "--sweep", "k2=2e4:4e4:2"])
+        .args([
+            "ding22",
+            "--json",
+            "--no-pid",
+            "--points",
+            "200",
+            "--sweep",
+            "k2=2e4:4e4:2",
+        ])
         .assert()
         .success()
         .get_output()

@@ -96,14 +96,18 @@ pub fn parse_sweep(spec: &str) -> anyhow::Result<(Option<Vec<f64>>, Option<Vec<f
         if parts.len() != 3 {
             return Err(bad(format!("--sweep: '{item}': {usage}")));
         }
-        let lo: f64 = parts[0]
-            .trim()
-            .parse()
-            .map_err(|_| bad(format!("--sweep: '{item}': LO '{}' is not a number", parts[0])))?;
-        let hi: f64 = parts[1]
-            .trim()
-            .parse()
-            .map_err(|_| bad(format!("--sweep: '{item}': HI '{}' is not a number", parts[1])))?;
+        let lo: f64 = parts[0].trim().parse().map_err(|_| {
+            bad(format!(
+                "--sweep: '{item}': LO '{}' is not a number",
+                parts[0]
+            ))
+        })?;
+        let hi: f64 = parts[1].trim().parse().map_err(|_| {
+            bad(format!(
+                "--sweep: '{item}': HI '{}' is not a number",
+                parts[1]
+            ))
+        })?;
         let n: usize = parts[2].trim().parse().map_err(|_| {
             bad(format!(
                 "--sweep: '{item}': N '{}' is not a positive integer",
@@ -118,7 +122,11 @@ pub fn parse_sweep(spec: &str) -> anyhow::Result<(Option<Vec<f64>>, Option<Vec<f
         if n == 1 && hi != lo {
             return Err(bad(format!("--sweep: '{item}': N = 1 needs LO = HI")));
         }
-        let values = if n == 1 { vec![lo] } else { logspace(lo, hi, n) };
+        let values = if n == 1 {
+            vec![lo]
+        } else {
+            logspace(lo, hi, n)
+        };
         let slot = match name.trim() {
             "k2" => &mut k2,
             "c2" => &mut c2,
@@ -434,8 +442,16 @@ mod tests {
         let (k, c) = parse_sweep("c2=2:2:1").unwrap();
         assert!(k.is_none() && c == Some(vec![2.0]));
         for s in [
-            "", "k2", "k2=1:2", "k2=-1:2:3", "k2=2:1:3", "k2=1:2:0", "m4=1:2:3", "k2=1:2:x",
-            "k2=1:1:1,k2=1:1:1", "k2=1:2:1",
+            "",
+            "k2",
+            "k2=1:2",
+            "k2=-1:2:3",
+            "k2=2:1:3",
+            "k2=1:2:0",
+            "m4=1:2:3",
+            "k2=1:2:x",
+            "k2=1:1:1,k2=1:1:1",
+            "k2=1:2:1",
         ] {
             assert!(parse_sweep(s).is_err(), "{s}");
         }

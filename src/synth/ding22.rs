@@ -243,7 +243,11 @@ impl Default for Ding22Weights {
 }
 
 /// Names of the three sources, in input order.
-pub const SOURCES: [&str; 3] = ["sensor noise (W1)", "current-loop noise (W2)", "base vibration (W3)"];
+pub const SOURCES: [&str; 3] = [
+    "sensor noise (W1)",
+    "current-loop noise (W2)",
+    "base vibration (W3)",
+];
 
 fn tf1(num: &[f64], den: &[f64]) -> Result<StateSpace, Ding22Error> {
     StateSpace::from_tf(num, den, None).map_err(num_err)
@@ -400,10 +404,33 @@ impl Ding22Problem {
         p
     }
 
-    /// H2-optimal controller (`eps` as in `h2syn`).
+    /// H2-optimal controller of [`Self::generalized_plant`] (`u = K y`).
+    ///
+    /// The measurement is synthesised in units of the sensor noise
+    /// (`y' = y / W1`, so `D21 = [1 0 0]`) and the controller is scaled
+    /// back (`K = K' / W1`): the optimal controller is invariant under this
+    /// output scaling, but the filter Riccati equation is not equally well
+    /// conditioned (with `W1 = 1.36e-12` its `R2 = W1^2` is 1.8e-24 in SI
+    /// and the Hamiltonian solver fails). The closed loop reported in the
+    /// result (`w -> z`) is the same either way.
     pub fn synthesise(&self) -> Result<H2Result, Ding22Error> {
-        let p = self.generalized_plant()?;
-        Ok(h2syn(&p, 1, 1, 1e-6)?)
+        let mut p = self.generalized_plant()?;
+        let s = 1.0 / self.weights.sensor_noise;
+        let (n, m) = (p.nx(), p.nu());
+        for j in 0..n {
+            p.c[(2, j)] *= s;
+        }
+        for j in 0..m {
+            p.d[(2, j)] *= s;
+        }
+        let mut r = h2syn(&p, 1, 1, 1e-6)?;
+        for i in 0..r.k.nx() {
+            r.k.b[(i, 0)] *= s;
+        }
+        for i in 0..r.k.ny() {
+            r.k.d[(i, 0)] *= s;
+        }
+        Ok(r)
     }
 
     /// Closed-loop figures of any controller `K` (`u = K y`) on this problem.
@@ -654,9 +681,8 @@ pub fn tune_pid(problem: &Ding22Problem) -> Result<(PidBaseline, Evaluation), Di
             best = Some((x, v));
         }
     }
-    let (x, _) = best.ok_or_else(|| {
-        Ding22Error::Numerical("no stabilising PID seed for this plant".into())
-    })?;
+    let (x, _) = best
+        .ok_or_else(|| Ding22Error::Numerical("no stabilising PID seed for this plant".into()))?;
     let pid = PidBaseline {
         kp: x[0].exp(),
         ki: x[1].exp(),
