@@ -80,8 +80,11 @@ pub struct Ding22Args {
     json: bool,
 }
 
+/// The swept `k2` and `c2` values (`None`: not swept).
+pub type SweepAxes = (Option<Vec<f64>>, Option<Vec<f64>>);
+
 /// Parses `k2=LO:HI:N,c2=LO:HI:N` into log-spaced axes.
-pub fn parse_sweep(spec: &str) -> anyhow::Result<(Option<Vec<f64>>, Option<Vec<f64>>)> {
+pub fn parse_sweep(spec: &str) -> anyhow::Result<SweepAxes> {
     let mut k2 = None;
     let mut c2 = None;
     let usage = "expected --sweep k2=LO:HI:N,c2=LO:HI:N (log-spaced, 0 < LO <= HI, N >= 1)";

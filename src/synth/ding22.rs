@@ -848,8 +848,10 @@ mod tests {
 
     #[test]
     fn bad_parameters_are_rejected() {
-        let mut m = TwoMassParams::default();
-        m.m12 = -1.0;
+        let mut m = TwoMassParams {
+            m12: -1.0,
+            ..TwoMassParams::default()
+        };
         assert!(matches!(m.plant(), Err(Ding22Error::Param(_))));
         m.m12 = 0.074;
         m.c4 = f64::NAN;
