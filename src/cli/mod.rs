@@ -13,6 +13,7 @@ mod build;
 mod columns;
 mod common;
 mod demo;
+mod ding22;
 mod emit;
 mod excite;
 mod hysteresis;
@@ -76,6 +77,8 @@ enum Command {
     SsInfo(robust::SsInfoArgs),
     /// Error budget: per-source PSD, cumulative amplitude spectrum, RMS.
     Budget(robust::BudgetArgs),
+    /// Ding22 workflow: two-mass FTS, H2 design vs PID, error budget, structural sweep.
+    Ding22(ding22::Ding22Args),
 }
 
 /// Runs the command line and returns the process exit code.
@@ -116,5 +119,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::C2d(args) => robust::run_c2d(args),
         Command::SsInfo(args) => robust::run_ss_info(args),
         Command::Budget(args) => robust::run_budget(args),
+        Command::Ding22(args) => ding22::run(args),
     }
 }

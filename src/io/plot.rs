@@ -135,6 +135,23 @@ pub fn line_chart_svg(
     Ok(out)
 }
 
+/// A single x-y chart with a logarithmic x axis (points with `x <= 0` are skipped).
+pub fn line_chart_svg_log_x(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series<'_>],
+) -> Result<String, PlotError> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, (900, 540)).into_drawing_area();
+        root.fill(&WHITE).map_err(perr)?;
+        draw_panel(&root, title, x_label, y_label, series, true)?;
+        root.present().map_err(perr)?;
+    }
+    Ok(out)
+}
+
 /// Several charts stacked vertically, each `(title, x_label, y_label, series)`.
 pub fn stacked_charts_svg(
     panels: &[(&str, &str, &str, Vec<Series<'_>>)],

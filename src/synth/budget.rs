@@ -7,7 +7,8 @@
 //! `RMS = CAS(f_max)`. For a stable strictly proper loop and a grid wide
 //! enough, `RMS^2 -> ||T||_2^2` (Parseval), which the tests check.
 
-use crate::lti::ss::StateSpace;
+use crate::lti::norms::{NormError, h2_norm};
+use crate::lti::ss::{StateSpace, sub};
 
 /// The budget on a frequency grid.
 #[derive(Debug, Clone)]
@@ -75,6 +76,41 @@ pub fn error_budget(cl: &StateSpace, output: usize, freq_hz: &[f64]) -> Option<E
         rms_per_source,
         rms,
     })
+}
+
+impl ErrorBudget {
+    /// Cumulative amplitude spectrum of each source alone (`cas[source][k]`).
+    pub fn cas_per_source(&self) -> Vec<Vec<f64>> {
+        self.psd
+            .iter()
+            .map(|p| {
+                cumulative(&self.freq_hz, p)
+                    .into_iter()
+                    .map(f64::sqrt)
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Exact per-source RMS of output `output` over all frequencies: the H2 norm
+/// of each column `T_i` (Gramians, no grid). With the one-sided PSD
+/// `2 |T_i|^2` of [`error_budget`], `RMS_i^2 = int_0^inf PSD_i df = ||T_i||_2^2`,
+/// and for uncorrelated sources `sum_i RMS_i^2 = ||T||_2^2`.
+pub fn exact_rms_per_source(cl: &StateSpace, output: usize) -> Result<Vec<f64>, NormError> {
+    let n = cl.nx();
+    (0..cl.nu())
+        .map(|i| {
+            let col = StateSpace::new(
+                cl.a.clone(),
+                sub(&cl.b, 0, n, i, i + 1),
+                sub(&cl.c, output, output + 1, 0, n),
+                sub(&cl.d, output, output + 1, i, i + 1),
+                cl.ts,
+            )?;
+            h2_norm(&col)
+        })
+        .collect()
 }
 
 #[cfg(test)]
