@@ -7,7 +7,7 @@
 //! most 100 ns per sample.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use fts::runtime::{HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec};
+use fts::runtime::{FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec};
 use fts::sim::closed_loop;
 use fts::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
 use std::hint::black_box;
@@ -30,13 +30,13 @@ fn spec<'a>(thresholds: &'a [f64], weights: &'a [f64]) -> RuntimeSpec<'a> {
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
         }),
-        pid: PidSpec {
+        feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,
             ki: 0.3,
             kd: 0.0,
             output_min: 0.0,
             output_max: 10.0,
-        },
+        }),
     }
 }
 

@@ -6,7 +6,7 @@
 
 use fts::ident::hysteresis::HysteresisModel;
 use fts::io::controller_file::{
-    ControllerFile, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_c_header,
+    ControllerFile, Feedback, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_c_header,
     parse_controller, to_c_header,
 };
 use fts::io::hysteresis_json::parse_model;
@@ -104,7 +104,7 @@ fn four_ways_bit_identical() {
         units: Units::default(),
         zpetc: Some(ZpetcBlock::from_zpetc(&z)),
         hysteresis: Some(HysteresisBlock::from_model(&inverse)),
-        pid: PID,
+        feedback: Feedback::Pid(PID),
         provenance: Provenance::default(),
     };
     let runtime_of = |f: &ControllerFile| {

@@ -60,7 +60,7 @@ fn filter_step_does_not_allocate() {
 #[test]
 fn runtime_controller_step_does_not_allocate() {
     use fts::runtime::{
-        HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec,
+        FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec,
     };
     let thresholds: Vec<f64> = (0..10).map(|i| i as f64).collect();
     let weights = vec![0.1; 10];
@@ -80,13 +80,13 @@ fn runtime_controller_step_does_not_allocate() {
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
         }),
-        pid: PidSpec {
+        feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,
             ki: 0.3,
             kd: 0.0,
             output_min: 0.0,
             output_max: 10.0,
-        },
+        }),
     };
     let mut rt = RuntimeController::new(&spec).unwrap();
     let before = allocations();

@@ -20,11 +20,11 @@ use crate::ident::hysteresis::{Identified, IdentifyParams, identify};
 use crate::ident::linear::{Fits, NoiseModel, fits};
 use crate::ident::oe::{OeParams, oe};
 use crate::io::controller_file::{
-    ControllerFile, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_controller,
+    ControllerFile, Feedback, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_controller,
 };
 use crate::lti::DiscreteTf;
 use crate::runtime::{PidSpec, RuntimeController};
-use crate::synth::composite::Stages;
+use crate::synth::composite::{FeedbackKind, Stages};
 use crate::synth::zpetc::{self, Zpetc, ZpetcParams};
 
 /// Settings of the experiment. Defaults reproduce [Li21] on the embedded plant.
@@ -192,29 +192,47 @@ pub enum Progress {
 pub fn build_controller(
     stages: Stages,
     ts: f64,
-    pid: PidSpec,
+    feedback: impl Into<Feedback>,
     inverse: Option<&crate::ident::hysteresis::HysteresisModel>,
     zpetc: Option<&Zpetc>,
     provenance: Provenance,
 ) -> Result<ControllerFile, String> {
+    let feedback = feedback.into();
+    let kind = match feedback {
+        Feedback::Pid(_) => FeedbackKind::Pid,
+        Feedback::StateSpace(_) => FeedbackKind::StateSpace,
+    };
+    if kind != stages.feedback {
+        return Err(format!(
+            "{} needs {}",
+            stages.name(),
+            match stages.feedback {
+                FeedbackKind::Pid => "PID gains, not a state-space controller",
+                FeedbackKind::StateSpace => "a state-space controller (--ss K.json)",
+            }
+        ));
+    }
     let file = ControllerFile {
         ts,
         units: Units::default(),
         zpetc: if stages.zpetc {
             Some(ZpetcBlock::from_zpetc(
-                zpetc.ok_or("pid+zpec needs a ZPETC filter")?,
+                zpetc.ok_or_else(|| format!("{} needs a ZPETC filter", stages.name()))?,
             ))
         } else {
             None
         },
         hysteresis: if stages.hysteresis_compensation {
             Some(HysteresisBlock::from_model(
-                inverse.ok_or("pid+hc needs an inverse hysteresis model")?,
+                inverse.ok_or_else(|| format!(
+                    "{} needs an inverse hysteresis model",
+                    stages.name()
+                ))?,
             ))
         } else {
             None
         },
-        pid,
+        feedback,
         provenance,
     };
     // Round trip through the file format, so simulation runs on exactly the
@@ -243,7 +261,7 @@ pub fn track(
     let metrics = closed_loop::metrics(
         &trace,
         reference.evaluate_from,
-        (controller.pid.output_min, controller.pid.output_max),
+        controller.command_limits(),
     );
     Ok((trace, metrics))
 }
