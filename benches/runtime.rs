@@ -9,8 +9,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fts::runtime::{
-    FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec,
-    SsAntiWindup, StateSpaceSpec, ZpetcSpec,
+    FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, SsAntiWindup,
+    StateSpaceSpec, ZpetcSpec,
 };
 use fts::sim::closed_loop;
 use fts::sim::virtual_fts::{VirtualFts, VirtualFtsParams};

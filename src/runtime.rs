@@ -573,7 +573,12 @@ fn ss_step(k: &mut SsBlock, error: f64, feedforward: f64) -> f64 {
     let command = unclamped.clamp(k.output_min, k.output_max);
     let mut next = [0.0; MAX_SS_ORDER];
     let mut cnext = 0.0;
-    for (((xi, row), bi), ci) in next[..n].iter_mut().zip(&k.a[..n]).zip(&k.b[..n]).zip(&k.c[..n]) {
+    for (((xi, row), bi), ci) in next[..n]
+        .iter_mut()
+        .zip(&k.a[..n])
+        .zip(&k.b[..n])
+        .zip(&k.c[..n])
+    {
         let mut acc = 0.0;
         for (aij, xj) in row[..n].iter().zip(x) {
             acc += aij * xj;

@@ -171,7 +171,10 @@ fn mixsyn_controller_emitted_and_simulated_matches_linear_closed_loop() {
         .iter()
         .zip(&y_lin)
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    assert!(dev < 1e-9, "simulated loop vs linear closed loop: {dev:e} um");
+    assert!(
+        dev < 1e-9,
+        "simulated loop vs linear closed loop: {dev:e} um"
+    );
 
     // The same through the closed-loop transfer function and lti::lsim.
     let (num, den) = t.to_tf().unwrap();
@@ -182,10 +185,11 @@ fn mixsyn_controller_emitted_and_simulated_matches_linear_closed_loop() {
         .iter()
         .zip(&y_tf)
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    assert!(dev_tf < 1e-8, "simulated loop vs lsim of T(z): {dev_tf:e} um");
-    eprintln!(
-        "max |e| {max_err} um; |y_sim - y_ss| {dev:e}; |y_sim - lsim(T)| {dev_tf:e}"
+    assert!(
+        dev_tf < 1e-8,
+        "simulated loop vs lsim of T(z): {dev_tf:e} um"
     );
+    eprintln!("max |e| {max_err} um; |y_sim - y_ss| {dev:e}; |y_sim - lsim(T)| {dev_tf:e}");
 }
 
 #[test]
@@ -252,10 +256,7 @@ fn bad_state_space_blocks_exit_2_naming_the_field() {
         ),
         (
             Box::new(move |d| {
-                d["blocks"]
-                    .as_array_mut()
-                    .unwrap()
-                    .insert(0, pid.clone());
+                d["blocks"].as_array_mut().unwrap().insert(0, pid.clone());
             }),
             "blocks[1].type",
         ),

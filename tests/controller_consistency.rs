@@ -155,8 +155,7 @@ fn state_space_four_ways_bit_identical() {
     let ws = fts::synth::weights::ws(2.0, 1500.0, 1e-4).unwrap();
     let wu = fts::synth::weights::makeweight(0.05, 20000.0, 1.0, 20.0).unwrap();
     let (_, r) =
-        fts::synth::mixsyn::mixsyn(&g, Some(&ws), Some(&wu), None, HinfOptions::default())
-            .unwrap();
+        fts::synth::mixsyn::mixsyn(&g, Some(&ws), Some(&wu), None, HinfOptions::default()).unwrap();
     let kc = fts::lti::balred::balred(&r.k, 4).unwrap().sys;
     let k = c2d(&kc, 1e-4, C2dMethod::Tustin { prewarp: None })
         .unwrap()
@@ -232,10 +231,16 @@ fn state_space_four_ways_bit_identical() {
     let json = parse_controller(&file.to_json_string(), "c.json").unwrap();
     assert_eq!(json.feedback, file.feedback, "JSON changed a coefficient");
     let header = parse_c_header(&to_c_header(&file), "c.h").unwrap();
-    assert_eq!(header.feedback, file.feedback, "C header changed a coefficient");
+    assert_eq!(
+        header.feedback, file.feedback,
+        "C header changed a coefficient"
+    );
     let from_json = runtime_of(&json);
     let from_header = runtime_of(&header);
-    assert_eq!(in_memory, direct, "runtime differs from the synthesis objects");
+    assert_eq!(
+        in_memory, direct,
+        "runtime differs from the synthesis objects"
+    );
     assert_eq!(in_memory, from_json, "JSON reload changed a command");
     assert_eq!(in_memory, from_header, "C header changed a command");
     let commands: Vec<f64> = in_memory.iter().map(|b| f64::from_bits(*b)).collect();

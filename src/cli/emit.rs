@@ -9,9 +9,9 @@
 
 use super::common::{bad, read_input, write_atomic};
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
+use crate::io::controller_file::{Feedback, StateSpaceBlock};
 use crate::io::{hysteresis_json, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
-use crate::io::controller_file::{Feedback, StateSpaceBlock};
 use crate::lti::c2d::{C2dMethod, c2d};
 use crate::runtime::{PidSpec, SsAntiWindup};
 use crate::sim::experiment::build_controller;

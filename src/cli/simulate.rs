@@ -290,7 +290,10 @@ fn controller(
     let mut zpetc = read_zpetc(args)?;
     let need_models =
         (stages.hysteresis_compensation && inverse.is_none()) || (stages.zpetc && zpetc.is_none());
-    let mut origin = String::from("models from files");
+    let mut origin = match &args.ss.ss {
+        Some(p) => format!("state-space controller {}, models from files", p.display()),
+        None => String::from("models from files"),
+    };
     if need_models {
         if args.plant_tf.is_some() {
             return Err(bad(format!(

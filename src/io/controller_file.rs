@@ -662,16 +662,20 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
             .in_field(format!("{field}.type")));
         }
         // pid and state_space are alternatives at the same place in the chain.
-        let rank = order.iter().position(|k| *k == kind).map(|r| r.min(2)).ok_or_else(|| {
-            InputError::new(
-                source,
-                format!(
-                    "unknown block type {kind:?}; known blocks, in signal order: {}",
-                    order.join(", ")
-                ),
-            )
-            .in_field(format!("{field}.type"))
-        })?;
+        let rank = order
+            .iter()
+            .position(|k| *k == kind)
+            .map(|r| r.min(2))
+            .ok_or_else(|| {
+                InputError::new(
+                    source,
+                    format!(
+                        "unknown block type {kind:?}; known blocks, in signal order: {}",
+                        order.join(", ")
+                    ),
+                )
+                .in_field(format!("{field}.type"))
+            })?;
         if last_rank.is_some_and(|r| r >= rank) {
             return Err(InputError::new(
                 source,
@@ -870,7 +874,10 @@ fn parse_state_space(
         if row.len() != n {
             return Err(err(
                 &format!("a[{i}]"),
-                format!("A must be square: {n} rows but row {i} has {} entries", row.len()),
+                format!(
+                    "A must be square: {n} rows but row {i} has {} entries",
+                    row.len()
+                ),
             ));
         }
     }
@@ -900,7 +907,10 @@ fn parse_state_space(
     if let Some(v) = b.get("states")
         && v.as_u64() != Some(n as u64)
     {
-        return Err(err("states", format!("declares {v} states but A is {n} x {n}")));
+        return Err(err(
+            "states",
+            format!("declares {v} states but A is {n} x {n}"),
+        ));
     }
     let limit = |key: &str| -> Result<Option<f64>, InputError> {
         match b.get(key) {
@@ -1042,23 +1052,18 @@ pub fn to_c_header(file: &ControllerFile) -> String {
                 anti_windup_name(k.anti_windup),
                 match k.anti_windup {
                     SsAntiWindup::None => "states are not corrected while the command is clamped",
-                    SsAntiWindup::ConditionalUpdate => "x is held when u_ff + v is beyond a limit and C (x+ - x) points further out",
+                    SsAntiWindup::ConditionalUpdate =>
+                        "x is held when u_ff + v is beyond a limit and C (x+ - x) points further out",
                 },
                 k.order(),
                 u8::from(k.anti_windup == SsAntiWindup::ConditionalUpdate)
             );
-            let _ = writeln!(
-                out,
-                "#define FTS_SS_DISCRETISATION \"{label}\""
-            );
+            let _ = writeln!(out, "#define FTS_SS_DISCRETISATION \"{label}\"");
             c_array(&mut out, "FTS_SS_A", &k.a);
             c_array(&mut out, "FTS_SS_B", &k.b);
             c_array(&mut out, "FTS_SS_C", &k.c);
             let _ = writeln!(out, "#define FTS_SS_D {}", c_double(k.d));
-            for (name, v) in [
-                ("OUTPUT_MIN", k.output_min),
-                ("OUTPUT_MAX", k.output_max),
-            ] {
+            for (name, v) in [("OUTPUT_MIN", k.output_min), ("OUTPUT_MAX", k.output_max)] {
                 match v {
                     Some(v) => {
                         let _ = writeln!(

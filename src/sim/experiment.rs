@@ -216,19 +216,16 @@ pub fn build_controller(
         ts,
         units: Units::default(),
         zpetc: if stages.zpetc {
-            Some(ZpetcBlock::from_zpetc(
-                zpetc.ok_or_else(|| format!("{} needs a ZPETC filter", stages.name()))?,
-            ))
+            Some(ZpetcBlock::from_zpetc(zpetc.ok_or_else(|| {
+                format!("{} needs a ZPETC filter", stages.name())
+            })?))
         } else {
             None
         },
         hysteresis: if stages.hysteresis_compensation {
-            Some(HysteresisBlock::from_model(
-                inverse.ok_or_else(|| format!(
-                    "{} needs an inverse hysteresis model",
-                    stages.name()
-                ))?,
-            ))
+            Some(HysteresisBlock::from_model(inverse.ok_or_else(|| {
+                format!("{} needs an inverse hysteresis model", stages.name())
+            })?))
         } else {
             None
         },
@@ -258,11 +255,8 @@ pub fn track(
     let mut rt = RuntimeController::new(&controller.runtime_spec())
         .map_err(|e| step_err("controller")(e.to_string()))?;
     let trace = closed_loop::run(&mut plant, &mut rt, &reference.samples);
-    let metrics = closed_loop::metrics(
-        &trace,
-        reference.evaluate_from,
-        controller.command_limits(),
-    );
+    let metrics =
+        closed_loop::metrics(&trace, reference.evaluate_from, controller.command_limits());
     Ok((trace, metrics))
 }
 

@@ -87,9 +87,7 @@ impl Stages {
         }
         if ranks.first() != Some(&0) {
             return Err(StageError {
-                message: format!(
-                    "{text:?} must start with the feedback stage \"pid\" or \"ss\""
-                ),
+                message: format!("{text:?} must start with the feedback stage \"pid\" or \"ss\""),
             });
         }
         if ranks.windows(2).any(|w| w[0] >= w[1]) {
