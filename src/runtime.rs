@@ -572,26 +572,23 @@ fn ss_step(k: &mut SsBlock, error: f64, feedforward: f64) -> f64 {
     let unclamped = feedforward + (cx + k.d * error);
     let command = unclamped.clamp(k.output_min, k.output_max);
     let mut next = [0.0; MAX_SS_ORDER];
-    let mut cnext = 0.0;
-    for (((xi, row), bi), ci) in next[..n]
-        .iter_mut()
-        .zip(&k.a[..n])
-        .zip(&k.b[..n])
-        .zip(&k.c[..n])
-    {
+    for ((xi, row), bi) in next[..n].iter_mut().zip(&k.a[..n]).zip(&k.b[..n]) {
         let mut acc = 0.0;
         for (aij, xj) in row[..n].iter().zip(x) {
             acc += aij * xj;
         }
         *xi = acc + bi * error;
-        cnext += ci * *xi;
     }
-    let hold = match k.anti_windup {
-        SsAntiWindup::None => false,
-        SsAntiWindup::ConditionalUpdate => {
+    // The held-state test costs a dot product only while saturated.
+    let hold = k.anti_windup == SsAntiWindup::ConditionalUpdate
+        && (unclamped > k.output_max || unclamped < k.output_min)
+        && {
+            let mut cnext = 0.0;
+            for (ci, xi) in k.c[..n].iter().zip(&next[..n]) {
+                cnext += ci * xi;
+            }
             (unclamped > k.output_max && cnext > cx) || (unclamped < k.output_min && cnext < cx)
-        }
-    };
+        };
     if !hold {
         k.x[..n].copy_from_slice(&next[..n]);
     }

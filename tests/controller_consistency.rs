@@ -141,6 +141,8 @@ fn four_ways_bit_identical() {
 /// on the synthesis objects (the `StateSpace` matrices indexed directly),
 /// (2) JSON reload, (3) C header, (4) runtime from the in-memory block.
 #[test]
+// Indexed loops on purpose: an implementation independent of the runtime's iterators.
+#[allow(clippy::needless_range_loop)]
 fn state_space_four_ways_bit_identical() {
     use fts::io::controller_file::StateSpaceBlock;
     use fts::lti::c2d::{C2dMethod, c2d};
