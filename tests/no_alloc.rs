@@ -60,7 +60,7 @@ fn filter_step_does_not_allocate() {
 #[test]
 fn runtime_controller_step_does_not_allocate() {
     use fts::runtime::{
-        HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec,
+        FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, ZpetcSpec,
     };
     let thresholds: Vec<f64> = (0..10).map(|i| i as f64).collect();
     let weights = vec![0.1; 10];
@@ -80,13 +80,13 @@ fn runtime_controller_step_does_not_allocate() {
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
         }),
-        pid: PidSpec {
+        feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,
             ki: 0.3,
             kd: 0.0,
             output_min: 0.0,
             output_max: 10.0,
-        },
+        }),
     };
     let mut rt = RuntimeController::new(&spec).unwrap();
     let before = allocations();
@@ -98,5 +98,57 @@ fn runtime_controller_step_does_not_allocate() {
     rt.reset();
     let after = allocations();
     assert_eq!(after - before, 0, "the runtime step allocated");
+    assert!(acc.is_finite());
+}
+
+#[test]
+fn state_space_controller_step_does_not_allocate() {
+    use fts::runtime::{
+        FeedbackSpec, RuntimeController, RuntimeSpec, SsAntiWindup, StateSpaceSpec, ZpetcSpec,
+    };
+    // Order 8, a stable diagonal-plus-coupling A; limits that are hit, so
+    // both branches of the conditional update run.
+    let n = 8;
+    let a: Vec<f64> = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k / n, k % n);
+            if i == j {
+                0.9 - 0.05 * i as f64
+            } else if j == i + 1 {
+                0.02
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let b: Vec<f64> = (0..n).map(|i| 0.1 * (i + 1) as f64).collect();
+    let c: Vec<f64> = (0..n).map(|i| 1.0 - 0.1 * i as f64).collect();
+    let spec = RuntimeSpec {
+        zpetc: Some(ZpetcSpec {
+            preview: 5,
+            num: &[0.24, -0.19, 0.17, -0.15, 0.012, 0.008],
+            den: &[1.0, -2.3, 2.46, -1.33, 0.28],
+        }),
+        hysteresis: None,
+        feedback: FeedbackSpec::StateSpace(StateSpaceSpec {
+            a: &a,
+            b: &b,
+            c: &c,
+            d: 0.3,
+            output_min: -1.0,
+            output_max: 1.0,
+            anti_windup: SsAntiWindup::ConditionalUpdate,
+        }),
+    };
+    let mut rt = RuntimeController::new(&spec).unwrap();
+    let before = allocations();
+    let mut acc = 0.0;
+    for k in 0..10_000 {
+        let r = 5.0 * (k as f64 * 0.01).sin();
+        acc += rt.step(r, 0.0);
+    }
+    rt.reset();
+    let after = allocations();
+    assert_eq!(after - before, 0, "the state-space step allocated");
     assert!(acc.is_finite());
 }

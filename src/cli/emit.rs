@@ -1,15 +1,21 @@
 //! `fts emit [--hysteresis inv.json] [--zpetc zpetc.json | --closed-loop cl.json]
-//! --kp KP --ki KI --kd KD [--format json|c-header] -o controller.json`:
+//! (--kp KP --ki KI --kd KD | --ss K.json [--c2d zoh|tustin] [--prewarp HZ])
+//! [--format json|c-header] [--c-header controller.h] -o controller.json`:
 //! writes the `fts.controller/1` coefficient file (or its C header) that a
-//! real-time loop consumes, with the SHA-256 of every input file.
+//! real-time loop consumes, with the SHA-256 of every input file. The
+//! feedback controller is the PID, or a state-space controller (`fts.ss/1`,
+//! e.g. from `fts mixsyn`), discretised at the loop's sample time when it is
+//! continuous.
 
 use super::common::{bad, read_input, write_atomic};
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
+use crate::io::controller_file::{Feedback, StateSpaceBlock};
 use crate::io::{hysteresis_json, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
-use crate::runtime::PidSpec;
+use crate::lti::c2d::{C2dMethod, c2d};
+use crate::runtime::{PidSpec, SsAntiWindup};
 use crate::sim::experiment::build_controller;
-use crate::synth::composite::Stages;
+use crate::synth::composite::{FeedbackKind, Stages};
 use crate::synth::zpetc::{self, ZpetcParams};
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -20,6 +26,115 @@ enum Format {
     Json,
     /// A C header with the same numbers.
     CHeader,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum C2dChoice {
+    /// Tustin (bilinear), optionally prewarped.
+    Tustin,
+    /// Zero-order hold.
+    Zoh,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AntiWindupChoice {
+    /// Hold the states while the command is saturated and their update
+    /// would push it further out.
+    ConditionalUpdate,
+    /// Clamp the command only.
+    None,
+}
+
+/// A state-space feedback controller given as a file (shared by `fts emit`
+/// and `fts simulate`).
+#[derive(Debug, Args)]
+pub struct SsArgs {
+    /// State-space feedback controller (`fts.ss/1` or `fts.tf/1`, SISO, error in,
+    /// command out, u = K (r - y)) instead of the PID, e.g. from `fts mixsyn`.
+    #[arg(long, value_name = "K.json", conflicts_with_all = ["kp", "ki", "kd"])]
+    pub ss: Option<PathBuf>,
+    /// How a continuous --ss controller is discretised at the loop's sample time.
+    #[arg(long, value_enum, default_value_t = C2dChoice::Tustin, requires = "ss")]
+    pub c2d: C2dChoice,
+    /// Tustin prewarp frequency, Hz (--c2d tustin only).
+    #[arg(long, value_name = "HZ", requires = "ss")]
+    pub prewarp: Option<f64>,
+    /// What the state-space controller's states do while the command is saturated.
+    #[arg(long, value_enum, default_value_t = AntiWindupChoice::ConditionalUpdate, requires = "ss")]
+    pub ss_anti_windup: AntiWindupChoice,
+}
+
+/// The sample time of a discrete `--ss` controller, if it is one.
+pub fn ss_sample_time(args: &SsArgs) -> anyhow::Result<Option<f64>> {
+    match &args.ss {
+        Some(p) => Ok(super::robust::read_system(p)?.ts),
+        None => Ok(None),
+    }
+}
+
+/// Reads `--ss`, discretises it at `ts` when continuous, and makes the block
+/// (limits `output_min`/`output_max`, `None` for none). The file's hash goes in `inputs`.
+pub fn read_ss_block(
+    args: &SsArgs,
+    path: &Path,
+    ts: f64,
+    limits: (Option<f64>, Option<f64>),
+    inputs: &mut Vec<InputHash>,
+) -> anyhow::Result<StateSpaceBlock> {
+    let (_, source) = hashed(path, "state_space", inputs)?;
+    let sys = super::robust::read_system(path)?;
+    let (discrete, label) = if sys.is_discrete() {
+        if args.prewarp.is_some() {
+            return Err(bad(format!(
+                "--prewarp: {source} is already discrete; nothing to discretise"
+            )));
+        }
+        (sys, "given".to_owned())
+    } else {
+        let (method, label) = match (args.c2d, args.prewarp) {
+            (C2dChoice::Zoh, None) => (C2dMethod::Zoh, "zoh".to_owned()),
+            (C2dChoice::Zoh, Some(_)) => {
+                return Err(bad("--prewarp applies to --c2d tustin only"));
+            }
+            (C2dChoice::Tustin, None) => (C2dMethod::Tustin { prewarp: None }, "tustin".into()),
+            (C2dChoice::Tustin, Some(f)) => {
+                if !(f.is_finite() && f > 0.0 && f < 0.5 / ts) {
+                    return Err(bad(format!(
+                        "--prewarp: expected 0 < HZ < Nyquist ({} Hz), got {f}",
+                        0.5 / ts
+                    )));
+                }
+                (
+                    C2dMethod::Tustin {
+                        prewarp: Some(2.0 * std::f64::consts::PI * f),
+                    },
+                    format!("tustin prewarp {f} Hz"),
+                )
+            }
+        };
+        // Diagonal power-of-two scaling: exact, input-output unchanged, and
+        // the coefficients the loop multiplies are of comparable size.
+        let d = c2d(&sys, ts, method)
+            .map_err(|e| bad(format!("{source}: discretisation: {e}")))?
+            .balanced();
+        (d, label)
+    };
+    let mut block = StateSpaceBlock::from_discrete(&discrete, ts, &label)
+        .map_err(|e| bad(format!("{source}: {e}")))?;
+    if block.order() > crate::runtime::MAX_SS_ORDER {
+        return Err(bad(format!(
+            "{source}: {} states, the runtime takes at most {} (MAX_SS_ORDER); reduce it first (fts mixsyn --order N)",
+            block.order(),
+            crate::runtime::MAX_SS_ORDER
+        )));
+    }
+    block.output_min = limits.0;
+    block.output_max = limits.1;
+    block.anti_windup = match args.ss_anti_windup {
+        AntiWindupChoice::ConditionalUpdate => SsAntiWindup::ConditionalUpdate,
+        AntiWindupChoice::None => SsAntiWindup::None,
+    };
+    Ok(block)
 }
 
 #[derive(Debug, Args)]
@@ -42,18 +157,23 @@ pub struct EmitArgs {
     /// PID derivative gain per sample (on the measurement).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     kd: f64,
-    /// Lowest command, V.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    output_min: f64,
-    /// Highest command, V.
-    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
-    output_max: f64,
-    /// Sample time, s (taken from the ZPETC or closed-loop model when given; they must agree).
+    #[command(flatten)]
+    ss: SsArgs,
+    /// Lowest command, V (PID default 0; a state-space controller has no limit unless given).
+    #[arg(long, allow_hyphen_values = true)]
+    output_min: Option<f64>,
+    /// Highest command, V (PID default 10; a state-space controller has no limit unless given).
+    #[arg(long, allow_hyphen_values = true)]
+    output_max: Option<f64>,
+    /// Sample time, s (taken from the ZPETC, closed-loop model or discrete --ss controller when given; they must agree).
     #[arg(long)]
     ts: Option<f64>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Json)]
     format: Format,
+    /// Also write the C header here (with --format json and -o).
+    #[arg(long, value_name = "CONTROLLER.h", requires = "output")]
+    c_header: Option<PathBuf>,
     /// Write here (default: stdout).
     #[arg(
         short = 'o',
@@ -116,40 +236,66 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
     } else {
         None
     };
-    let ts = match (filter.as_ref().map(|f| f.ts), args.ts) {
-        (Some(a), Some(b)) if (a - b).abs() > 1e-12 * a => {
-            return Err(bad(format!(
-                "--ts {b} disagrees with the ZPETC's sample time {a}"
-            )));
+    let mut ts = filter.as_ref().map(|f| f.ts);
+    let mut ts_from = "the ZPETC's";
+    for (candidate, name) in [
+        (args.ts, "--ts"),
+        (ss_sample_time(&args.ss)?, "the --ss controller's"),
+    ] {
+        match (ts, candidate) {
+            (Some(a), Some(b)) if (a - b).abs() > 1e-12 * a => {
+                return Err(bad(format!(
+                    "{name} sample time {b} s disagrees with {ts_from} {a} s"
+                )));
+            }
+            (None, Some(b)) => {
+                ts = Some(b);
+                ts_from = name;
+            }
+            _ => {}
         }
-        (Some(a), _) => a,
-        (None, Some(b)) => b,
-        (None, None) => {
-            return Err(bad(
-                "--ts: the sample time is needed when no ZPETC or closed-loop model is given",
-            ));
-        }
+    }
+    let Some(ts) = ts else {
+        return Err(bad(
+            "--ts: the sample time is needed when no ZPETC, closed-loop model or discrete controller is given",
+        ));
     };
     if !(ts.is_finite() && ts > 0.0) {
         return Err(bad(format!(
             "--ts: expected a positive number of seconds, got {ts}"
         )));
     }
+    let (feedback, kind) = match &args.ss.ss {
+        Some(path) => (
+            Feedback::StateSpace(read_ss_block(
+                &args.ss,
+                path,
+                ts,
+                (args.output_min, args.output_max),
+                &mut inputs,
+            )?),
+            FeedbackKind::StateSpace,
+        ),
+        None => (
+            Feedback::Pid(PidSpec {
+                kp: args.kp,
+                ki: args.ki,
+                kd: args.kd,
+                output_min: args.output_min.unwrap_or(0.0),
+                output_max: args.output_max.unwrap_or(10.0),
+            }),
+            FeedbackKind::Pid,
+        ),
+    };
     let stages = Stages {
+        feedback: kind,
         hysteresis_compensation: inverse.is_some(),
         zpetc: filter.is_some(),
-    };
-    let pid = PidSpec {
-        kp: args.kp,
-        ki: args.ki,
-        kd: args.kd,
-        output_min: args.output_min,
-        output_max: args.output_max,
     };
     build_controller(
         stages,
         ts,
-        pid,
+        feedback,
         inverse.as_ref(),
         filter.as_ref(),
         Provenance {
@@ -166,6 +312,13 @@ pub fn run(args: EmitArgs) -> anyhow::Result<()> {
         Format::Json => file.to_json_string(),
         Format::CHeader => to_c_header(&file),
     };
+    if let Some(h) = &args.c_header {
+        if args.format != Format::Json {
+            return Err(bad("--c-header goes with --format json"));
+        }
+        write_atomic(h, to_c_header(&file).as_bytes())?;
+        eprintln!("wrote {}", h.display());
+    }
     match &args.output {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;

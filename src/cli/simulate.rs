@@ -1,9 +1,10 @@
-//! `fts simulate --controller pid|pid+hc|pid+zpec|pid+hc+zpec [--reference ...]`:
+//! `fts simulate --controller pid|pid+hc|pid+zpec|pid+hc+zpec|ss[+hc][+zpec] [--ss K.json] [--reference ...]`:
 //! a closed-loop tracking run through the runtime controller step, fed by the
-//! coefficient file fts emits.
+//! coefficient file fts emits (`--controller-file`) or by one built from the
+//! arguments exactly as `fts emit` builds it.
 
 use super::common::{bad, print_json, read_input, write_atomic};
-use crate::io::controller_file::{ControllerFile, Provenance, parse_controller};
+use crate::io::controller_file::{ControllerFile, Feedback, Provenance, parse_controller};
 use crate::io::{hysteresis_json, plot, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
 use crate::runtime::{PidSpec, RuntimeController};
@@ -11,7 +12,7 @@ use crate::sim::experiment::{self, ExperimentParams};
 use crate::sim::reference::{self, Reference, ReferenceTiming};
 use crate::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
 use crate::sim::{ModelPlant, Plant, closed_loop};
-use crate::synth::composite::Stages;
+use crate::synth::composite::{FeedbackKind, Stages};
 use crate::synth::zpetc::{self as zpetc_mod, Zpetc, ZpetcParams};
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -26,9 +27,18 @@ enum ReferenceKind {
 
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
-    /// Controller stages: pid, pid+hc, pid+zpec or pid+hc+zpec.
-    #[arg(long, default_value = "pid+hc+zpec")]
-    controller: String,
+    /// Controller stages: pid, pid+hc, pid+zpec, pid+hc+zpec, or ss, ss+hc, ss+zpec, ss+hc+zpec
+    /// with --ss (default: pid+hc+zpec, or ss with --ss).
+    #[arg(long)]
+    controller: Option<String>,
+    #[command(flatten)]
+    ss: super::emit::SsArgs,
+    /// Lowest command of a --ss controller, V (default: the virtual FTS amplifier's; none with --plant-tf).
+    #[arg(long, allow_hyphen_values = true, requires = "ss")]
+    output_min: Option<f64>,
+    /// Highest command of a --ss controller, V (default: the virtual FTS amplifier's; none with --plant-tf).
+    #[arg(long, allow_hyphen_values = true, requires = "ss")]
+    output_max: Option<f64>,
     /// Reference trajectory.
     #[arg(long, value_enum, default_value_t = ReferenceKind::Sine)]
     reference: ReferenceKind,
@@ -78,7 +88,7 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "CL.json")]
     closed_loop: Option<PathBuf>,
     /// A complete coefficient file (`fts.controller/1`) instead of stages and models.
-    #[arg(long, value_name = "CTRL.json", conflicts_with_all = ["hysteresis", "zpetc", "closed_loop"])]
+    #[arg(long, value_name = "CTRL.json", conflicts_with_all = ["hysteresis", "zpetc", "closed_loop", "ss", "controller"])]
     controller_file: Option<PathBuf>,
     /// PID proportional gain (V/um).
     #[arg(long, default_value_t = crate::sim::experiment::DEFAULT_PID.kp, allow_hyphen_values = true)]
@@ -206,6 +216,7 @@ fn controller(
     args: &SimulateArgs,
     plant: &VirtualFtsParams,
     ts: f64,
+    model_plant: bool,
 ) -> anyhow::Result<(ControllerFile, String)> {
     if let Some(path) = &args.controller_file {
         let source = path.display().to_string();
@@ -218,7 +229,52 @@ fn controller(
         }
         return Ok((file, format!("coefficient file {source}")));
     }
-    let stages = Stages::parse(&args.controller).map_err(|e| bad(format!("--controller: {e}")))?;
+    let default = if args.ss.ss.is_some() {
+        "ss"
+    } else {
+        "pid+hc+zpec"
+    };
+    let stages = Stages::parse(args.controller.as_deref().unwrap_or(default))
+        .map_err(|e| bad(format!("--controller: {e}")))?;
+    let mut inputs = Vec::new();
+    let feedback = match (stages.feedback, &args.ss.ss) {
+        (FeedbackKind::Pid, Some(_)) => {
+            return Err(bad(format!(
+                "--controller {}: --ss gives a state-space controller; use --controller ss[+hc][+zpec]",
+                stages.name()
+            )));
+        }
+        (FeedbackKind::StateSpace, None) => {
+            return Err(bad(format!(
+                "--controller {}: needs the controller (--ss K.json)",
+                stages.name()
+            )));
+        }
+        (FeedbackKind::StateSpace, Some(path)) => {
+            if stages.zpetc && args.zpetc.is_none() && args.closed_loop.is_none() {
+                return Err(bad(format!(
+                    "--controller {}: give the ZPETC of this loop (--zpetc or --closed-loop); the one fts identifies is for the PID loop",
+                    stages.name()
+                )));
+            }
+            let limits = if model_plant {
+                (args.output_min, args.output_max)
+            } else {
+                (
+                    args.output_min.or(Some(plant.amplifier.input_min_v)),
+                    args.output_max.or(Some(plant.amplifier.input_max_v)),
+                )
+            };
+            Some(super::emit::read_ss_block(
+                &args.ss,
+                path,
+                ts,
+                limits,
+                &mut inputs,
+            )?)
+        }
+        (FeedbackKind::Pid, None) => None,
+    };
     let pid = PidSpec {
         kp: args.kp,
         ki: args.ki,
@@ -236,7 +292,10 @@ fn controller(
     let mut zpetc = read_zpetc(args)?;
     let need_models =
         (stages.hysteresis_compensation && inverse.is_none()) || (stages.zpetc && zpetc.is_none());
-    let mut origin = String::from("models from files");
+    let mut origin = match &args.ss.ss {
+        Some(p) => format!("state-space controller {}, models from files", p.display()),
+        None => String::from("models from files"),
+    };
     if need_models {
         if args.plant_tf.is_some() {
             return Err(bad(format!(
@@ -270,12 +329,15 @@ fn controller(
     let file = experiment::build_controller(
         stages,
         ts,
-        pid,
+        match feedback {
+            Some(k) => Feedback::StateSpace(k),
+            None => Feedback::Pid(pid),
+        },
         inverse.as_ref(),
         zpetc.as_ref(),
         Provenance {
             fts_version: env!("CARGO_PKG_VERSION").into(),
-            inputs: Vec::new(),
+            inputs,
         },
     )
     .map_err(bad)?;
@@ -307,12 +369,12 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             }
             None => None,
         };
-        let (file, origin) = controller(&args, &vparams, g.ts())?;
+        let (file, origin) = controller(&args, &vparams, g.ts(), true)?;
         let reference = build_reference(&args, g.ts(), file.preview())?;
         let mut plant = ModelPlant::new(
             &g,
             hysteresis,
-            (file.pid.output_min, file.pid.output_max),
+            file.command_limits(),
             0.0,
             args.seed.unwrap_or(1),
         )
@@ -324,7 +386,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             reference,
         )
     } else {
-        let (file, origin) = controller(&args, &vparams, vparams.ts)?;
+        let (file, origin) = controller(&args, &vparams, vparams.ts, false)?;
         let reference = build_reference(&args, vparams.ts, file.preview())?;
         let mut plant = VirtualFts::new(vparams.clone()).map_err(|e| bad(format!("plant: {e}")))?;
         (
@@ -334,7 +396,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             reference,
         )
     };
-    let limits = (file.pid.output_min, file.pid.output_max);
+    let limits = file.command_limits();
     let m = closed_loop::metrics(&trace, reference.evaluated(), limits);
     let error = trace.error();
     let t: Vec<f64> = (0..trace.reference.len())

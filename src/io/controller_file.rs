@@ -13,7 +13,10 @@
 
 use super::InputError;
 use super::tf_json::{check_format, get_f64_array, get_str};
-use crate::runtime::{HysteresisSpec, PidSpec, PlayForm, RuntimeSpec, ZpetcSpec};
+use crate::runtime::{
+    FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeSpec, SsAntiWindup, StateSpaceSpec,
+    ZpetcSpec,
+};
 use serde_json::{Map, Value, json};
 use std::fmt::Write;
 
@@ -95,6 +98,123 @@ pub struct HysteresisBlock {
     pub dead_zone_weights: Vec<f64>,
 }
 
+/// Discrete state-space feedback controller block (SISO, error in, command
+/// out): `v = C x + D e`, `x <- A x + B e`, `u = clamp(u_ff + v)`,
+/// `e = r_f - y`. Its sample time is the file's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateSpaceBlock {
+    /// `A`, `n x n`, row-major.
+    pub a: Vec<f64>,
+    /// `B`, `n x 1`.
+    pub b: Vec<f64>,
+    /// `C`, `1 x n`.
+    pub c: Vec<f64>,
+    /// `D`.
+    pub d: f64,
+    /// Lowest command; `None`: no limit.
+    pub output_min: Option<f64>,
+    /// Highest command; `None`: no limit.
+    pub output_max: Option<f64>,
+    /// State handling under saturation.
+    pub anti_windup: SsAntiWindup,
+    /// How the coefficients were made (`given`, `zoh`, `tustin`,
+    /// `tustin prewarp 1000 Hz`), for people; not used by the loop.
+    pub discretisation: String,
+}
+
+impl StateSpaceBlock {
+    /// Number of states.
+    pub fn order(&self) -> usize {
+        self.b.len()
+    }
+
+    /// The block of a discrete SISO [`crate::lti::ss::StateSpace`] whose
+    /// sample time is `ts` (checked to 1e-12 relative).
+    pub fn from_discrete(
+        k: &crate::lti::ss::StateSpace,
+        ts: f64,
+        discretisation: &str,
+    ) -> Result<Self, String> {
+        if k.nu() != 1 || k.ny() != 1 {
+            return Err(format!(
+                "the controller must be SISO (error in, command out); it has {} inputs and {} outputs",
+                k.nu(),
+                k.ny()
+            ));
+        }
+        match k.ts {
+            Some(t) if (t - ts).abs() <= 1e-12 * ts => {}
+            Some(t) => {
+                return Err(format!(
+                    "the controller's sample time {t} s differs from the loop's {ts} s"
+                ));
+            }
+            None => return Err("the controller is continuous; discretise it first".into()),
+        }
+        let n = k.nx();
+        let mut a = Vec::with_capacity(n * n);
+        for i in 0..n {
+            for j in 0..n {
+                a.push(k.a[(i, j)]);
+            }
+        }
+        Ok(Self {
+            a,
+            b: (0..n).map(|i| k.b[(i, 0)]).collect(),
+            c: (0..n).map(|j| k.c[(0, j)]).collect(),
+            d: k.d[(0, 0)],
+            output_min: None,
+            output_max: None,
+            anti_windup: SsAntiWindup::ConditionalUpdate,
+            discretisation: discretisation.to_owned(),
+        })
+    }
+
+    /// The block as an [`crate::lti::ss::StateSpace`] with sample time `ts`.
+    pub fn to_state_space(&self, ts: f64) -> Result<crate::lti::ss::StateSpace, String> {
+        let n = self.order();
+        if self.a.len() != n * n || self.c.len() != n {
+            return Err("inconsistent dimensions".into());
+        }
+        crate::lti::ss::StateSpace::new(
+            faer::Mat::from_fn(n, n, |i, j| self.a[i * n + j]),
+            faer::Mat::from_fn(n, 1, |i, _| self.b[i]),
+            faer::Mat::from_fn(1, n, |_, j| self.c[j]),
+            faer::Mat::from_fn(1, 1, |_, _| self.d),
+            Some(ts),
+        )
+        .map_err(|e| e.to_string())
+    }
+}
+
+/// The feedback stage of a controller file: exactly one.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Feedback {
+    /// The [Li21] PID.
+    Pid(PidSpec),
+    /// A discrete state-space controller.
+    StateSpace(StateSpaceBlock),
+}
+
+impl From<PidSpec> for Feedback {
+    fn from(p: PidSpec) -> Self {
+        Feedback::Pid(p)
+    }
+}
+
+impl From<StateSpaceBlock> for Feedback {
+    fn from(k: StateSpaceBlock) -> Self {
+        Feedback::StateSpace(k)
+    }
+}
+
+fn anti_windup_name(a: SsAntiWindup) -> &'static str {
+    match a {
+        SsAntiWindup::None => "none",
+        SsAntiWindup::ConditionalUpdate => "conditional-update",
+    }
+}
+
 impl ZpetcBlock {
     /// The block of a designed ZPETC filter.
     pub fn from_zpetc(z: &crate::synth::zpetc::Zpetc) -> Self {
@@ -146,8 +266,8 @@ pub struct ControllerFile {
     pub zpetc: Option<ZpetcBlock>,
     /// Optional HC feedforward.
     pub hysteresis: Option<HysteresisBlock>,
-    /// The PID.
-    pub pid: PidSpec,
+    /// The feedback controller (PID or state space).
+    pub feedback: Feedback,
     /// Provenance.
     pub provenance: Provenance,
 }
@@ -178,7 +298,52 @@ impl ControllerFile {
                 dead_zone_thresholds: &h.dead_zone_thresholds,
                 dead_zone_weights: &h.dead_zone_weights,
             }),
-            pid: self.pid,
+            feedback: match &self.feedback {
+                Feedback::Pid(p) => FeedbackSpec::Pid(*p),
+                Feedback::StateSpace(k) => FeedbackSpec::StateSpace(StateSpaceSpec {
+                    a: &k.a,
+                    b: &k.b,
+                    c: &k.c,
+                    d: k.d,
+                    output_min: k.output_min.unwrap_or(f64::NEG_INFINITY),
+                    output_max: k.output_max.unwrap_or(f64::INFINITY),
+                    anti_windup: k.anti_windup,
+                }),
+            },
+        }
+    }
+
+    /// The command limits `(min, max)`; infinite where the state-space
+    /// block has none.
+    pub fn command_limits(&self) -> (f64, f64) {
+        self.runtime_spec().feedback.limits()
+    }
+
+    /// The PID, when the feedback controller is one.
+    pub fn pid(&self) -> Option<&PidSpec> {
+        match &self.feedback {
+            Feedback::Pid(p) => Some(p),
+            Feedback::StateSpace(_) => None,
+        }
+    }
+
+    /// The state-space controller, when the feedback controller is one.
+    pub fn state_space(&self) -> Option<&StateSpaceBlock> {
+        match &self.feedback {
+            Feedback::Pid(_) => None,
+            Feedback::StateSpace(k) => Some(k),
+        }
+    }
+
+    /// The stages in the `--controller` grammar.
+    pub fn stages(&self) -> crate::synth::composite::Stages {
+        crate::synth::composite::Stages {
+            feedback: match self.feedback {
+                Feedback::Pid(_) => crate::synth::composite::FeedbackKind::Pid,
+                Feedback::StateSpace(_) => crate::synth::composite::FeedbackKind::StateSpace,
+            },
+            hysteresis_compensation: self.hysteresis.is_some(),
+            zpetc: self.zpetc.is_some(),
         }
     }
 
@@ -189,14 +354,7 @@ impl ControllerFile {
 
     /// The controller in the `--controller` grammar, e.g. `pid+hc+zpec`.
     pub fn stages_name(&self) -> String {
-        let mut s = String::from("pid");
-        if self.hysteresis.is_some() {
-            s.push_str("+hc");
-        }
-        if self.zpetc.is_some() {
-            s.push_str("+zpec");
-        }
-        s
+        self.stages().name().to_owned()
     }
 
     /// Names of the blocks in signal order, e.g. `zpetc, hysteresis_inverse, pid`.
@@ -208,7 +366,10 @@ impl ControllerFile {
         if self.hysteresis.is_some() {
             v.push("hysteresis_inverse");
         }
-        v.push("pid");
+        v.push(match self.feedback {
+            Feedback::Pid(_) => "pid",
+            Feedback::StateSpace(_) => "state_space",
+        });
         v
     }
 
@@ -273,6 +434,24 @@ impl ControllerFile {
             output_max: f64,
             anti_windup: &'static str,
         }
+        #[derive(serde::Serialize)]
+        struct SDoc<'a> {
+            r#type: &'static str,
+            ts: f64,
+            input: &'static str,
+            output: &'static str,
+            states: usize,
+            discretisation: &'a str,
+            a: Vec<&'a [f64]>,
+            b: Vec<[f64; 1]>,
+            c: [&'a [f64]; 1],
+            d: [[f64; 1]; 1],
+            #[serde(skip_serializing_if = "Option::is_none")]
+            output_min: Option<f64>,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            output_max: Option<f64>,
+            anti_windup: &'static str,
+        }
         let mut blocks = Vec::new();
         if let Some(z) = &self.zpetc {
             blocks.push(
@@ -302,19 +481,38 @@ impl ControllerFile {
                 .expect("serialisable"),
             );
         }
-        blocks.push(
-            serde_json::to_value(PDoc {
+        blocks.push(match &self.feedback {
+            Feedback::Pid(p) => serde_json::to_value(PDoc {
                 r#type: "pid",
                 form: "li21",
-                kp: self.pid.kp,
-                ki: self.pid.ki,
-                kd: self.pid.kd,
-                output_min: self.pid.output_min,
-                output_max: self.pid.output_max,
+                kp: p.kp,
+                ki: p.ki,
+                kd: p.kd,
+                output_min: p.output_min,
+                output_max: p.output_max,
                 anti_windup: "conditional-integration",
             })
             .expect("serialisable"),
-        );
+            Feedback::StateSpace(k) => {
+                let n = k.order();
+                serde_json::to_value(SDoc {
+                    r#type: "state_space",
+                    ts: self.ts,
+                    input: "error",
+                    output: "command",
+                    states: n,
+                    discretisation: &k.discretisation,
+                    a: (0..n).map(|i| &k.a[i * n..(i + 1) * n]).collect(),
+                    b: k.b.iter().map(|v| [*v]).collect(),
+                    c: [&k.c],
+                    d: [[k.d]],
+                    output_min: k.output_min,
+                    output_max: k.output_max,
+                    anti_windup: anti_windup_name(k.anti_windup),
+                })
+                .expect("serialisable")
+            }
+        });
         serde_json::to_value(Doc {
             format: CONTROLLER_FORMAT,
             ts: self.ts,
@@ -366,6 +564,7 @@ fn runtime_field(e: &crate::runtime::RuntimeError) -> &'static str {
     use crate::runtime::RuntimeError::*;
     match e {
         BadLength { field, .. }
+        | OrderTooHigh { field, .. }
         | LengthMismatch { field }
         | NonFinite { field }
         | Invalid { field } => field,
@@ -428,39 +627,55 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
         Some(Value::Array(b)) => b,
         _ => return Err(InputError::new(source, "expected an array of blocks").in_field("blocks")),
     };
-    let order = ["zpetc", "hysteresis_inverse", "pid"];
+    let order = ["zpetc", "hysteresis_inverse", "pid", "state_space"];
     let mut last_rank = None;
     let mut file = ControllerFile {
         ts,
         units,
         zpetc: None,
         hysteresis: None,
-        pid: PidSpec {
+        feedback: Feedback::Pid(PidSpec {
             kp: 0.0,
             ki: 0.0,
             kd: 0.0,
             output_min: 0.0,
             output_max: 0.0,
-        },
+        }),
         provenance: Provenance::default(),
     };
-    let mut have_pid = false;
+    let mut feedback_seen: Option<&str> = None;
     for (i, b) in blocks.iter().enumerate() {
         let field = format!("blocks[{i}]");
         let b = b
             .as_object()
             .ok_or_else(|| InputError::new(source, "expected an object").in_field(field.clone()))?;
         let kind = get_str(b, source, "type").map_err(|e| e.in_field(format!("{field}.type")))?;
-        let rank = order.iter().position(|k| *k == kind).ok_or_else(|| {
-            InputError::new(
+        if let Some(first) = feedback_seen
+            && (kind == "pid" || kind == "state_space")
+        {
+            return Err(InputError::new(
                 source,
                 format!(
-                    "unknown block type {kind:?}; known blocks, in signal order: {}",
-                    order.join(", ")
+                    "a second feedback controller {kind:?} after {first:?}: exactly one of \"pid\" and \"state_space\" is allowed"
                 ),
             )
-            .in_field(format!("{field}.type"))
-        })?;
+            .in_field(format!("{field}.type")));
+        }
+        // pid and state_space are alternatives at the same place in the chain.
+        let rank = order
+            .iter()
+            .position(|k| *k == kind)
+            .map(|r| r.min(2))
+            .ok_or_else(|| {
+                InputError::new(
+                    source,
+                    format!(
+                        "unknown block type {kind:?}; known blocks, in signal order: {}",
+                        order.join(", ")
+                    ),
+                )
+                .in_field(format!("{field}.type"))
+            })?;
         if last_rank.is_some_and(|r| r >= rank) {
             return Err(InputError::new(
                 source,
@@ -521,6 +736,10 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
                     dead_zone_weights: optional_array(b, source, "dead_zone_weights", &field)?,
                 });
             }
+            "state_space" => {
+                file.feedback = Feedback::StateSpace(parse_state_space(b, source, &field, ts)?);
+                feedback_seen = Some("state_space");
+            }
             _ => {
                 if let Some(form) = b.get("form").and_then(Value::as_str)
                     && form != "li21"
@@ -531,21 +750,21 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
                     )
                     .in_field(format!("{field}.form")));
                 }
-                file.pid = PidSpec {
+                file.feedback = Feedback::Pid(PidSpec {
                     kp: num(b, source, "kp", &field)?,
                     ki: num(b, source, "ki", &field)?,
                     kd: num(b, source, "kd", &field)?,
                     output_min: num(b, source, "output_min", &field)?,
                     output_max: num(b, source, "output_max", &field)?,
-                };
-                have_pid = true;
+                });
+                feedback_seen = Some("pid");
             }
         }
     }
-    if !have_pid {
+    if feedback_seen.is_none() {
         return Err(InputError::new(
             source,
-            "missing block \"pid\": every controller ends with the feedback PID",
+            "missing block \"pid\" or \"state_space\": every controller ends with one feedback controller",
         )
         .in_field("blocks"));
     }
@@ -581,6 +800,151 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
     }
     file.validate(source)?;
     Ok(file)
+}
+
+/// A matrix as an array of rows; every entry finite; field names like
+/// `blocks[2].a[1][0]`.
+fn matrix(
+    obj: &Map<String, Value>,
+    source: &str,
+    key: &str,
+    block: &str,
+) -> Result<Vec<Vec<f64>>, InputError> {
+    let here = |f: String, m: String| InputError::new(source, m).in_field(f);
+    let rows = match obj.get(key) {
+        Some(Value::Array(a)) => a,
+        Some(_) => {
+            return Err(here(
+                format!("{block}.{key}"),
+                "expected an array of rows (arrays of numbers)".into(),
+            ));
+        }
+        None => return Err(here(format!("{block}.{key}"), "missing".into())),
+    };
+    rows.iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let Value::Array(r) = r else {
+                return Err(here(
+                    format!("{block}.{key}[{i}]"),
+                    "expected a row (array of numbers)".into(),
+                ));
+            };
+            r.iter()
+                .enumerate()
+                .map(|(j, v)| {
+                    v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+                        here(
+                            format!("{block}.{key}[{i}][{j}]"),
+                            format!("expected a finite number, found {v}"),
+                        )
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn parse_state_space(
+    b: &Map<String, Value>,
+    source: &str,
+    field: &str,
+    file_ts: f64,
+) -> Result<StateSpaceBlock, InputError> {
+    let err = |key: &str, m: String| InputError::new(source, m).in_field(format!("{field}.{key}"));
+    let ts = num(b, source, "ts", field)?;
+    if (ts - file_ts).abs() > 1e-12 * file_ts {
+        return Err(err(
+            "ts",
+            format!(
+                "the state-space controller runs at {ts} s but the file's sample time is {file_ts} s; only discrete controllers at the loop's rate are allowed (fts emit --ss discretises a continuous one)"
+            ),
+        ));
+    }
+    for (key, want) in [("input", "error"), ("output", "command")] {
+        if let Some(v) = b.get(key)
+            && v.as_str() != Some(want)
+        {
+            return Err(err(key, format!("expected \"{want}\", found {v}")));
+        }
+    }
+    let a = matrix(b, source, "a", field)?;
+    let n = a.len();
+    for (i, row) in a.iter().enumerate() {
+        if row.len() != n {
+            return Err(err(
+                &format!("a[{i}]"),
+                format!(
+                    "A must be square: {n} rows but row {i} has {} entries",
+                    row.len()
+                ),
+            ));
+        }
+    }
+    let bm = matrix(b, source, "b", field)?;
+    if bm.len() != n || bm.iter().any(|r| r.len() != 1) {
+        return Err(err(
+            "b",
+            format!("B must be {n} x 1 (one row of one number per state of A)"),
+        ));
+    }
+    let cm = matrix(b, source, "c", field)?;
+    let c: Vec<f64> = match cm.as_slice() {
+        [row] if row.len() == n => row.clone(),
+        [] if n == 0 => Vec::new(),
+        _ => {
+            return Err(err(
+                "c",
+                format!("C must be 1 x {n} (one row with one number per state of A)"),
+            ));
+        }
+    };
+    let dm = matrix(b, source, "d", field)?;
+    let d = match dm.as_slice() {
+        [row] if row.len() == 1 => row[0],
+        _ => return Err(err("d", "D must be 1 x 1 ([[d]])".into())),
+    };
+    if let Some(v) = b.get("states")
+        && v.as_u64() != Some(n as u64)
+    {
+        return Err(err(
+            "states",
+            format!("declares {v} states but A is {n} x {n}"),
+        ));
+    }
+    let limit = |key: &str| -> Result<Option<f64>, InputError> {
+        match b.get(key) {
+            None | Some(Value::Null) => Ok(None),
+            Some(_) => num(b, source, key, field).map(Some),
+        }
+    };
+    let anti_windup = match b.get("anti_windup") {
+        None => SsAntiWindup::ConditionalUpdate,
+        Some(v) => match v.as_str() {
+            Some("conditional-update") => SsAntiWindup::ConditionalUpdate,
+            Some("none") => SsAntiWindup::None,
+            _ => {
+                return Err(err(
+                    "anti_windup",
+                    format!("expected \"conditional-update\" or \"none\", found {v}"),
+                ));
+            }
+        },
+    };
+    Ok(StateSpaceBlock {
+        a: a.concat(),
+        b: bm.iter().map(|r| r[0]).collect(),
+        c,
+        d,
+        output_min: limit("output_min")?,
+        output_max: limit("output_max")?,
+        anti_windup,
+        discretisation: b
+            .get("discretisation")
+            .and_then(Value::as_str)
+            .unwrap_or("given")
+            .to_owned(),
+    })
 }
 
 fn c_array(out: &mut String, name: &str, values: &[f64]) {
@@ -660,19 +1024,60 @@ pub fn to_c_header(file: &ControllerFile) -> String {
     } else {
         out.push_str("\n#define FTS_HAS_HYSTERESIS 0\n");
     }
-    let p = &file.pid;
-    let _ = writeln!(
-        out,
-        "\n/* PID ([Li21] Eq. 5): u = u_ff + KP e + KI sum(e) - KD (x(k) - x(k-1)), clamped, conditional-integration anti-windup. */"
-    );
-    for (name, v) in [
-        ("FTS_PID_KP", p.kp),
-        ("FTS_PID_KI", p.ki),
-        ("FTS_PID_KD", p.kd),
-        ("FTS_PID_OUTPUT_MIN", p.output_min),
-        ("FTS_PID_OUTPUT_MAX", p.output_max),
-    ] {
-        let _ = writeln!(out, "#define {name} {}", c_double(v));
+    match &file.feedback {
+        Feedback::Pid(p) => {
+            let _ = writeln!(
+                out,
+                "\n/* PID ([Li21] Eq. 5): u = u_ff + KP e + KI sum(e) - KD (x(k) - x(k-1)), clamped, conditional-integration anti-windup. */\n#define FTS_HAS_PID 1\n#define FTS_HAS_STATE_SPACE 0"
+            );
+            for (name, v) in [
+                ("FTS_PID_KP", p.kp),
+                ("FTS_PID_KI", p.ki),
+                ("FTS_PID_KD", p.kd),
+                ("FTS_PID_OUTPUT_MIN", p.output_min),
+                ("FTS_PID_OUTPUT_MAX", p.output_max),
+            ] {
+                let _ = writeln!(out, "#define {name} {}", c_double(v));
+            }
+        }
+        Feedback::StateSpace(k) => {
+            let label = k
+                .discretisation
+                .replace("*/", "* /")
+                .replace(['"', '\\', '\n'], " ");
+            let _ = writeln!(
+                out,
+                "\n/* State-space feedback controller ({}), e = r_f - x:\n *   v = C x + D e (states before the update); x <- A x + B e;\n *   u = clamp(u_ff + v, OUTPUT_MIN, OUTPUT_MAX).\n * A is FTS_SS_NX x FTS_SS_NX row-major, B FTS_SS_NX x 1, C 1 x FTS_SS_NX.\n * Anti-windup {}: {} */\n#define FTS_HAS_PID 0\n#define FTS_HAS_STATE_SPACE 1\n#define FTS_SS_NX {}\n#define FTS_SS_CONDITIONAL_UPDATE {}",
+                label,
+                anti_windup_name(k.anti_windup),
+                match k.anti_windup {
+                    SsAntiWindup::None => "states are not corrected while the command is clamped",
+                    SsAntiWindup::ConditionalUpdate =>
+                        "x is held when u_ff + v is beyond a limit and C (x+ - x) points further out",
+                },
+                k.order(),
+                u8::from(k.anti_windup == SsAntiWindup::ConditionalUpdate)
+            );
+            let _ = writeln!(out, "#define FTS_SS_DISCRETISATION \"{label}\"");
+            c_array(&mut out, "FTS_SS_A", &k.a);
+            c_array(&mut out, "FTS_SS_B", &k.b);
+            c_array(&mut out, "FTS_SS_C", &k.c);
+            let _ = writeln!(out, "#define FTS_SS_D {}", c_double(k.d));
+            for (name, v) in [("OUTPUT_MIN", k.output_min), ("OUTPUT_MAX", k.output_max)] {
+                match v {
+                    Some(v) => {
+                        let _ = writeln!(
+                            out,
+                            "#define FTS_SS_HAS_{name} 1\n#define FTS_SS_{name} {}",
+                            c_double(v)
+                        );
+                    }
+                    None => {
+                        let _ = writeln!(out, "#define FTS_SS_HAS_{name} 0");
+                    }
+                }
+            }
+        }
     }
     out.push_str("\n#endif /* FTS_CONTROLLER_H */\n");
     out
@@ -772,12 +1177,50 @@ pub fn parse_c_header(text: &str, source: &str) -> Result<ControllerFile, InputE
         } else {
             None
         },
-        pid: PidSpec {
-            kp: d("FTS_PID_KP")?,
-            ki: d("FTS_PID_KI")?,
-            kd: d("FTS_PID_KD")?,
-            output_min: d("FTS_PID_OUTPUT_MIN")?,
-            output_max: d("FTS_PID_OUTPUT_MAX")?,
+        feedback: if flag("FTS_HAS_STATE_SPACE") {
+            let nx = d("FTS_SS_NX")?;
+            let k = StateSpaceBlock {
+                a: a("FTS_SS_A"),
+                b: a("FTS_SS_B"),
+                c: a("FTS_SS_C"),
+                d: d("FTS_SS_D")?,
+                output_min: if flag("FTS_SS_HAS_OUTPUT_MIN") {
+                    Some(d("FTS_SS_OUTPUT_MIN")?)
+                } else {
+                    None
+                },
+                output_max: if flag("FTS_SS_HAS_OUTPUT_MAX") {
+                    Some(d("FTS_SS_OUTPUT_MAX")?)
+                } else {
+                    None
+                },
+                anti_windup: if flag("FTS_SS_CONDITIONAL_UPDATE") {
+                    SsAntiWindup::ConditionalUpdate
+                } else {
+                    SsAntiWindup::None
+                },
+                discretisation: defines
+                    .get("FTS_SS_DISCRETISATION")
+                    .and_then(Value::as_str)
+                    .map(|v| v.trim_matches('"').to_owned())
+                    .unwrap_or_default(),
+            };
+            if nx != k.order() as f64 {
+                return Err(InputError::new(
+                    source,
+                    format!("FTS_SS_NX is {nx} but FTS_SS_B has {} entries", k.order()),
+                )
+                .in_field("FTS_SS_NX"));
+            }
+            Feedback::StateSpace(k)
+        } else {
+            Feedback::Pid(PidSpec {
+                kp: d("FTS_PID_KP")?,
+                ki: d("FTS_PID_KI")?,
+                kd: d("FTS_PID_KD")?,
+                output_min: d("FTS_PID_OUTPUT_MIN")?,
+                output_max: d("FTS_PID_OUTPUT_MAX")?,
+            })
         },
         provenance: Provenance::default(),
     };
@@ -820,13 +1263,13 @@ mod tests {
                 dead_zone_thresholds: vec![],
                 dead_zone_weights: vec![],
             }),
-            pid: PidSpec {
+            feedback: Feedback::Pid(PidSpec {
                 kp: 0.05,
                 ki: 0.3,
                 kd: 0.0,
                 output_min: 0.0,
                 output_max: 10.0,
-            },
+            }),
             provenance: Provenance {
                 fts_version: "0.1.0".into(),
                 inputs: vec![InputHash {
@@ -862,7 +1305,7 @@ mod tests {
         let header = to_c_header(&f);
         let back = parse_c_header(&header, "c.h").unwrap();
         assert_eq!(back.zpetc, f.zpetc);
-        assert_eq!(back.pid, f.pid);
+        assert_eq!(back.feedback, f.feedback);
         let (h0, h1) = (back.hysteresis.unwrap(), f.hysteresis.unwrap());
         assert_eq!(h0.thresholds, h1.thresholds);
         assert_eq!(h0.weights, h1.weights);
@@ -912,7 +1355,7 @@ mod tests {
         let mut f: Value = serde_json::from_str(&good).unwrap();
         f["blocks"].as_array_mut().unwrap().pop();
         let e = parse_controller(&f.to_string(), "c.json").unwrap_err();
-        assert!(e.to_string().contains("missing block \"pid\""), "{e}");
+        assert!(e.to_string().contains("missing block \"pid\" or"), "{e}");
         // Mis-ordered blocks.
         let mut f: Value = serde_json::from_str(&good).unwrap();
         f["blocks"].as_array_mut().unwrap().swap(0, 1);

@@ -590,6 +590,7 @@ fn execute(
                 }
             };
             let stages = Stages {
+                feedback: crate::synth::composite::FeedbackKind::Pid,
                 hysteresis_compensation: inverse.is_some(),
                 zpetc: filter.is_some(),
             };

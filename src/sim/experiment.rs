@@ -20,11 +20,11 @@ use crate::ident::hysteresis::{Identified, IdentifyParams, identify};
 use crate::ident::linear::{Fits, NoiseModel, fits};
 use crate::ident::oe::{OeParams, oe};
 use crate::io::controller_file::{
-    ControllerFile, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_controller,
+    ControllerFile, Feedback, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_controller,
 };
 use crate::lti::DiscreteTf;
 use crate::runtime::{PidSpec, RuntimeController};
-use crate::synth::composite::Stages;
+use crate::synth::composite::{FeedbackKind, Stages};
 use crate::synth::zpetc::{self, StableInversion, Zpetc, ZpetcParams};
 
 /// The PID of the [Li21] loop on the embedded plant: `kp 0.02` V/um, `ki 0.15`
@@ -219,29 +219,44 @@ pub enum Progress {
 pub fn build_controller(
     stages: Stages,
     ts: f64,
-    pid: PidSpec,
+    feedback: impl Into<Feedback>,
     inverse: Option<&crate::ident::hysteresis::HysteresisModel>,
     zpetc: Option<&Zpetc>,
     provenance: Provenance,
 ) -> Result<ControllerFile, String> {
+    let feedback = feedback.into();
+    let kind = match feedback {
+        Feedback::Pid(_) => FeedbackKind::Pid,
+        Feedback::StateSpace(_) => FeedbackKind::StateSpace,
+    };
+    if kind != stages.feedback {
+        return Err(format!(
+            "{} needs {}",
+            stages.name(),
+            match stages.feedback {
+                FeedbackKind::Pid => "PID gains, not a state-space controller",
+                FeedbackKind::StateSpace => "a state-space controller (--ss K.json)",
+            }
+        ));
+    }
     let file = ControllerFile {
         ts,
         units: Units::default(),
         zpetc: if stages.zpetc {
-            Some(ZpetcBlock::from_zpetc(
-                zpetc.ok_or("pid+zpec needs a ZPETC filter")?,
-            ))
+            Some(ZpetcBlock::from_zpetc(zpetc.ok_or_else(|| {
+                format!("{} needs a ZPETC filter", stages.name())
+            })?))
         } else {
             None
         },
         hysteresis: if stages.hysteresis_compensation {
-            Some(HysteresisBlock::from_model(
-                inverse.ok_or("pid+hc needs an inverse hysteresis model")?,
-            ))
+            Some(HysteresisBlock::from_model(inverse.ok_or_else(|| {
+                format!("{} needs an inverse hysteresis model", stages.name())
+            })?))
         } else {
             None
         },
-        pid,
+        feedback,
         provenance,
     };
     // Round trip through the file format, so simulation runs on exactly the
@@ -267,11 +282,7 @@ pub fn track(
     let mut rt = RuntimeController::new(&controller.runtime_spec())
         .map_err(|e| step_err("controller")(e.to_string()))?;
     let trace = closed_loop::run(&mut plant, &mut rt, &reference.samples);
-    let metrics = closed_loop::metrics(
-        &trace,
-        reference.evaluated(),
-        (controller.pid.output_min, controller.pid.output_max),
-    );
+    let metrics = closed_loop::metrics(&trace, reference.evaluated(), controller.command_limits());
     Ok((trace, metrics))
 }
 

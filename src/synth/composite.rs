@@ -1,10 +1,25 @@
 //! The composite controller of [Li21] Fig. 5 and its stage grammar:
-//! `pid`, `pid+hc`, `pid+zpec`, `pid+hc+zpec` (feedback PID, hysteresis
-//! compensation feedforward, ZPETC reference pre-filter).
+//! a feedback stage (`pid`, or `ss` for a discrete state-space controller
+//! such as an H2 / H-infinity / mixsyn design), optionally followed by
+//! hysteresis compensation feedforward (`hc`) and the ZPETC reference
+//! pre-filter (`zpec`): `pid`, `pid+hc`, `pid+zpec`, `pid+hc+zpec`, `ss`,
+//! `ss+hc`, `ss+zpec`, `ss+hc+zpec`.
 
-/// Which stages a composite controller has. The PID is always there.
+/// The feedback controller of a composite controller.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FeedbackKind {
+    /// The [Li21] Eq. 5 PID.
+    Pid,
+    /// A discrete state-space controller (`state_space` block).
+    StateSpace,
+}
+
+/// Which stages a composite controller has. There is always exactly one
+/// feedback controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Stages {
+    /// The feedback controller.
+    pub feedback: FeedbackKind,
     /// Inverse-hysteresis feedforward (HC).
     pub hysteresis_compensation: bool,
     /// ZPETC reference pre-filter (ZPEC).
@@ -12,7 +27,16 @@ pub struct Stages {
 }
 
 /// The forms `--controller` accepts, in order.
-pub const VALID_STAGE_STRINGS: [&str; 4] = ["pid", "pid+hc", "pid+zpec", "pid+hc+zpec"];
+pub const VALID_STAGE_STRINGS: [&str; 8] = [
+    "pid",
+    "pid+hc",
+    "pid+zpec",
+    "pid+hc+zpec",
+    "ss",
+    "ss+hc",
+    "ss+zpec",
+    "ss+hc+zpec",
+];
 
 /// Why a stage string is not understood.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -23,16 +47,37 @@ pub struct StageError {
 }
 
 impl Stages {
-    /// Parses `pid[+hc][+zpec]` (case-insensitive; `zpetc` is accepted for `zpec`).
+    /// The PID with the given feedforward stages.
+    pub fn pid(hysteresis_compensation: bool, zpetc: bool) -> Self {
+        Self {
+            feedback: FeedbackKind::Pid,
+            hysteresis_compensation,
+            zpetc,
+        }
+    }
+
+    /// Parses `pid|ss[+hc][+zpec]` (case-insensitive; `zpetc` is accepted
+    /// for `zpec`, `state_space` for `ss`).
     pub fn parse(text: &str) -> Result<Stages, StageError> {
         let lower = text.trim().to_ascii_lowercase();
         let parts: Vec<&str> = lower.split('+').map(str::trim).collect();
-        let known = ["pid", "hc", "zpec"];
+        // pid and ss share rank 0: the feedback stage.
+        let known = [("pid", 0), ("ss", 0), ("hc", 1), ("zpec", 2)];
         let mut ranks = Vec::new();
+        let mut feedback = FeedbackKind::Pid;
         for p in &parts {
-            let p = if *p == "zpetc" { "zpec" } else { p };
-            match known.iter().position(|k| *k == p) {
-                Some(r) => ranks.push(r),
+            let p = match *p {
+                "zpetc" => "zpec",
+                "state_space" | "state-space" => "ss",
+                other => other,
+            };
+            match known.iter().find(|(k, _)| *k == p) {
+                Some((k, r)) => {
+                    if *k == "ss" {
+                        feedback = FeedbackKind::StateSpace;
+                    }
+                    ranks.push(*r);
+                }
                 None => {
                     return Err(StageError {
                         message: format!("unknown stage {p:?} in {text:?}"),
@@ -42,17 +87,18 @@ impl Stages {
         }
         if ranks.first() != Some(&0) {
             return Err(StageError {
-                message: format!("{text:?} must start with the feedback stage \"pid\""),
+                message: format!("{text:?} must start with the feedback stage \"pid\" or \"ss\""),
             });
         }
         if ranks.windows(2).any(|w| w[0] >= w[1]) {
             return Err(StageError {
                 message: format!(
-                    "stages in {text:?} are repeated or out of order (pid, then hc, then zpec)"
+                    "stages in {text:?} are repeated or out of order (one of pid or ss, then hc, then zpec)"
                 ),
             });
         }
         Ok(Stages {
+            feedback,
             hysteresis_compensation: ranks.contains(&1),
             zpetc: ranks.contains(&2),
         })
@@ -60,12 +106,19 @@ impl Stages {
 
     /// The canonical spelling.
     pub fn name(&self) -> &'static str {
-        match (self.hysteresis_compensation, self.zpetc) {
-            (false, false) => "pid",
-            (true, false) => "pid+hc",
-            (false, true) => "pid+zpec",
-            (true, true) => "pid+hc+zpec",
-        }
+        let i = usize::from(self.hysteresis_compensation)
+            + 2 * usize::from(self.zpetc)
+            + 4 * usize::from(self.feedback == FeedbackKind::StateSpace);
+        [
+            "pid",
+            "pid+hc",
+            "pid+zpec",
+            "pid+hc+zpec",
+            "ss",
+            "ss+hc",
+            "ss+zpec",
+            "ss+hc+zpec",
+        ][i]
     }
 }
 
@@ -79,9 +132,14 @@ mod tests {
             assert_eq!(Stages::parse(s).unwrap().name(), s);
         }
         assert_eq!(Stages::parse("PID+HC+ZPETC").unwrap().name(), "pid+hc+zpec");
+        assert_eq!(
+            Stages::parse("state_space+zpetc").unwrap().feedback,
+            FeedbackKind::StateSpace
+        );
         let e = Stages::parse("hc+pid").unwrap_err();
         assert!(e.to_string().contains("must start"), "{e}");
         assert!(e.to_string().contains("pid+hc+zpec"), "{e}");
+        assert!(e.to_string().contains("ss+hc+zpec"), "{e}");
         assert!(
             Stages::parse("pid+zpec+hc")
                 .unwrap_err()
@@ -95,5 +153,7 @@ mod tests {
                 .contains("unknown stage")
         );
         assert!(Stages::parse("pid+hc+hc").is_err());
+        assert!(Stages::parse("pid+ss").is_err());
+        assert!(Stages::parse("ss+pid").is_err());
     }
 }
