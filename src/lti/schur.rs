@@ -742,6 +742,16 @@ pub fn real_schur(a: &Mat<f64>) -> Result<RealSchur, SchurError> {
     Ok(rs)
 }
 
+/// Eigenvalues of a quasi-triangular matrix with standardised 2x2 blocks
+/// (the `t` of a [`RealSchur`] or [`OrderedRealSchur`]), in diagonal order.
+pub fn quasi_triangular_eigenvalues(t: &Mat<f64>) -> Vec<c64> {
+    RealSchur {
+        t: t.clone(),
+        q: Mat::zeros(0, 0),
+    }
+    .eigenvalues()
+}
+
 /// Ordered real Schur form: `A = Q T Q^T` with the eigenvalues satisfying
 /// `select` (called with `Im lambda >= 0` for a pair) in the leading
 /// `n_selected` rows of `T` (e.g. `|l| l.re < 0.0` for the stable invariant
