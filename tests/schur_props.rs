@@ -5,6 +5,9 @@
 //! and `D` quasi-diagonal with many complex pairs and near-repeated
 //! eigenvalues (normal, so the eigenvalues stay well conditioned).
 
+// `!(x <= y)` is deliberate: it is also true for NaN, which must fail the test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use faer::Mat;
 use fts::lti::c64;
 use fts::lti::schur::{OrderedRealSchur, ordered_real_schur, real_schur};
@@ -36,7 +39,10 @@ fn check(a: &Mat<f64>, s: &OrderedRealSchur, select: &dyn Fn(c64) -> bool) -> Re
     let an = a.norm_l2().max(f64::MIN_POSITIVE);
     let fact = (&(&s.q * &s.t * s.q.transpose()) - a).norm_l2() / an;
     if !(fact <= bound && s.residual <= bound) {
-        return Err(format!("factorisation {fact:e} (reported {:e})", s.residual));
+        return Err(format!(
+            "factorisation {fact:e} (reported {:e})",
+            s.residual
+        ));
     }
     let orth = (&(s.q.transpose() * &s.q) - Mat::<f64>::identity(n, n)).norm_l2();
     if !(orth <= bound) {
@@ -58,7 +64,9 @@ fn check(a: &Mat<f64>, s: &OrderedRealSchur, select: &dyn Fn(c64) -> bool) -> Re
             }
             let (a11, a12, a21, a22) = (t[(i, i)], t[(i, i + 1)], t[(i + 1, i)], t[(i + 1, i + 1)]);
             if a11 != a22 || !(a12 * a21 < 0.0) {
-                return Err(format!("2x2 block at {i} not standard: {a11} {a12} {a21} {a22}"));
+                return Err(format!(
+                    "2x2 block at {i} not standard: {a11} {a12} {a21} {a22}"
+                ));
             }
             let im = a12.abs().sqrt() * a21.abs().sqrt();
             eig.push((c64::new(a11, im), i));
@@ -73,7 +81,10 @@ fn check(a: &Mat<f64>, s: &OrderedRealSchur, select: &dyn Fn(c64) -> bool) -> Re
     for (l, pos) in &eig {
         let sel = select(c64::new(l.re, l.im.abs()));
         if sel != (*pos < s.n_selected) {
-            return Err(format!("eigenvalue {l} at {pos}, n_selected {}", s.n_selected));
+            return Err(format!(
+                "eigenvalue {l} at {pos}, n_selected {}",
+                s.n_selected
+            ));
         }
     }
     // Same eigenvalues as faer's (greedy matching).
@@ -94,11 +105,15 @@ fn check(a: &Mat<f64>, s: &OrderedRealSchur, select: &dyn Fn(c64) -> bool) -> Re
 
 /// Random orthogonal matrix (Q factor of a random matrix).
 fn orthogonal(n: usize, v: &[f64]) -> Mat<f64> {
-    let g = Mat::from_fn(n, n, |i, j| v[(7 * i + 3 * j + 1) % v.len()] + if i == j { 0.5 } else { 0.0 });
+    let g = Mat::from_fn(n, n, |i, j| {
+        v[(7 * i + 3 * j + 1) % v.len()] + if i == j { 0.5 } else { 0.0 }
+    });
     g.qr().compute_Q()
 }
 
-fn selectors() -> [(&'static str, Box<dyn Fn(c64) -> bool>); 3] {
+type Selector = Box<dyn Fn(c64) -> bool>;
+
+fn selectors() -> [(&'static str, Selector); 3] {
     [
         ("re<0", Box::new(|l: c64| l.re < 0.0)),
         ("|l|<1", Box::new(|l: c64| l.norm() < 1.0)),
@@ -170,5 +185,8 @@ fn unordered_form_and_trivial_sizes() {
     let e = ordered_real_schur(&Mat::zeros(0, 0), |_| true).unwrap();
     assert_eq!(e.n_selected, 0);
     let one = Mat::from_fn(1, 1, |_, _| -3.0);
-    assert_eq!(ordered_real_schur(&one, |l| l.re < 0.0).unwrap().n_selected, 1);
+    assert_eq!(
+        ordered_real_schur(&one, |l| l.re < 0.0).unwrap().n_selected,
+        1
+    );
 }

@@ -1,10 +1,14 @@
 //! Algebraic Riccati equations: the stabilising solution by the Schur
-//! method on the Hamiltonian matrix (Laub 1979, IEEE TAC 24(6)) or the
-//! symplectic pencil (Pappas, Laub & Sandell 1980, IEEE TAC 25(4)), with the
-//! stable deflating subspace obtained by an ordered QZ ([`super::schur`]),
-//! then refined by Newton's method in residual-correction form
-//! (Kleinman 1968 for CARE, Hewer 1971 for DARE). Each solve returns its
-//! relative residual; the stabilising property is checked on the closed loop.
+//! method on the Hamiltonian matrix (Laub 1979, IEEE TAC 24(6)), with the
+//! stable invariant subspace from the ordered *real* Schur form
+//! ([`super::schur::ordered_real_schur`]), or on the symplectic pencil
+//! (Pappas, Laub & Sandell 1980, IEEE TAC 25(4)) with an ordered *complex*
+//! QZ ([`super::schur::gen_schur`]); then refined by Newton's method in
+//! residual-correction form (Kleinman 1968 for CARE, Hewer 1971 for DARE)
+//! with the residual evaluated in double-double arithmetic, until it stops
+//! decreasing. Each solve returns its relative residual and the rounding
+//! floor below which no `f64` solution can go; the stabilising property is
+//! checked on the closed loop.
 
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -101,7 +105,11 @@ fn care_residual(
     let xd = Dd::from(x);
     let xa = xd.mul(&Dd::from(a));
     let xgx = xd.mul(&Dd::from(g)).mul(&xd);
-    let r = xa.add(&xa.t(), 1.0).add(&xgx, -1.0).add(&Dd::from(q), 1.0).round();
+    let r = xa
+        .add(&xa.t(), 1.0)
+        .add(&xgx, -1.0)
+        .add(&Dd::from(q), 1.0)
+        .round();
     let den = fro(&xa.hi) * 2.0 + fro(&xgx.hi) + fro(q) + scale;
     let r_sym = Mat::from_fn(r.nrows(), r.ncols(), |i, j| 0.5 * (r[(i, j)] + r[(j, i)]));
     let rel = if den > 0.0 {

@@ -387,6 +387,7 @@ fn rot_cols_real(x: &mut Mat<f64>, i: usize, cs: f64, sn: f64, r0: usize, r1: us
 /// Solves the small Sylvester equation `T11 X - X T22 = T12` (`p, q <= 2`)
 /// through its Kronecker form by Gaussian elimination with complete
 /// pivoting; tiny pivots are perturbed as in LAPACK `dlasy2`.
+#[allow(clippy::needless_range_loop)] // a dense 4x4 kernel reads best with indices
 fn small_sylvester(d: &Mat<f64>, p: usize, q: usize) -> Option<Mat<f64>> {
     let k = p * q;
     // Unknown index: x[(i, j)] -> i + p j.
