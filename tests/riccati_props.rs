@@ -2,21 +2,54 @@
 //! Random Gaussian (A, B) are controllable with probability one, so the
 //! stabilising solution exists; we require residual < 1e-10 (relative, the
 //! acceptance bound of the test plan) and a stable closed loop.
+//!
+//! Nearly unstabilisable draws (`||X||` ~ 1e10, closed loop `||Ac||` ~ 1e4
+//! with `rho(Ac) < 1`) cannot reach 1e-10 with any `f64` matrix: perturbing X
+//! by one ulp per entry already moves the residual to 1e-9..1e-8. For them
+//! the solvers report `residual_floor` (the first-order effect of such a
+//! perturbation) and the bound is `max(1e-10, residual_floor)`. With
+//! `--nocapture`, every case above 1e-10 prints a `FLOOR-LIMITED` line.
 
 use faer::Mat;
 use fts::lti::lyapunov::{dlyap, lyap, sylvester};
 use fts::lti::riccati::{care, dare};
 use proptest::prelude::*;
-// Fixed seeds: rare near-singular draws exceed the residual and norm bounds
-// (recorded on issue 7), and CI must not fail at random on them.
 use proptest::test_runner::RngSeed;
+
+/// CI runs a fixed seed so that it is reproducible; `FTS_PROPTEST_RANDOM=1`
+/// draws a fresh seed (and `PROPTEST_CASES` sets the number of cases) for
+/// the long local runs that look for rare bad draws.
+fn config(cases: u32) -> ProptestConfig {
+    let random = std::env::var("FTS_PROPTEST_RANDOM").is_ok_and(|v| v == "1");
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(cases);
+    ProptestConfig {
+        cases,
+        rng_seed: if random {
+            RngSeed::Random
+        } else {
+            RngSeed::Fixed(20261122)
+        },
+        ..ProptestConfig::default()
+    }
+}
+
+/// `residual < max(1e-10, floor)`, reporting floor-limited cases.
+fn within(what: &str, residual: f64, floor: f64) -> bool {
+    if residual >= 1e-10 {
+        eprintln!("FLOOR-LIMITED {what}: residual {residual:e}, floor {floor:e}");
+    }
+    residual < 1e-10f64.max(floor)
+}
 
 fn mat(n: usize, m: usize, v: &[f64]) -> Mat<f64> {
     Mat::from_fn(n, m, |i, j| v[(i * m + j) % v.len()])
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, rng_seed: RngSeed::Fixed(20261122), .. ProptestConfig::default() })]
+    #![proptest_config(config(48))]
 
     #[test]
     fn care_random(n in 1usize..7, m in 1usize..3, v in prop::collection::vec(-2.0f64..2.0, 64),
@@ -28,7 +61,8 @@ proptest! {
         let r = Mat::<f64>::identity(m, m);
         match care(&a, &b, &q, &r, None) {
             Ok(s) => {
-                prop_assert!(s.residual < 1e-10, "residual {}", s.residual);
+                prop_assert!(within("care", s.residual, s.residual_floor),
+                    "residual {} floor {}", s.residual, s.residual_floor);
                 prop_assert!(s.closed_loop.iter().all(|l| l.re < 0.0));
             }
             // A non-generic draw (e.g. repeated rows making (A,B) uncontrollable
@@ -45,7 +79,8 @@ proptest! {
         let r = Mat::<f64>::identity(m, m) * 0.5;
         match dare(&a, &b, &q, &r, None) {
             Ok(s) => {
-                prop_assert!(s.residual < 1e-10, "residual {}", s.residual);
+                prop_assert!(within("dare", s.residual, s.residual_floor),
+                    "residual {} floor {}", s.residual, s.residual_floor);
                 prop_assert!(s.closed_loop.iter().all(|l| l.norm() < 1.0));
             }
             Err(e) => prop_assert!(e.to_string().contains("stabilising"), "{e}"),
@@ -69,7 +104,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 64, rng_seed: RngSeed::Fixed(20261122), .. ProptestConfig::default() })]
+    #![proptest_config(config(64))]
 
     /// Random generalised plants with full-rank D12/D21: whenever H-inf and H2
     /// synthesis return a controller, its closed loop is stable, the recomputed
@@ -90,22 +125,22 @@ proptest! {
         let p = StateSpace::new(a, b, c, d, None).unwrap();
         if let Ok(r) = hinfsyn(&p, 1, 1, HinfOptions::default()) {
             prop_assert!(r.stable);
-            let tol = if r.gamma_opt < 1e3 { 1e-6 } else { 1e-4 };
-            prop_assert!(r.achieved <= r.gamma * (1.0 + tol), "{} > {}", r.achieved, r.gamma);
-            // Nearly unstabilisable draws (gamma_opt in the thousands, X huge and
-            // A - GX nearly singular) reach only ~1e-9: the bound is 1e-10 for
-            // the well-posed ones and 1e-8 beyond gamma_opt = 1e3.
-            let bound = if r.gamma_opt < 1e3 { 1e-10 } else { 1e-8 };
-            prop_assert!(r.x_residual < bound && r.y_residual < bound,
-                "{} {} at gamma {}", r.x_residual, r.y_residual, r.gamma);
+            // hinfsyn verifies its controller to 1e-6 relative; 1e-8 is the
+            // tolerance of the norm computation itself.
+            let excess = r.achieved / r.gamma - 1.0;
+            if excess > 0.0 {
+                eprintln!("HINF-EXCESS {excess:e} at gamma {:e}", r.gamma);
+            }
+            prop_assert!(r.achieved <= r.gamma * (1.0 + 1e-6 + 1e-8), "{} > {}", r.achieved, r.gamma);
+            prop_assert!(within("hinf x", r.x_residual, r.residual_floor)
+                && within("hinf y", r.y_residual, r.residual_floor),
+                "{} {} floor {} at gamma {}", r.x_residual, r.y_residual, r.residual_floor, r.gamma);
         }
         if let Ok(r) = h2syn(&p, 1, 1, 1e-6) {
             prop_assert!(r.stable);
-            // Same caveat: an H2 norm in the thousands means X is huge and
-            // A - B2 F strongly non-normal, so Newton cannot do better than ~1e-9.
-            let bound = if r.h2_norm < 1e3 { 1e-10 } else { 1e-8 };
-            prop_assert!(r.x_residual < bound && r.y_residual < bound,
-                "{} {} at h2 {}", r.x_residual, r.y_residual, r.h2_norm);
+            prop_assert!(within("h2 x", r.x_residual, r.residual_floor)
+                && within("h2 y", r.y_residual, r.residual_floor),
+                "{} {} floor {} at h2 {}", r.x_residual, r.y_residual, r.residual_floor, r.h2_norm);
         }
     }
 }

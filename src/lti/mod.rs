@@ -1,6 +1,7 @@
 //! Linear time-invariant systems: polynomials in `z^-1`, roots, transfer
 //! functions, frequency response and filtering.
 
+pub(crate) mod accurate;
 pub mod balred;
 pub mod c2d;
 pub mod filter;

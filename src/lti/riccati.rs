@@ -1,17 +1,22 @@
 //! Algebraic Riccati equations: the stabilising solution by the Schur
-//! method on the Hamiltonian matrix (Laub 1979, IEEE TAC 24(6)) or the
-//! symplectic pencil (Pappas, Laub & Sandell 1980, IEEE TAC 25(4)), with the
-//! stable deflating subspace obtained by an ordered QZ ([`super::schur`]),
-//! then refined by Newton's method in residual-correction form
-//! (Kleinman 1968 for CARE, Hewer 1971 for DARE). Each solve returns its
-//! relative residual; the stabilising property is checked on the closed loop.
+//! method on the Hamiltonian matrix (Laub 1979, IEEE TAC 24(6)), with the
+//! stable invariant subspace from the ordered *real* Schur form
+//! ([`super::schur::ordered_real_schur`]), or on the symplectic pencil
+//! (Pappas, Laub & Sandell 1980, IEEE TAC 25(4)) with an ordered *complex*
+//! QZ ([`super::schur::gen_schur`]); then refined by Newton's method in
+//! residual-correction form (Kleinman 1968 for CARE, Hewer 1971 for DARE)
+//! with the residual evaluated in double-double arithmetic, until it stops
+//! decreasing. Each solve returns its relative residual and the rounding
+//! floor below which no `f64` solution can go; the stabilising property is
+//! checked on the closed loop.
 
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::accurate::Dd;
 use super::c64;
 use super::lyapunov::{MatEqError, dlyap, lyap};
-use super::schur::{SchurError, gen_schur};
+use super::schur::{SchurError, gen_schur, ordered_real_schur, quasi_triangular_eigenvalues};
 use super::ss::{block2, eigvals, fro, inv, tr};
 use faer::Mat;
 use faer::linalg::solvers::Solve;
@@ -54,9 +59,39 @@ pub struct RiccatiSolution {
     pub closed_loop: Vec<c64>,
     /// Newton refinement steps taken.
     pub newton_steps: usize,
+    /// Rounding floor of the residual: the relative residual that perturbing
+    /// each entry of X by one rounding error (`eps |X|`) can cause, to first
+    /// order (`eps || |Ac'| |X| + |X| |Ac| ||_F`, resp.
+    /// `eps (|| |Ac'| |X| |Ac| ||_F + ||X||_F)` for the DARE, over the
+    /// residual's denominator; `Ac` the closed loop). No `f64` matrix can be
+    /// expected to beat it; it exceeds 1e-10 only for nearly
+    /// unstabilisable/undetectable problems, where `||X||` and the
+    /// non-normality of `Ac` are huge.
+    pub residual_floor: f64,
 }
 
-/// Relative residual of `A'X + XA - XGX + Q`.
+fn abs_mat(m: &Mat<f64>) -> Mat<f64> {
+    Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)].abs())
+}
+
+/// [`RiccatiSolution::residual_floor`] of a CARE with closed loop `ac`.
+fn care_floor(x: &Mat<f64>, ac: &Mat<f64>, den: f64) -> f64 {
+    let xa = abs_mat(x) * abs_mat(ac);
+    let f = f64::EPSILON * (&xa + tr(&xa)).norm_l2();
+    if den > 0.0 { f / den } else { f }
+}
+
+/// [`RiccatiSolution::residual_floor`] of a DARE with closed loop `ac`.
+fn dare_floor(x: &Mat<f64>, ac: &Mat<f64>, den: f64) -> f64 {
+    let aa = abs_mat(ac);
+    let f = f64::EPSILON * ((tr(&aa) * abs_mat(x) * &aa).norm_l2() + fro(x));
+    if den > 0.0 { f / den } else { f }
+}
+
+/// Relative residual of `A'X + XA - XGX + Q`, evaluated in double-double
+/// arithmetic ([`super::accurate`]): near-unstabilisable problems have
+/// `||X||` many orders above the residual, and an `f64` evaluation would
+/// return only rounding noise for Newton to chase.
 /// `scale` is added to the denominator: the size of the data the reduced
 /// `Q` was formed from (`Q - S R^-1 S'` can cancel to rounding noise, and a
 /// residual relative to that noise alone would be meaningless).
@@ -66,19 +101,23 @@ fn care_residual(
     q: &Mat<f64>,
     x: &Mat<f64>,
     scale: f64,
-) -> (Mat<f64>, f64) {
-    let xa = x * a;
-    let xa_t = tr(&xa);
-    let xgx = x * g * x;
-    let r = &(&(&xa_t + &xa) - &xgx) + q;
-    let den = fro(&xa) * 2.0 + fro(&xgx) + fro(q) + scale;
+) -> (Mat<f64>, f64, f64) {
+    let xd = Dd::from(x);
+    let xa = xd.mul(&Dd::from(a));
+    let xgx = xd.mul(&Dd::from(g)).mul(&xd);
+    let r = xa
+        .add(&xa.t(), 1.0)
+        .add(&xgx, -1.0)
+        .add(&Dd::from(q), 1.0)
+        .round();
+    let den = fro(&xa.hi) * 2.0 + fro(&xgx.hi) + fro(q) + scale;
     let r_sym = Mat::from_fn(r.nrows(), r.ncols(), |i, j| 0.5 * (r[(i, j)] + r[(j, i)]));
     let rel = if den > 0.0 {
         fro(&r_sym) / den
     } else {
         fro(&r_sym)
     };
-    (r_sym, rel)
+    (r_sym, rel, den)
 }
 
 fn check_square(a: &Mat<f64>, others: &[(&Mat<f64>, &str)]) -> Result<usize, RiccatiError> {
@@ -126,6 +165,31 @@ fn subspace_solution(z: &Mat<c64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
     Ok(x)
 }
 
+/// `X = U2 U1^-1` from the first `n` columns of the real orthogonal `Z`, symmetrised.
+fn subspace_solution_real(z: &Mat<f64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
+    let u1 = Mat::from_fn(n, n, |i, j| z[(i, j)]);
+    let u2t = Mat::from_fn(n, n, |i, j| z[(n + j, i)]);
+    let sv = u1
+        .singular_values()
+        .map_err(|_| RiccatiError::NoStabilizing("SVD of the stable subspace failed".into()))?;
+    let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
+    let smax = sv.iter().cloned().fold(0.0, f64::max);
+    if !(smin > 1e-13 * smax.max(1e-300)) {
+        return Err(RiccatiError::NoStabilizing(
+            "the stable invariant subspace is not a graph (U1 singular): \
+             the system has undetectable or unstabilisable modes"
+                .into(),
+        ));
+    }
+    // X U1 = U2  <=>  U1^T X^T = U2^T.
+    let xt = u1.transpose().to_owned().partial_piv_lu().solve(&u2t);
+    let x = Mat::from_fn(n, n, |i, j| 0.5 * (xt[(j, i)] + xt[(i, j)]));
+    if !x.is_all_finite() {
+        return Err(RiccatiError::NoStabilizing("solution overflowed".into()));
+    }
+    Ok(x)
+}
+
 /// Stabilising solution of `A'X + XA - XGX + Q = 0` (`G`, `Q` symmetric, `G`
 /// possibly indefinite as in H-infinity), i.e. `A - G X` Hurwitz:
 /// `X = Ric(H)`, `H = [A, -G; -Q, -A']` (Zhou & Doyle, Essentials §12.1).
@@ -147,44 +211,49 @@ fn care_g_scaled(
             residual: 0.0,
             closed_loop: Vec::new(),
             newton_steps: 0,
+            residual_floor: 0.0,
         });
     }
     let h = block2(a, &(-g), &(-q), &(-tr(a)));
     let hn = fro(&h);
-    let mut gs = gen_schur(&h, &Mat::identity(2 * n, 2 * n))?;
+    // Ordered real Schur form of the Hamiltonian, stable eigenvalues first.
+    let os = ordered_real_schur(&h, |l| l.re < 0.0).map_err(|e| match e {
+        SchurError::SwapRejected(..) => RiccatiError::NoStabilizing(format!(
+            "the Hamiltonian matrix has eigenvalues (numerically) on the imaginary axis: {e}"
+        )),
+        e => RiccatiError::Schur(e),
+    })?;
     // An eigenvalue is treated as lying on the imaginary axis when its real
     // part is at round-off level both absolutely (relative to ||H||) and
     // relative to its own modulus; the second test keeps slow but genuinely
     // stable modes of badly scaled Hamiltonians off the axis.
-    let on_axis = gs.pairs().iter().any(|(al, be)| {
-        let l = al / be;
-        l.re.abs() <= 1e-12 * hn && l.re.abs() <= 1e-7 * l.norm()
-    });
-    let k = gs.reorder(|al, be| (al / be).re < 0.0);
-    if on_axis || k != n {
+    let on_axis = quasi_triangular_eigenvalues(&os.t)
+        .iter()
+        .any(|l| l.re.abs() <= 1e-12 * hn && l.re.abs() <= 1e-7 * l.norm());
+    if on_axis || os.n_selected != n {
         return Err(RiccatiError::NoStabilizing(
             "the Hamiltonian matrix has eigenvalues on the imaginary axis".into(),
         ));
     }
-    let mut x = subspace_solution(&gs.z, n)?;
-    let (mut res, mut rel) = care_residual(a, g, q, &x, scale);
-    // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0.
+    let mut x = subspace_solution_real(&os.q, n)?;
+    let (mut res, mut rel, mut den) = care_residual(a, g, q, &x, scale);
+    // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0,
+    // continued while the (accurately evaluated) residual decreases, until it
+    // reaches the rounding floor.
     let mut steps = 0;
-    for _ in 0..10 {
-        if rel < 1e-15 {
+    for _ in 0..20 {
+        let ak = a - g * &x;
+        if rel < 1e-15 || rel <= 0.1 * care_floor(&x, &ak, den) {
             break;
         }
-        let ak = a - g * &x;
         let Ok(d) = lyap(&tr(&ak), &res) else { break };
         let xn = &x + &d.x;
-        let (rn, reln) = care_residual(a, g, q, &xn, scale);
+        let (rn, reln, denn) = care_residual(a, g, q, &xn, scale);
         if !(reln < rel) {
             break;
         }
         steps += 1;
-        x = xn;
-        res = rn;
-        rel = reln;
+        (x, res, rel, den) = (xn, rn, reln, denn);
     }
     let closed_loop = eigvals(&(a - g * &x))
         .map_err(|_| RiccatiError::NoStabilizing("closed-loop eigenvalues failed".into()))?;
@@ -198,10 +267,12 @@ fn care_g_scaled(
             "residual {rel:.1e} after refinement: the problem is too ill-conditioned"
         )));
     }
+    let residual_floor = care_floor(&x, &(a - g * &x), den);
     Ok(RiccatiSolution {
         x,
         k: Mat::zeros(0, n),
         residual: rel,
+        residual_floor,
         closed_loop,
         newton_steps: steps,
     })
@@ -256,7 +327,11 @@ pub fn care(
     Ok(sol)
 }
 
-/// Relative residual of `A'XA - X - (A'XB + S)(R + B'XB)^-1 (B'XA + S') + Q`.
+/// Relative residual of `A'XA - X - (A'XB + S)(R + B'XB)^-1 (B'XA + S') + Q`,
+/// with the gain `K = (R + B'XB)^-1 (B'XA + S')`. Evaluated in double-double
+/// arithmetic in the form `A'XA - X + Q - L'K - K'L + K'(R + B'XB)K`,
+/// `L = B'XA + S'`, which is stationary in `K` (an error in the computed
+/// gain enters only to second order).
 fn dare_residual(
     a: &Mat<f64>,
     b: &Mat<f64>,
@@ -264,23 +339,34 @@ fn dare_residual(
     r: &Mat<f64>,
     s: &Mat<f64>,
     x: &Mat<f64>,
-) -> Option<(Mat<f64>, f64, Mat<f64>)> {
-    let bx = tr(b) * x;
-    let rr = r + &bx * b;
-    let kk = inv(&rr)? * (&bx * a + tr(s));
-    let axa = tr(a) * x * a;
-    let t = (&(tr(a) * x * b) + s) * &kk;
-    let res = &(&(&axa - x) - &t) + q;
+) -> Option<(Mat<f64>, f64, Mat<f64>, f64)> {
+    let (ad, bd, xd) = (Dd::from(a), Dd::from(b), Dd::from(x));
+    let xa = xd.mul(&ad);
+    let xb = xd.mul(&bd);
+    let rr = Dd::from(r).add(&bd.t().mul(&xb), 1.0);
+    let l = bd.t().mul(&xa).add(&Dd::from(&tr(s)), 1.0);
+    let kk = inv(&rr.round())? * l.round();
+    let kd = Dd::from(&kk);
+    let axa = ad.t().mul(&xa);
+    let lk = l.t().mul(&kd);
+    let krk = kd.t().mul(&rr).mul(&kd);
+    let res = axa
+        .add(&xd, -1.0)
+        .add(&Dd::from(q), 1.0)
+        .add(&lk, -1.0)
+        .add(&lk.t(), -1.0)
+        .add(&krk, 1.0)
+        .round();
     let res = Mat::from_fn(res.nrows(), res.ncols(), |i, j| {
         0.5 * (res[(i, j)] + res[(j, i)])
     });
-    let den = fro(&axa) + fro(x) + fro(&t) + fro(q);
+    let den = fro(&axa.hi) + fro(x) + fro(&lk.hi) + fro(q);
     let rel = if den > 0.0 {
         fro(&res) / den
     } else {
         fro(&res)
     };
-    Some((res, rel, kk))
+    kk.is_all_finite().then_some((res, rel, kk, den))
 }
 
 /// Stabilising solution of the DARE
@@ -304,6 +390,7 @@ pub fn dare(
             residual: 0.0,
             closed_loop: Vec::new(),
             newton_steps: 0,
+            residual_floor: 0.0,
         });
     }
     // Symplectic pencil lambda L - M, M = [A~, 0; -Q~, I], L = [I, G; 0, A~'] (Pappas et al. 1980).
@@ -323,30 +410,28 @@ pub fn dare(
         ));
     }
     let mut x = subspace_solution(&gs.z, n)?;
-    let Some((mut res, mut rel, mut kk)) = dare_residual(a, b, q, r, s, &x) else {
+    let Some((mut res, mut rel, mut kk, mut den)) = dare_residual(a, b, q, r, s, &x) else {
         return Err(RiccatiError::NoStabilizing("R + B'XB is singular".into()));
     };
-    // Hewer (Newton) refinement: (A-BK)' D (A-BK) - D + Res(X) = 0.
+    // Hewer (Newton) refinement: (A-BK)' D (A-BK) - D + Res(X) = 0, continued
+    // while the (accurately evaluated) residual decreases, until it reaches
+    // the rounding floor.
     let mut steps = 0;
-    for _ in 0..6 {
-        if rel < 1e-15 {
+    for _ in 0..20 {
+        let ak = a - b * &kk;
+        if rel < 1e-15 || rel <= 0.1 * dare_floor(&x, &ak, den) {
             break;
         }
-        let ak = a - b * &kk;
         let Ok(d) = dlyap(&tr(&ak), &res) else { break };
         let xn = &x + &d.x;
-        let Some((rn, reln, kn)) = dare_residual(a, b, q, r, s, &xn) else {
+        let Some((rn, reln, kn, denn)) = dare_residual(a, b, q, r, s, &xn) else {
             break;
         };
         if !(reln < rel) {
             break;
         }
         steps += 1;
-        let improved = reln < 0.5 * rel;
-        (x, res, rel, kk) = (xn, rn, reln, kn);
-        if !improved {
-            break;
-        }
+        (x, res, rel, kk, den) = (xn, rn, reln, kn, denn);
     }
     let closed_loop = eigvals(&(a - b * &kk))
         .map_err(|_| RiccatiError::NoStabilizing("closed-loop eigenvalues failed".into()))?;
@@ -360,10 +445,12 @@ pub fn dare(
             "residual {rel:.1e} after refinement: the problem is too ill-conditioned"
         )));
     }
+    let residual_floor = dare_floor(&x, &(a - b * &kk), den);
     Ok(RiccatiSolution {
         x,
-        k: kk,
         residual: rel,
+        residual_floor,
+        k: kk,
         closed_loop,
         newton_steps: steps,
     })

@@ -1,5 +1,17 @@
 //! Ordered (generalized) Schur forms.
 //!
+//! **Real Schur form** ([`real_schur`], [`ordered_real_schur`]): `A = Q T Q^T`
+//! with `T` quasi-upper-triangular (1x1 blocks and standardised 2x2 blocks
+//! `[a b; c a]`, `b c < 0`, holding complex-conjugate pairs), taken from
+//! faer's public real QZ of the pencil `(A, I)` (faer's own real Schur
+//! driver is private), and reordered by direct swaps of adjacent blocks
+//! (Bai & Demmel 1993, LAPACK `dlaexc`/`dtrexc`): a 1x1/2x2 Sylvester
+//! equation, an orthogonal QR factor of `[-X; I]`, and a stability test that
+//! rejects a swap whose backward error exceeds `20 eps ||block||_F`. 2x2
+//! blocks are standardised as in LAPACK `dlanv2`.
+//!
+//! **Complex generalized Schur form** ([`gen_schur`]):
+//!
 //! faer 0.24 keeps its Schur drivers private but exposes the building
 //! blocks of the QZ algorithm (`generalized_hessenberg`,
 //! `qz_cplx::hessenberg_to_qz`). We compute the *complex* generalized Schur
@@ -20,7 +32,7 @@
 use super::c64;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::evd::ComputeEigenvectors;
-use faer::linalg::gevd::{GeneralizedSchurParams, gen_hessenberg, qz_cplx};
+use faer::linalg::gevd::{GeneralizedSchurParams, gen_hessenberg, qz_cplx, qz_real};
 use faer::{Mat, Par};
 use thiserror::Error;
 
@@ -33,6 +45,13 @@ pub enum SchurError {
     /// Input is not square or the two matrices differ in size.
     #[error("Schur form needs square matrices of equal size")]
     Dimension,
+    /// A block swap was rejected by the stability test (LAPACK `dtrexc`
+    /// INFO = 1): the eigenvalues to be exchanged are too close to be
+    /// separated reliably.
+    #[error(
+        "reordering the Schur form failed: eigenvalues {0} and {1} are too close to be separated reliably"
+    )]
+    SwapRejected(String, String),
 }
 
 /// Complex generalized Schur form `M = Q S Z^H`, `L = Q T Z^H`.
@@ -231,6 +250,529 @@ pub fn schur(a: &Mat<f64>) -> Result<(Mat<c64>, Mat<c64>), SchurError> {
         }
     }
     Ok((u, r))
+}
+
+// ---------------------------------------------------------------------------
+// Real Schur form and its reordering.
+
+/// Real Schur form `A = Q T Q^T`: `Q` orthogonal, `T` quasi-upper-triangular
+/// with 1x1 blocks (real eigenvalues) and standardised 2x2 blocks
+/// `[a b; c a]`, `b c < 0` (the pair `a ± i sqrt(-b c)`).
+#[derive(Debug, Clone)]
+pub struct RealSchur {
+    /// Quasi-upper-triangular factor.
+    pub t: Mat<f64>,
+    /// Orthogonal factor.
+    pub q: Mat<f64>,
+}
+
+/// A real Schur form whose leading `n_selected` eigenvalues are the selected ones.
+#[derive(Debug, Clone)]
+pub struct OrderedRealSchur {
+    /// Quasi-upper-triangular factor; `t[..k, ..k]` holds the selected eigenvalues.
+    pub t: Mat<f64>,
+    /// Orthogonal factor; its first `n_selected` columns span the selected invariant subspace.
+    pub q: Mat<f64>,
+    /// Number of selected eigenvalues (a conjugate pair counts twice).
+    pub n_selected: usize,
+    /// `||A - Q T Q^T||_F / ||A||_F`.
+    pub residual: f64,
+}
+
+/// LAPACK `dlanv2`: Schur factorisation of a real 2x2 block,
+/// `[a b; c d] = G [aa bb; cc dd] G^T`, `G = [cs -sn; sn cs]`, with either
+/// `cc = 0` (real eigenvalues) or `aa = dd`, `bb cc < 0` (complex pair).
+/// Returns `(aa, bb, cc, dd, cs, sn)`.
+#[allow(clippy::many_single_char_names)]
+fn lanv2(a: f64, b: f64, c: f64, d: f64) -> (f64, f64, f64, f64, f64, f64) {
+    let eps = f64::EPSILON;
+    let (mut a, mut b, mut c, mut d) = (a, b, c, d);
+    let (mut cs, mut sn);
+    if c == 0.0 {
+        cs = 1.0;
+        sn = 0.0;
+    } else if b == 0.0 {
+        cs = 0.0;
+        sn = 1.0;
+        std::mem::swap(&mut a, &mut d);
+        b = -c;
+        c = 0.0;
+    } else if a - d == 0.0 && b.signum() != c.signum() {
+        cs = 1.0;
+        sn = 0.0;
+    } else {
+        let temp = a - d;
+        let mut p = 0.5 * temp;
+        let bcmax = b.abs().max(c.abs());
+        let bcmis = b.abs().min(c.abs()) * b.signum() * c.signum();
+        let scale = p.abs().max(bcmax);
+        let mut z = (p / scale) * p + (bcmax / scale) * bcmis;
+        if z >= 4.0 * eps {
+            // Real eigenvalues.
+            z = p + (scale.sqrt() * z.sqrt()).copysign(p);
+            a = d + z;
+            d -= (bcmax / z) * bcmis;
+            let tau = z.hypot(c);
+            cs = z / tau;
+            sn = c / tau;
+            b -= c;
+            c = 0.0;
+        } else {
+            // Complex or nearly equal real eigenvalues: make the diagonal equal.
+            let sigma = b + c;
+            p = 0.5 * temp;
+            let tau = sigma.hypot(temp);
+            cs = (0.5 * (1.0 + sigma.abs() / tau)).sqrt();
+            sn = -(p / (tau * cs)) * if sigma >= 0.0 { 1.0 } else { -1.0 };
+            let aa = a * cs + b * sn;
+            let bb = -a * sn + b * cs;
+            let cc = c * cs + d * sn;
+            let dd = -c * sn + d * cs;
+            a = aa * cs + cc * sn;
+            b = bb * cs + dd * sn;
+            c = -aa * sn + cc * cs;
+            d = -bb * sn + dd * cs;
+            let temp = 0.5 * (a + d);
+            a = temp;
+            d = temp;
+            if c != 0.0 {
+                if b != 0.0 {
+                    if b.signum() == c.signum() {
+                        // Real eigenvalues after all: reduce to upper triangular.
+                        let sab = b.abs().sqrt();
+                        let sac = c.abs().sqrt();
+                        p = (sab * sac).copysign(c);
+                        let tau = 1.0 / (b + c).abs().sqrt();
+                        a = temp + p;
+                        d = temp - p;
+                        b -= c;
+                        c = 0.0;
+                        let cs1 = sab * tau;
+                        let sn1 = sac * tau;
+                        let t = cs * cs1 - sn * sn1;
+                        sn = cs * sn1 + sn * cs1;
+                        cs = t;
+                    }
+                } else {
+                    b = -c;
+                    c = 0.0;
+                    let t = cs;
+                    cs = -sn;
+                    sn = t;
+                }
+            }
+        }
+    }
+    (a, b, c, d, cs, sn)
+}
+
+/// Rows `i, i+1` of `x` (columns `c0..c1`): `x <- G^T x`, `G = [cs -sn; sn cs]`.
+fn rot_rows_real(x: &mut Mat<f64>, i: usize, cs: f64, sn: f64, c0: usize, c1: usize) {
+    for j in c0..c1 {
+        let (u, v) = (x[(i, j)], x[(i + 1, j)]);
+        x[(i, j)] = cs * u + sn * v;
+        x[(i + 1, j)] = cs * v - sn * u;
+    }
+}
+
+/// Columns `i, i+1` of `x` (rows `r0..r1`): `x <- x G`.
+fn rot_cols_real(x: &mut Mat<f64>, i: usize, cs: f64, sn: f64, r0: usize, r1: usize) {
+    for r in r0..r1 {
+        let (u, v) = (x[(r, i)], x[(r, i + 1)]);
+        x[(r, i)] = cs * u + sn * v;
+        x[(r, i + 1)] = cs * v - sn * u;
+    }
+}
+
+/// Solves the small Sylvester equation `T11 X - X T22 = T12` (`p, q <= 2`)
+/// through its Kronecker form by Gaussian elimination with complete
+/// pivoting; tiny pivots are perturbed as in LAPACK `dlasy2`.
+#[allow(clippy::needless_range_loop)] // a dense 4x4 kernel reads best with indices
+fn small_sylvester(d: &Mat<f64>, p: usize, q: usize) -> Option<Mat<f64>> {
+    let k = p * q;
+    // Unknown index: x[(i, j)] -> i + p j.
+    let mut m = [[0.0f64; 4]; 4];
+    let mut rhs = [0.0f64; 4];
+    for j in 0..q {
+        for i in 0..p {
+            let row = i + p * j;
+            rhs[row] = d[(i, p + j)];
+            // (T11 X)_{ij} = sum_l T11[i,l] X[l,j]
+            for l in 0..p {
+                m[row][l + p * j] += d[(i, l)];
+            }
+            // -(X T22)_{ij} = -sum_l X[i,l] T22[l,j]
+            for l in 0..q {
+                m[row][i + p * l] -= d[(p + l, p + j)];
+            }
+        }
+    }
+    let mut big = 0.0f64;
+    for row in m.iter().take(k) {
+        for v in row.iter().take(k) {
+            big = big.max(v.abs());
+        }
+    }
+    let smin = (f64::EPSILON * big).max(f64::MIN_POSITIVE / f64::EPSILON);
+    let mut perm = [0usize, 1, 2, 3];
+    for s in 0..k {
+        // Complete pivoting.
+        let (mut pr, mut pc, mut pv) = (s, s, -1.0);
+        for (r, row) in m.iter().enumerate().take(k).skip(s) {
+            for (c, v) in row.iter().enumerate().take(k).skip(s) {
+                if v.abs() > pv {
+                    (pr, pc, pv) = (r, c, v.abs());
+                }
+            }
+        }
+        m.swap(s, pr);
+        rhs.swap(s, pr);
+        if pc != s {
+            for row in m.iter_mut() {
+                row.swap(s, pc);
+            }
+            perm.swap(s, pc);
+        }
+        if m[s][s].abs() < smin {
+            m[s][s] = smin;
+        }
+        for r in s + 1..k {
+            let f = m[r][s] / m[s][s];
+            if f != 0.0 {
+                for c in s..k {
+                    m[r][c] -= f * m[s][c];
+                }
+                rhs[r] -= f * rhs[s];
+            }
+        }
+    }
+    let mut y = [0.0f64; 4];
+    for s in (0..k).rev() {
+        let mut acc = rhs[s];
+        for c in s + 1..k {
+            acc -= m[s][c] * y[c];
+        }
+        y[s] = acc / m[s][s];
+    }
+    let mut x = Mat::zeros(p, q);
+    for s in 0..k {
+        let idx = perm[s];
+        x[(idx % p, idx / p)] = y[s];
+    }
+    x.is_all_finite().then_some(x)
+}
+
+impl RealSchur {
+    /// Dimension.
+    pub fn n(&self) -> usize {
+        self.t.nrows()
+    }
+
+    /// Size (1 or 2) of the diagonal block starting at row `i`.
+    fn block_size(&self, i: usize) -> usize {
+        if i + 1 < self.n() && self.t[(i + 1, i)] != 0.0 {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Diagonal blocks as `(start, size)`.
+    pub fn blocks(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < self.n() {
+            let b = self.block_size(i);
+            out.push((i, b));
+            i += b;
+        }
+        out
+    }
+
+    /// Eigenvalue of the block at `i` (the one with positive imaginary part for a pair).
+    fn block_eig(&self, i: usize, size: usize) -> c64 {
+        let t = &self.t;
+        if size == 1 {
+            c64::new(t[(i, i)], 0.0)
+        } else {
+            let im = t[(i, i + 1)].abs().sqrt() * t[(i + 1, i)].abs().sqrt();
+            c64::new(0.5 * (t[(i, i)] + t[(i + 1, i + 1)]), im)
+        }
+    }
+
+    /// Eigenvalues in the order of the diagonal (pairs as `re + i im, re - i im`).
+    pub fn eigenvalues(&self) -> Vec<c64> {
+        let mut out = Vec::with_capacity(self.n());
+        for (i, b) in self.blocks() {
+            let l = self.block_eig(i, b);
+            out.push(l);
+            if b == 2 {
+                out.push(l.conj());
+            }
+        }
+        out
+    }
+
+    /// Standardises the 2x2 block at `i` (`dlanv2`); it may split into two 1x1 blocks.
+    fn standardise(&mut self, i: usize) {
+        let n = self.n();
+        let t = &self.t;
+        let (aa, bb, cc, dd, cs, sn) =
+            lanv2(t[(i, i)], t[(i, i + 1)], t[(i + 1, i)], t[(i + 1, i + 1)]);
+        rot_rows_real(&mut self.t, i, cs, sn, i + 2, n);
+        rot_cols_real(&mut self.t, i, cs, sn, 0, i);
+        rot_cols_real(&mut self.q, i, cs, sn, 0, n);
+        self.t[(i, i)] = aa;
+        self.t[(i, i + 1)] = bb;
+        self.t[(i + 1, i)] = cc;
+        self.t[(i + 1, i + 1)] = dd;
+    }
+
+    /// Swaps the adjacent diagonal blocks at `k` (size `p`) and `k + p`
+    /// (size `q`) by an orthogonal similarity (Bai & Demmel 1993, `dlaexc`).
+    /// The swap is rejected, leaving the form unchanged, when its backward
+    /// error exceeds `20 eps ||D||_F` (`D` the `(p+q)`-square block).
+    pub fn swap(&mut self, k: usize, p: usize, q: usize) -> Result<(), SchurError> {
+        let n = self.n();
+        let m = p + q;
+        let d = Mat::from_fn(m, m, |i, j| self.t[(k + i, k + j)]);
+        let dnorm = d.norm_l2();
+        let thresh = (20.0 * f64::EPSILON * dnorm).max(f64::MIN_POSITIVE / f64::EPSILON);
+        let reject = || {
+            SchurError::SwapRejected(
+                format!("{}", self.block_eig(k, p)),
+                format!("{}", self.block_eig(k + p, q)),
+            )
+        };
+        // T11 X - X T22 = T12; the columns of [-X; I] span the invariant
+        // subspace of T22's eigenvalues.
+        let x = small_sylvester(&d, p, q).ok_or_else(reject)?;
+        let v = Mat::from_fn(m, q, |i, j| {
+            if i < p {
+                -x[(i, j)]
+            } else if i - p == j {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let qs = v.qr().compute_Q();
+        let e = qs.transpose() * &d * &qs;
+        // Weak test: the block below the new leading one must vanish.
+        let mut below = 0.0f64;
+        for j in 0..q {
+            for i in q..m {
+                below = below.hypot(e[(i, j)]);
+            }
+        }
+        let mut e0 = e;
+        for j in 0..q {
+            for i in q..m {
+                e0[(i, j)] = 0.0;
+            }
+        }
+        // Strong test: the truncated block reproduces D.
+        let back = &qs * &e0 * qs.transpose();
+        let err = (&back - &d).norm_l2();
+        if !(below <= thresh && err <= thresh) {
+            return Err(reject());
+        }
+        // Apply Qs to rows and columns k..k+m of T and to the columns of Q.
+        let rows = Mat::from_fn(m, n - k - m, |i, j| self.t[(k + i, k + m + j)]);
+        let rows = qs.transpose() * rows;
+        for i in 0..m {
+            for j in 0..n - k - m {
+                self.t[(k + i, k + m + j)] = rows[(i, j)];
+            }
+        }
+        let cols = Mat::from_fn(k, m, |i, j| self.t[(i, k + j)]);
+        let cols = cols * &qs;
+        for i in 0..k {
+            for j in 0..m {
+                self.t[(i, k + j)] = cols[(i, j)];
+            }
+        }
+        for i in 0..m {
+            for j in 0..m {
+                self.t[(k + i, k + j)] = e0[(i, j)];
+            }
+        }
+        let qc = Mat::from_fn(n, m, |i, j| self.q[(i, k + j)]);
+        let qc = qc * &qs;
+        for i in 0..n {
+            for j in 0..m {
+                self.q[(i, k + j)] = qc[(i, j)];
+            }
+        }
+        // Inside 1x1 blocks nothing may remain below the diagonal;
+        // 2x2 blocks are re-standardised.
+        for (start, size) in [(k, q), (k + q, p)] {
+            if size == 2 {
+                self.standardise(start);
+            }
+        }
+        Ok(())
+    }
+
+    /// Moves the eigenvalues with `select(lambda)` (called once per real
+    /// eigenvalue or conjugate pair, with `Im lambda >= 0`) to the leading
+    /// block, keeping the relative order of the selected and of the others
+    /// (LAPACK `dtrsen`'s ordering by `dtrexc`). Returns how many were selected.
+    pub fn reorder(&mut self, select: impl Fn(c64) -> bool) -> Result<usize, SchurError> {
+        let n = self.n();
+        let mut ks = 0;
+        let mut j = 0;
+        while j < n {
+            let size = self.block_size(j);
+            if !select(self.block_eig(j, size)) {
+                j += size;
+                continue;
+            }
+            let mut pos = j;
+            let mut split = false;
+            while pos > ks {
+                let prev = if pos >= 2 && self.t[(pos - 1, pos - 2)] != 0.0 {
+                    pos - 2
+                } else {
+                    pos - 1
+                };
+                self.swap(prev, pos - prev, size)?;
+                pos = prev;
+                if size == 2 && self.block_size(pos) == 1 {
+                    // A (numerically) real pair split into two 1x1 blocks:
+                    // examine them afresh (the blocks in between are unselected).
+                    split = true;
+                    break;
+                }
+            }
+            if split {
+                j = pos;
+                continue;
+            }
+            ks += size;
+            j += size;
+        }
+        Ok(ks)
+    }
+}
+
+/// Real Schur form of `A` from faer's real QZ of `(A, I)`: with `B = I`
+/// the triangular factor `Q^T Z` is orthogonal, hence `±1` on the diagonal,
+/// so `Q^T A Q` is quasi-triangular; it is recomputed from `A`, the round-off
+/// below the block structure dropped, and each 2x2 block standardised.
+pub fn real_schur(a: &Mat<f64>) -> Result<RealSchur, SchurError> {
+    let n = a.nrows();
+    if a.ncols() != n {
+        return Err(SchurError::Dimension);
+    }
+    if !a.is_all_finite() {
+        return Err(SchurError::NonFinite);
+    }
+    if n == 0 {
+        return Ok(RealSchur {
+            t: Mat::zeros(0, 0),
+            q: Mat::zeros(0, 0),
+        });
+    }
+    let mut s = a.clone();
+    let mut b = Mat::<f64>::identity(n, n);
+    let mut q = Mat::<f64>::identity(n, n);
+    let mut z = Mat::<f64>::identity(n, n);
+    let hparams: gen_hessenberg::GeneralizedHessenbergParams = faer::auto!(f64);
+    let sparams: GeneralizedSchurParams = faer::auto!(f64);
+    let req = StackReq::any_of(&[
+        gen_hessenberg::generalized_hessenberg_scratch::<f64>(n, hparams),
+        qz_real::hessenberg_to_qz_scratch::<f64>(n, Par::Seq, sparams),
+    ]);
+    let mut buf = MemBuffer::new(req);
+    let stack = MemStack::new(&mut buf);
+    gen_hessenberg::generalized_hessenberg(
+        s.as_mut(),
+        b.as_mut(),
+        Some(q.as_mut()),
+        Some(z.as_mut()),
+        Par::Seq,
+        stack,
+        hparams,
+    );
+    let mut ar = Mat::<f64>::zeros(n, 1);
+    let mut ai = Mat::<f64>::zeros(n, 1);
+    let mut be = Mat::<f64>::zeros(n, 1);
+    qz_real::hessenberg_to_qz(
+        s.as_mut(),
+        b.as_mut(),
+        Some(q.as_mut()),
+        Some(z.as_mut()),
+        ar.col_mut(0),
+        ai.col_mut(0),
+        be.col_mut(0),
+        ComputeEigenvectors::Yes,
+        Par::Seq,
+        sparams,
+        stack,
+    );
+    if !(s.is_all_finite() && q.is_all_finite()) {
+        return Err(SchurError::NonFinite);
+    }
+    // Block structure from the QZ factor; T = Q^T A Q.
+    let mut t = q.transpose() * a * &q;
+    let mut i = 0;
+    while i < n {
+        let two = i + 1 < n && s[(i + 1, i)] != 0.0;
+        let last = if two { i + 1 } else { i };
+        for r in last + 1..n {
+            for c in i..=last {
+                t[(r, c)] = 0.0;
+            }
+        }
+        if !two && i + 1 < n {
+            t[(i + 1, i)] = 0.0;
+        }
+        i = last + 1;
+    }
+    let mut rs = RealSchur { t, q };
+    let mut i = 0;
+    while i + 1 < n {
+        if rs.t[(i + 1, i)] != 0.0 {
+            rs.standardise(i);
+            i += 2;
+        } else {
+            i += 1;
+        }
+    }
+    Ok(rs)
+}
+
+/// Eigenvalues of a quasi-triangular matrix with standardised 2x2 blocks
+/// (the `t` of a [`RealSchur`] or [`OrderedRealSchur`]), in diagonal order.
+pub fn quasi_triangular_eigenvalues(t: &Mat<f64>) -> Vec<c64> {
+    RealSchur {
+        t: t.clone(),
+        q: Mat::zeros(0, 0),
+    }
+    .eigenvalues()
+}
+
+/// Ordered real Schur form: `A = Q T Q^T` with the eigenvalues satisfying
+/// `select` (called with `Im lambda >= 0` for a pair) in the leading
+/// `n_selected` rows of `T` (e.g. `|l| l.re < 0.0` for the stable invariant
+/// subspace, `|l| l.norm() < 1.0` for the discrete one).
+pub fn ordered_real_schur(
+    a: &Mat<f64>,
+    select: impl Fn(c64) -> bool,
+) -> Result<OrderedRealSchur, SchurError> {
+    let mut rs = real_schur(a)?;
+    let n_selected = rs.reorder(select)?;
+    let back = &rs.q * &rs.t * rs.q.transpose();
+    let an = a.norm_l2();
+    let err = (&back - a).norm_l2();
+    let residual = if an > 0.0 { err / an } else { err };
+    Ok(OrderedRealSchur {
+        t: rs.t,
+        q: rs.q,
+        n_selected,
+        residual,
+    })
 }
 
 #[cfg(test)]

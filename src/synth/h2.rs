@@ -34,6 +34,9 @@ pub struct H2Result {
     /// Relative residuals of the two Riccati equations.
     pub x_residual: f64,
     pub y_residual: f64,
+    /// The larger rounding floor of the two residuals
+    /// ([`crate::lti::riccati::RiccatiSolution::residual_floor`]).
+    pub residual_floor: f64,
     /// Regularisation weights added to `D12` / `D21`, if any.
     pub regularised: (Option<f64>, Option<f64>),
 }
@@ -114,6 +117,7 @@ pub fn h2syn(
         stable,
         x_residual: xs.residual,
         y_residual: ys.residual,
+        residual_floor: xs.residual_floor.max(ys.residual_floor),
         regularised,
     })
 }

@@ -69,6 +69,9 @@ pub struct HinfResult {
     /// Relative residuals of the X and Y Riccati equations.
     pub x_residual: f64,
     pub y_residual: f64,
+    /// The larger rounding floor of the two residuals
+    /// ([`crate::lti::riccati::RiccatiSolution::residual_floor`]).
+    pub residual_floor: f64,
     /// Regularisation weights added to `D12` / `D21`, if any.
     pub regularised: (Option<f64>, Option<f64>),
     /// Bisection steps.
@@ -80,6 +83,7 @@ struct AtGamma {
     k: StateSpace,
     xres: f64,
     yres: f64,
+    floor: f64,
 }
 
 fn blocks(m: &Mat<f64>, r: usize, c: usize) -> [Mat<f64>; 4] {
@@ -196,6 +200,7 @@ fn central(p: &Partition, gamma: f64) -> Result<AtGamma, SynthError> {
         k,
         xres: xs.residual,
         yres: ys.residual,
+        floor: xs.residual_floor.max(ys.residual_floor),
     })
 }
 
@@ -279,7 +284,8 @@ pub fn hinfsyn(
                 _ => best = Some(r),
             },
             Ok(_) => {}
-            Err(e @ SynthError::Infeasible(_)) => last_err = Some(e),
+            // A weight whose controller fails verification is skipped like an infeasible one.
+            Err(e @ (SynthError::Infeasible(_) | SynthError::Numerical(_))) => last_err = Some(e),
             Err(e) => return Err(e),
         }
     }
@@ -370,15 +376,95 @@ fn hinfsyn_regularised(
         }
     }
     let gamma_opt = hi;
-    let mut gamma = hi;
-    if opts.backoff > 0.0 {
-        let gb = hi * (1.0 + opts.backoff);
-        if let Ok(r) = feasible(&norm.p, &pss, gb) {
-            best = r;
-            gamma = gb;
+    // Build the controller at gamma_opt (1 + backoff) and verify it on the
+    // original plant: closed loop stable and its recomputed H-inf norm within
+    // VERIFY_RTOL of the level it was built for. Near the optimum the central
+    // controller depends on `(I - Y X / gamma^2)^-1`, so on nearly singular
+    // problems (gamma_opt in the 1e5..1e7 range, X and Y huge) it can miss
+    // the level by 1e-4 and more; then back off ten times further and
+    // rebuild (at most up to 1.1 gamma_opt), and if no level verifies,
+    // report the problem rather than return a controller that does not
+    // achieve the gamma it claims.
+    const VERIFY_RTOL: f64 = 1e-6;
+    let mut backoff = opts.backoff;
+    let mut candidate: Option<(f64, AtGamma)> = if backoff > 0.0 {
+        None
+    } else {
+        Some((hi, best))
+    };
+    let (gamma, achieved, stable) = loop {
+        let (gamma, at) = match candidate.take() {
+            Some(c) => c,
+            None => {
+                let gb = hi * (1.0 + backoff);
+                match feasible(&norm.p, &pss, gb) {
+                    Ok(r) => (gb, r),
+                    Err(SynthError::Infeasible(_)) if backoff <= opts.backoff => {
+                        // As before: the optimum's own controller.
+                        (hi, central(&norm.p, hi)?)
+                    }
+                    Err(e) => return Err(e),
+                }
+            }
+        };
+        let built = finish(plant, &norm, p0, &at)?;
+        let ok = built.stable && built.achieved <= gamma * (1.0 + VERIFY_RTOL);
+        if ok {
+            let Built {
+                k,
+                closed_loop,
+                poles,
+                stable,
+                achieved,
+            } = built;
+            return Ok(HinfResult {
+                k,
+                gamma,
+                gamma_opt,
+                closed_loop,
+                poles,
+                stable,
+                achieved,
+                x_residual: at.xres,
+                y_residual: at.yres,
+                residual_floor: at.floor,
+                regularised,
+                iterations,
+            });
         }
-    }
-    let kc = denormalise(&best.k, &norm, &p0.d22)?;
+        backoff = if backoff > 0.0 { backoff * 10.0 } else { 1e-4 };
+        if backoff > 0.1 {
+            break (gamma, built.achieved, built.stable);
+        }
+    };
+    Err(SynthError::Numerical(format!(
+        "the central controller does not reach the gamma it is built for (gamma {gamma:.6e}, \
+         closed loop {}): the problem is too ill-conditioned (gamma_opt {gamma_opt:.3e}) for a \
+         reliable controller; scale the weights or add a control weight",
+        if stable {
+            format!("H-inf norm {achieved:.6e}")
+        } else {
+            "unstable".to_string()
+        }
+    )))
+}
+
+/// A controller mapped back to the plant's coordinates with its closed loop.
+struct Built {
+    k: StateSpace,
+    closed_loop: StateSpace,
+    poles: Vec<c64>,
+    stable: bool,
+    achieved: f64,
+}
+
+fn finish(
+    plant: &StateSpace,
+    norm: &Normalised,
+    p0: &Partition,
+    at: &AtGamma,
+) -> Result<Built, SynthError> {
+    let kc = denormalise(&at.k, norm, &p0.d22)?;
     // Back to discrete time if needed.
     let k = match plant.ts {
         None => kc,
@@ -401,17 +487,11 @@ fn hinfsyn_regularised(
     } else {
         f64::INFINITY
     };
-    Ok(HinfResult {
+    Ok(Built {
         k,
-        gamma,
-        gamma_opt,
         closed_loop,
         poles,
         stable,
         achieved,
-        x_residual: best.xres,
-        y_residual: best.yres,
-        regularised,
-        iterations,
     })
 }

@@ -1,0 +1,192 @@
+//! Property tests of the ordered real Schur form: factorisation and
+//! orthogonality to a small multiple of `n eps`, standardised quasi-triangular
+//! `T`, selected eigenvalues leading and equal to faer's eigenvalues.
+//! Inputs: dense random matrices, and `U D U^T` with `U` random orthogonal
+//! and `D` quasi-diagonal with many complex pairs and near-repeated
+//! eigenvalues (normal, so the eigenvalues stay well conditioned).
+
+// `!(x <= y)` is deliberate: it is also true for NaN, which must fail the test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use faer::Mat;
+use fts::lti::c64;
+use fts::lti::schur::{OrderedRealSchur, ordered_real_schur, real_schur};
+use proptest::prelude::*;
+use proptest::test_runner::RngSeed;
+
+fn config(cases: u32) -> ProptestConfig {
+    let random = std::env::var("FTS_PROPTEST_RANDOM").is_ok_and(|v| v == "1");
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(cases);
+    ProptestConfig {
+        cases,
+        rng_seed: if random {
+            RngSeed::Random
+        } else {
+            RngSeed::Fixed(20261122)
+        },
+        ..ProptestConfig::default()
+    }
+}
+
+/// Checks everything about an ordered Schur form of `a` with `select`.
+fn check(a: &Mat<f64>, s: &OrderedRealSchur, select: &dyn Fn(c64) -> bool) -> Result<(), String> {
+    let n = a.nrows();
+    let eps = f64::EPSILON;
+    let bound = 50.0 * (n as f64) * eps;
+    let an = a.norm_l2().max(f64::MIN_POSITIVE);
+    let fact = (&(&s.q * &s.t * s.q.transpose()) - a).norm_l2() / an;
+    if !(fact <= bound && s.residual <= bound) {
+        return Err(format!(
+            "factorisation {fact:e} (reported {:e})",
+            s.residual
+        ));
+    }
+    let orth = (&(s.q.transpose() * &s.q) - Mat::<f64>::identity(n, n)).norm_l2();
+    if !(orth <= bound) {
+        return Err(format!("orthogonality {orth:e}"));
+    }
+    // Quasi-triangular with standardised 2x2 blocks.
+    let t = &s.t;
+    let mut i = 0;
+    let mut eig = Vec::new();
+    while i < n {
+        for r in i + 2..n {
+            if t[(r, i)] != 0.0 {
+                return Err(format!("T[{r},{i}] = {}", t[(r, i)]));
+            }
+        }
+        if i + 1 < n && t[(i + 1, i)] != 0.0 {
+            if i + 2 < n && t[(i + 2, i + 1)] != 0.0 {
+                return Err(format!("adjacent nonzero subdiagonals at {i}"));
+            }
+            let (a11, a12, a21, a22) = (t[(i, i)], t[(i, i + 1)], t[(i + 1, i)], t[(i + 1, i + 1)]);
+            if a11 != a22 || !(a12 * a21 < 0.0) {
+                return Err(format!(
+                    "2x2 block at {i} not standard: {a11} {a12} {a21} {a22}"
+                ));
+            }
+            let im = a12.abs().sqrt() * a21.abs().sqrt();
+            eig.push((c64::new(a11, im), i));
+            eig.push((c64::new(a11, -im), i));
+            i += 2;
+        } else {
+            eig.push((c64::new(t[(i, i)], 0.0), i));
+            i += 1;
+        }
+    }
+    // Selected eigenvalues lead.
+    for (l, pos) in &eig {
+        let sel = select(c64::new(l.re, l.im.abs()));
+        if sel != (*pos < s.n_selected) {
+            return Err(format!(
+                "eigenvalue {l} at {pos}, n_selected {}",
+                s.n_selected
+            ));
+        }
+    }
+    // Same eigenvalues as faer's (greedy matching).
+    let mut reference = a.eigenvalues().map_err(|e| format!("{e:?}"))?;
+    for (l, _) in &eig {
+        let (k, d) = reference
+            .iter()
+            .enumerate()
+            .map(|(k, r)| (k, (r - l).norm()))
+            .fold((0, f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
+        if !(d <= 1e-10 * an) {
+            return Err(format!("eigenvalue {l} off faer's by {d:e}"));
+        }
+        reference.swap_remove(k);
+    }
+    Ok(())
+}
+
+/// Random orthogonal matrix (Q factor of a random matrix).
+fn orthogonal(n: usize, v: &[f64]) -> Mat<f64> {
+    let g = Mat::from_fn(n, n, |i, j| {
+        v[(7 * i + 3 * j + 1) % v.len()] + if i == j { 0.5 } else { 0.0 }
+    });
+    g.qr().compute_Q()
+}
+
+type Selector = Box<dyn Fn(c64) -> bool>;
+
+fn selectors() -> [(&'static str, Selector); 3] {
+    [
+        ("re<0", Box::new(|l: c64| l.re < 0.0)),
+        ("|l|<1", Box::new(|l: c64| l.norm() < 1.0)),
+        ("im!=0", Box::new(|l: c64| l.im != 0.0)),
+    ]
+}
+
+proptest! {
+    #![proptest_config(config(256))]
+
+    #[test]
+    fn dense_random(n in 1usize..17, v in prop::collection::vec(-1.5f64..1.5, 300)) {
+        let a = Mat::from_fn(n, n, |i, j| v[(i * n + j) % v.len()] * (1.0 + 0.01 * ((i + 2 * j) % 5) as f64));
+        for (name, sel) in selectors() {
+            let s = ordered_real_schur(&a, &sel).map_err(|e| TestCaseError::fail(format!("{name}: {e}")))?;
+            check(&a, &s, &sel).map_err(|e| TestCaseError::fail(format!("{name}: {e}")))?;
+        }
+    }
+
+    #[test]
+    fn pairs_and_clusters(nb in 1usize..9, kinds in prop::collection::vec(0u8..4, 9),
+                          vals in prop::collection::vec(-2.0f64..2.0, 40),
+                          u in prop::collection::vec(-1.0f64..1.0, 300)) {
+        // Blocks: 0 = complex pair, 1 = real, 2 = pair nearly equal to the
+        // previous pair, 3 = real nearly equal to the previous real value.
+        let mut d = Vec::new(); // (re, im) with im = 0 for real
+        for b in 0..nb {
+            let (re, im) = (vals[2 * b], vals[2 * b + 1].abs() + 0.05);
+            let last = d.last().copied();
+            match (kinds[b], last) {
+                (0, _) => d.push((re, im)),
+                (2, Some((r0, i0))) if i0 > 0.0 => d.push((r0 + 1e-9, i0 * (1.0 + 1e-9))),
+                (3, Some((r0, 0.0))) => d.push((r0 * (1.0 + 1e-9) + 1e-12, 0.0)),
+                (2, _) => d.push((re, im)),
+                _ => d.push((re, 0.0)),
+            }
+        }
+        let n: usize = d.iter().map(|(_, im)| if *im > 0.0 { 2 } else { 1 }).sum();
+        let mut dm = Mat::<f64>::zeros(n, n);
+        let mut i = 0;
+        for (k, (re, im)) in d.iter().enumerate() {
+            if *im > 0.0 {
+                // Scaled rotation with unequal off-diagonals, still normal up to a diagonal similarity.
+                let r = 1.0 + 0.3 * (k % 3) as f64;
+                dm[(i, i)] = *re;
+                dm[(i + 1, i + 1)] = *re;
+                dm[(i, i + 1)] = im * r;
+                dm[(i + 1, i)] = -im / r;
+                i += 2;
+            } else {
+                dm[(i, i)] = *re;
+                i += 1;
+            }
+        }
+        let q = orthogonal(n, &u);
+        let a = &q * &dm * q.transpose();
+        for (name, sel) in selectors() {
+            let s = ordered_real_schur(&a, &sel).map_err(|e| TestCaseError::fail(format!("{name}: {e}")))?;
+            check(&a, &s, &sel).map_err(|e| TestCaseError::fail(format!("{name}: {e}")))?;
+        }
+    }
+}
+
+#[test]
+fn unordered_form_and_trivial_sizes() {
+    let a = Mat::from_fn(2, 2, |i, j| [[0.0, 1.0], [-1.0, 0.0]][i][j]);
+    let s = real_schur(&a).unwrap();
+    assert!(s.t[(1, 0)] != 0.0 && s.t[(0, 0)] == s.t[(1, 1)]);
+    let e = ordered_real_schur(&Mat::zeros(0, 0), |_| true).unwrap();
+    assert_eq!(e.n_selected, 0);
+    let one = Mat::from_fn(1, 1, |_, _| -3.0);
+    assert_eq!(
+        ordered_real_schur(&one, |l| l.re < 0.0).unwrap().n_selected,
+        1
+    );
+}
