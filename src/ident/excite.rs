@@ -37,6 +37,14 @@ fn check_ts(ts: f64) -> Result<(), ExciteError> {
 }
 
 /// Samples needed to cover `duration` seconds (at least one).
+/// The number of samples every generator here makes for `duration` s at
+/// `ts`, with the same checks (so a caller can size a signal without
+/// generating it).
+pub fn sample_count(duration: f64, ts: f64) -> Result<usize, ExciteError> {
+    check_ts(ts)?;
+    samples(duration, ts)
+}
+
 fn samples(duration: f64, ts: f64) -> Result<usize, ExciteError> {
     check(
         duration.is_finite() && duration > 0.0,

@@ -125,7 +125,7 @@ pub fn sine(
         duration,
         ts: timing.ts,
     };
-    let evaluated = excite::sine(&params)?.len();
+    let evaluated = excite::sample_count(duration, timing.ts)?;
     let s = excite::sine(&excite::SineParams {
         duration: timing.extended(duration),
         ..params
@@ -166,7 +166,7 @@ pub fn sweep(
         ts: timing.ts,
         spacing: excite::SweepSpacing::Linear,
     };
-    let evaluated = excite::sweep(&params)?.len();
+    let evaluated = excite::sample_count(duration, timing.ts)?;
     let rate = (f1 - f0) / duration;
     let mut extended = timing.extended(duration);
     let ceiling = 0.99 * 0.5 / timing.ts;
@@ -200,7 +200,7 @@ pub fn five_leaf(
         offset,
         ts: timing.ts,
     };
-    let evaluated = excite::five_leaf(&params)?.len();
+    let evaluated = excite::sample_count(duration, timing.ts)?;
     let s = excite::five_leaf(&excite::FiveLeafParams {
         duration: timing.extended(duration),
         ..params
