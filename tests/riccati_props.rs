@@ -14,27 +14,9 @@ use faer::Mat;
 use fts::lti::lyapunov::{dlyap, lyap, sylvester};
 use fts::lti::riccati::{care, dare};
 use proptest::prelude::*;
-use proptest::test_runner::RngSeed;
 
-/// CI runs a fixed seed so that it is reproducible; `FTS_PROPTEST_RANDOM=1`
-/// draws a fresh seed (and `PROPTEST_CASES` sets the number of cases) for
-/// the long local runs that look for rare bad draws.
-fn config(cases: u32) -> ProptestConfig {
-    let random = std::env::var("FTS_PROPTEST_RANDOM").is_ok_and(|v| v == "1");
-    let cases = std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(cases);
-    ProptestConfig {
-        cases,
-        rng_seed: if random {
-            RngSeed::Random
-        } else {
-            RngSeed::Fixed(20261122)
-        },
-        ..ProptestConfig::default()
-    }
-}
+mod common;
+use common::proptest_config as config;
 
 /// `residual < max(1e-10, floor)`, reporting floor-limited cases.
 fn within(what: &str, residual: f64, floor: f64) -> bool {

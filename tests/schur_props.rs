@@ -12,24 +12,9 @@ use faer::Mat;
 use fts::lti::c64;
 use fts::lti::schur::{OrderedRealSchur, ordered_real_schur, real_schur};
 use proptest::prelude::*;
-use proptest::test_runner::RngSeed;
 
-fn config(cases: u32) -> ProptestConfig {
-    let random = std::env::var("FTS_PROPTEST_RANDOM").is_ok_and(|v| v == "1");
-    let cases = std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(cases);
-    ProptestConfig {
-        cases,
-        rng_seed: if random {
-            RngSeed::Random
-        } else {
-            RngSeed::Fixed(20261122)
-        },
-        ..ProptestConfig::default()
-    }
-}
+mod common;
+use common::proptest_config as config;
 
 /// Checks everything about an ordered Schur form of `a` with `select`.
 fn check(a: &Mat<f64>, s: &OrderedRealSchur, select: &dyn Fn(c64) -> bool) -> Result<(), String> {
