@@ -5,7 +5,7 @@
 //!
 //!     cargo run --release --example harmonics
 
-use fts::io::controller_file::Provenance;
+use fts::io::controller_file::{ControllerFile, Provenance};
 use fts::sim::experiment::{ExperimentParams, build_controller, identify_models, track};
 use fts::sim::reference::{self, ReferenceTiming};
 use fts::synth::composite::Stages;
@@ -23,7 +23,10 @@ fn component(e: &[f64], f: f64, ts: f64, start: usize) -> f64 {
     2.0 * (c * c + s * s).sqrt() / e.len() as f64
 }
 
-fn sweep_error(params: &ExperimentParams) -> Result<f64, Box<dyn std::error::Error>> {
+/// The identified PID + HC + ZPEC controller and references timed for its preview.
+fn full_controller(
+    params: &ExperimentParams,
+) -> Result<(ControllerFile, ReferenceTiming), Box<dyn std::error::Error>> {
     let models = identify_models(params, &mut |_| {})?;
     let controller = build_controller(
         Stages::parse("pid+hc+zpec")?,
@@ -38,6 +41,11 @@ fn sweep_error(params: &ExperimentParams) -> Result<f64, Box<dyn std::error::Err
         ..ReferenceTiming::default()
     }
     .with_preview(models.zpetc.preview);
+    Ok((controller, timing))
+}
+
+fn sweep_error(params: &ExperimentParams) -> Result<f64, Box<dyn std::error::Error>> {
+    let (controller, timing) = full_controller(params)?;
     let sweep = reference::sweep(5.0, 0.0, 1000.0, params.offset, 2.0, &timing)?;
     Ok(track(params, 77, &controller, &sweep)?.1.max_error_percent)
 }
@@ -45,20 +53,7 @@ fn sweep_error(params: &ExperimentParams) -> Result<f64, Box<dyn std::error::Err
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let params = ExperimentParams::default();
     let ts = params.plant.ts;
-    let models = identify_models(&params, &mut |_| {})?;
-    let controller = build_controller(
-        Stages::parse("pid+hc+zpec")?,
-        ts,
-        params.pid,
-        Some(&models.inverse.model),
-        Some(&models.zpetc),
-        Provenance::default(),
-    )?;
-    let timing = ReferenceTiming {
-        ts,
-        ..ReferenceTiming::default()
-    }
-    .with_preview(models.zpetc.preview);
+    let (controller, timing) = full_controller(&params)?;
     println!("5 um sines, PID + HC + ZPEC: max error and its components (um)");
     println!("  freq     max   fundamental   2nd harm.   3rd harm.");
     for f in [100.0, 300.0, 500.0, 700.0, 1000.0] {
