@@ -133,7 +133,7 @@ fn identify_json_model_file_plot_then_invert_and_apply() {
         .args(["hysteresis", "apply"])
         .arg(&inv)
         .arg(&data)
-        .args(["--input", "y", "--time", "t", "-o"])
+        .args(["--input-col", "y", "--time-col", "t", "-o"])
         .arg(&applied)
         .assert()
         .success();

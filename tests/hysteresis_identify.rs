@@ -7,7 +7,7 @@ use fts::ident::hysteresis::{
     DeadZoneStage, HysteresisModel, IdentifyParams, Method, ModelKind, PlayOperator, identify,
 };
 use fts::io::hysteresis_json::parse_model;
-use fts::io::timeseries::{ColumnRef, HeaderMode, IoColumns, read_io};
+use fts::io::timeseries::{ColumnRef, HeaderMode, IoColumns, Layout, read_io};
 
 /// Triangle waves of several amplitudes around 0 (as [Li21] excited its
 /// actuator), `per_leg` samples per rising or falling leg.
@@ -316,16 +316,19 @@ fn piezo_record() -> (Vec<f64>, Vec<f64>) {
         env!("CARGO_MANIFEST_DIR"),
         "/../shared/datasets/piezo-smarthysteresis/hysteresis_v_150_1hz.csv"
     );
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| {
         panic!("{path}: {e} (the real-data test needs the shared piezo dataset next to the repo)")
     });
     let cols = IoColumns {
         input: Some(ColumnRef::Index(4)),
         output: Some(ColumnRef::Index(3)),
-        header: HeaderMode::Absent,
+        layout: Layout {
+            header: HeaderMode::Absent,
+            ..Layout::default()
+        },
         ..Default::default()
     };
-    let d = read_io(&text, path, &cols, 1).unwrap();
+    let d = read_io(std::io::BufReader::new(file), path, &cols, 1).unwrap();
     // Excitation starts at sample 16286 (PROVENANCE.md).
     (d.input[16286..].to_vec(), d.output[16286..].to_vec())
 }

@@ -400,8 +400,8 @@ fn real_record_step_matches_the_command_line() {
 kind = "hysteresis"
 data = "data/piezo.csv"
 no_header = true
-input = 4
-output = 3
+input_col = 4
+output_col = 3
 start = 16286
 model = "mpi-cbrt"
 out = "piezo.json"
@@ -416,9 +416,9 @@ out = "piezo.json"
             "hysteresis",
             "data/piezo.csv",
             "--no-header",
-            "--input",
+            "--input-col",
             "4",
-            "--output",
+            "--output-col",
             "3",
             "--start",
             "16286",

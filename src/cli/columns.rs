@@ -1,41 +1,101 @@
-//! Column options shared by subcommands that read an input/output record
-//! (the time-series contract of interfaces.md).
+//! Column and layout options shared by subcommands that read a time-series
+//! record (the time-series contract of docs/formats.md).
 
-use super::common::bad;
-use crate::io::timeseries::{ColumnRef, HeaderMode, IoColumns, IoData, read_io};
+use super::common::{bad, open_input};
+use crate::io::timeseries::{
+    ColumnRef, DEFAULT_TIME_JITTER, Delimiter, HeaderMode, IoColumns, IoData, Layout, TimeUnit,
+    read_io,
+};
 use clap::Args;
+use std::path::Path;
 
-/// `--input/--output/--time/--no-header`: which columns of a time-series
-/// file hold the record.
+/// `--no-header/--delimiter/--skip-rows/--time-unit/--time-jitter`: how a
+/// record file is laid out. Everything is detected when not given.
 #[derive(Debug, Clone, Args)]
-pub struct ColumnArgs {
-    /// Input column: header name or 1-based index (default `u`, or column 1 without a header).
-    #[arg(long, value_name = "COL")]
-    pub input: Option<String>,
-    /// Output column: header name or 1-based index (default `y`, or column 2 without a header).
-    #[arg(long, value_name = "COL")]
-    pub output: Option<String>,
-    /// Time column (default `t` when the header has it); must be uniform.
-    #[arg(long, value_name = "COL")]
-    pub time: Option<String>,
-    /// The file has no header row.
+pub struct LayoutArgs {
+    /// The file has no header row (default: detected).
     #[arg(long)]
     pub no_header: bool,
+    /// Field separator: comma, semicolon, tab or whitespace (default: sniffed from the first line).
+    #[arg(long, value_name = "SEP", value_parser = parse_delimiter)]
+    pub delimiter: Option<Delimiter>,
+    /// Rows to skip after the header, e.g. units or descriptions (default: one units row is detected).
+    #[arg(long, value_name = "N")]
+    pub skip_rows: Option<usize>,
+    /// Unit of the time column: s, ms or us (default: from its name, `time_ms`, `t [ms]`, or a units row; else s).
+    #[arg(long, value_name = "UNIT", value_parser = parse_time_unit)]
+    pub time_unit: Option<TimeUnit>,
+    /// Largest accepted deviation of a time step from the mean step, as a fraction of the step.
+    #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_TIME_JITTER)]
+    pub time_jitter: f64,
 }
 
-impl ColumnArgs {
-    /// The reader's column choice.
-    pub fn columns(&self) -> IoColumns {
-        IoColumns {
-            input: self.input.as_deref().map(ColumnRef::parse),
-            output: self.output.as_deref().map(ColumnRef::parse),
-            time: self.time.as_deref().map(ColumnRef::parse),
+fn parse_delimiter(text: &str) -> Result<Delimiter, String> {
+    Delimiter::from_name(text).ok_or_else(|| format!("expected one of {}", Delimiter::NAMES))
+}
+
+fn parse_time_unit(text: &str) -> Result<TimeUnit, String> {
+    TimeUnit::from_name(text).ok_or_else(|| format!("expected one of {}", TimeUnit::NAMES))
+}
+
+impl LayoutArgs {
+    /// The reader's layout, validated.
+    pub fn layout(&self) -> anyhow::Result<Layout> {
+        let layout = Layout {
             header: if self.no_header {
                 HeaderMode::Absent
             } else {
                 HeaderMode::Detect
             },
-        }
+            delimiter: self.delimiter,
+            skip_rows: self.skip_rows,
+            time_unit: self.time_unit,
+            time_jitter: self.time_jitter,
+        };
+        layout
+            .validate()
+            .map_err(|m| bad(format!("--{}", m.replacen("time jitter", "time-jitter", 1))))?;
+        Ok(layout)
+    }
+}
+
+/// `--input-col/--output-col/--time-col` and the layout: which columns of a
+/// record file (or variables of a MAT file) hold the record.
+#[derive(Debug, Clone, Args)]
+pub struct ColumnArgs {
+    /// Input column: header name, 1-based index or MAT variable (default `u`, or column 1 without a header).
+    #[arg(long, value_name = "COL")]
+    pub input_col: Option<String>,
+    /// Output column: header name, 1-based index or MAT variable (default `y`, or column 2 without a header).
+    #[arg(long, value_name = "COL")]
+    pub output_col: Option<String>,
+    /// Time column (default: found by name, `t`, `time`, `time_ms`, `t [s]`, ...).
+    #[arg(long, value_name = "COL")]
+    pub time_col: Option<String>,
+    #[command(flatten)]
+    pub layout: LayoutArgs,
+}
+
+impl ColumnArgs {
+    /// The reader's column choice.
+    pub fn columns(&self) -> anyhow::Result<IoColumns> {
+        Ok(IoColumns {
+            input: self.input_col.as_deref().map(ColumnRef::parse),
+            output: self.output_col.as_deref().map(ColumnRef::parse),
+            time: self.time_col.as_deref().map(ColumnRef::parse),
+            layout: self.layout.layout()?,
+        })
+    }
+
+    /// Reads an input/output record from a file.
+    pub fn read(&self, path: &Path, min_rows: usize) -> anyhow::Result<IoData> {
+        let columns = self.columns()?;
+        Ok(read_io(
+            open_input(path)?,
+            &path.display().to_string(),
+            &columns,
+            min_rows,
+        )?)
     }
 }
 
@@ -55,18 +115,21 @@ pub struct IoColumnArgs {
 
 impl IoColumnArgs {
     /// Reads the record and cuts it to `start..end`.
-    pub fn read(&self, text: &str, source: &str) -> anyhow::Result<IoData> {
-        let mut data = read_io(text, source, &self.columns.columns(), 1)?;
+    pub fn read(&self, path: &Path) -> anyhow::Result<IoData> {
+        let mut data = self.columns.read(path, 1)?;
         let n = data.input.len();
         let end = self.end.unwrap_or(n);
         if end > n || self.start >= end {
             return Err(bad(format!(
-                "{source}: sample range {}..{end} is empty or outside the {n} data rows",
+                "{}: sample range {}..{end} is empty or outside the {n} data rows",
+                path.display(),
                 self.start
             )));
         }
-        data.input = data.input[self.start..end].to_vec();
-        data.output = data.output[self.start..end].to_vec();
+        data.input.truncate(end);
+        data.output.truncate(end);
+        data.input.drain(..self.start);
+        data.output.drain(..self.start);
         Ok(data)
     }
 }

@@ -47,6 +47,17 @@ pub fn read_input(path: &Path) -> anyhow::Result<String> {
     std::fs::read_to_string(path).map_err(|e| bad(format!("{}: cannot read: {e}", path.display())))
 }
 
+/// Opens an input file for streaming; a missing or unreadable input (or a
+/// folder) is bad input.
+pub fn open_input(path: &Path) -> anyhow::Result<std::io::BufReader<std::fs::File>> {
+    let cannot = |e: &dyn std::fmt::Display| bad(format!("{}: cannot read: {e}", path.display()));
+    let file = std::fs::File::open(path).map_err(|e| cannot(&e))?;
+    if file.metadata().map_err(|e| cannot(&e))?.is_dir() {
+        return Err(cannot(&"is a folder, not a file"));
+    }
+    Ok(std::io::BufReader::with_capacity(1 << 16, file))
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
 /// flushed and synced, then renamed over the target. On any error the target
 /// is untouched and the temporary file is removed.

@@ -62,12 +62,7 @@ pub struct Ding22Args {
     #[arg(long)]
     no_pid: bool,
     /// Write the H2 controller (`fts.ss/1`, u = K y) here.
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "K.json"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "K.json")]
     output: Option<PathBuf>,
     /// Write an SVG of the cumulative amplitude spectra (per source and total).
     #[arg(long, value_name = "budget.svg")]

@@ -175,12 +175,7 @@ pub struct EmitArgs {
     #[arg(long, value_name = "CONTROLLER.h", requires = "output")]
     c_header: Option<PathBuf>,
     /// Write here (default: stdout).
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "CONTROLLER.json"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "CONTROLLER.json")]
     output: Option<PathBuf>,
 }
 

@@ -12,13 +12,7 @@ pub struct ExciteArgs {
     #[command(subcommand)]
     signal: Signal,
     /// Write the `t,u` CSV here (default: stdout).
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        global = true,
-        value_name = "U.csv"
-    )]
+    #[arg(short = 'o', long = "out", global = true, value_name = "U.csv")]
     output: Option<PathBuf>,
     /// Sample time, s.
     #[arg(long, global = true, default_value_t = 1e-4)]

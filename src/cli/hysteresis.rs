@@ -1,10 +1,11 @@
 //! `fts hysteresis invert model.json -o inv.json` and
 //! `fts hysteresis apply model.json data.csv -o out.csv`.
 
-use super::common::{bad, print_json, read_input, write_atomic};
+use super::columns::LayoutArgs;
+use super::common::{bad, open_input, print_json, read_input, write_atomic};
 use crate::ident::hysteresis::analytic_inverse;
 use crate::io::hysteresis_json::{ModelFile, model_to_string, parse_model};
-use crate::io::timeseries::{ColumnRef, HeaderMode, ReadParams, read_table, write_csv};
+use crate::io::timeseries::{ColumnRef, ReadParams, TimeColumn, read_table, write_csv};
 use clap::{Args, Subcommand};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -38,15 +39,14 @@ pub struct ApplyArgs {
     /// Signal to feed the model (CSV or whitespace .dat).
     #[arg(value_name = "DATA.csv")]
     data: PathBuf,
-    /// Column that drives the model: header name or 1-based index.
+    /// Column that drives the model: header name, 1-based index or MAT variable.
     #[arg(long, value_name = "COL", default_value = "u")]
-    input: String,
-    /// Time column to copy to the output (header name or index).
+    input_col: String,
+    /// Time column to copy to the output (default: found by name, `t`, `time_ms`, ...).
     #[arg(long, value_name = "COL")]
-    time: Option<String>,
-    /// The file has no header row.
-    #[arg(long)]
-    no_header: bool,
+    time_col: Option<String>,
+    #[command(flatten)]
+    layout: LayoutArgs,
     /// Write `[t,]u,y` here (y = model output).
     #[arg(short = 'o', long = "out", value_name = "OUT.csv")]
     out: Option<PathBuf>,
@@ -149,18 +149,16 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
 fn apply(args: ApplyArgs) -> anyhow::Result<()> {
     let model_file = load(&args.model)?;
     let source = args.data.display().to_string();
-    let text = read_input(&args.data)?;
     let params = ReadParams {
-        columns: vec![ColumnRef::parse(&args.input)],
-        time: args.time.as_deref().map(ColumnRef::parse),
-        header: if args.no_header {
-            HeaderMode::Absent
-        } else {
-            HeaderMode::Detect
-        },
+        columns: vec![ColumnRef::parse(&args.input_col)],
+        time: args
+            .time_col
+            .as_deref()
+            .map_or(TimeColumn::Find, |c| TimeColumn::Given(ColumnRef::parse(c))),
+        layout: args.layout.layout()?,
         min_rows: 1,
     };
-    let mut table = read_table(&text, &source, &params)?;
+    let mut table = read_table(open_input(&args.data)?, &source, &params)?;
     let u = table.columns.pop().unwrap_or_default();
     // Allocation-free per-sample evaluation with explicit state, as a
     // real-time loop would run it.

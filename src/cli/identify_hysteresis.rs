@@ -3,7 +3,7 @@
 //! [--inverse] [-o model.json] [--json] [--plot loop.svg]`
 
 use super::columns::IoColumnArgs;
-use super::common::{bad, print_json, read_input, write_atomic};
+use super::common::{bad, print_json, write_atomic};
 use crate::ident::hysteresis::gd::GdState;
 use crate::ident::hysteresis::{
     Identified, IdentifyError, IdentifyParams, Method, ModelKind, PlayOperator, identify_observed,
@@ -138,8 +138,7 @@ fn identify_error(source: &str, e: IdentifyError) -> anyhow::Error {
 
 pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
     let source = args.data.display().to_string();
-    let text = read_input(&args.data)?;
-    let record = args.columns.read(&text, &source)?;
+    let record = args.columns.read(&args.data)?;
     let (file_in, file_out) = (
         SignalInfo {
             quantity: args.input_quantity.clone(),
@@ -237,6 +236,7 @@ pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
         obj.insert("inverse".into(), json!(args.inverse));
         obj.insert("source".into(), json!(source));
         obj.insert("start".into(), json!(args.columns.start));
+        obj.insert("timing".into(), serde_json::to_value(&record.timing)?);
         obj.insert(
             "model_file".into(),
             json!(args.out.as_ref().map(|p| p.display().to_string())),
@@ -264,6 +264,9 @@ pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
             Method::Ls => String::new(),
         }
     );
+    if let Some(t) = &record.timing {
+        println!("{t}");
+    }
     if model.kind == ModelKind::MpiDeadzone {
         println!("alternations: {}", info.alternations);
     }

@@ -1,12 +1,12 @@
 //! `fts identify arx|oe|iv|arx-struct DATA ...`: linear models from
 //! input/output records (math.md 2).
 //!
-//! Column options follow interfaces.md (`--input`, `--output`, `--time`,
-//! `--no-header`); since `--output` names the output *column*, the result
-//! file is `-o FILE` (long form `--out`).
+//! Column options (`--input-col`, `--output-col`, `--time-col`, the layout
+//! options) are shared with every record-reading command (`columns.rs`); the
+//! result file is `-o/--out FILE`.
 
 use super::columns::ColumnArgs;
-use super::common::{bad, complex_pairs, fmt_complex, print_json, read_input, write_atomic};
+use super::common::{bad, complex_pairs, fmt_complex, print_json, write_atomic};
 use crate::ident::arx::{ArxParams, Orders, arx, arx_residuals};
 use crate::ident::data::{Detrend, detrend, split_point};
 use crate::ident::freq::{FreqError, FreqResponse, WelchParams, welch};
@@ -20,7 +20,7 @@ use crate::ident::structure::{
 };
 use crate::io::plot::{Series, stacked_charts_svg};
 use crate::io::tf_json;
-use crate::io::timeseries::read_io;
+use crate::io::timeseries::Timing;
 use crate::lti::{Bode, TransferFunction};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value, json};
@@ -299,20 +299,27 @@ pub struct Prepared {
     pub est: Record,
     pub val: Option<Record>,
     pub ts: f64,
+    /// The estimation record's time column, when it has one.
+    pub timing: Option<Timing>,
     pub detrend: Detrend,
     pub source: String,
 }
 
-fn resolve_ts(file_ts: Option<f64>, arg: Option<f64>, source: &str) -> anyhow::Result<f64> {
-    match (file_ts, arg) {
+/// The sample time: `--ts` when given (checked against a time column, which
+/// may deviate by its jitter tolerance), else the time column's mean step.
+fn resolve_ts(timing: Option<&Timing>, arg: Option<f64>, source: &str) -> anyhow::Result<f64> {
+    match (timing, arg) {
         (_, Some(ts)) if !(ts.is_finite() && ts > 0.0) => Err(bad(format!(
             "--ts: expected a positive number of seconds, got {ts}"
         ))),
-        (Some(f), Some(ts)) if ((f - ts) / ts).abs() > 1e-6 => Err(bad(format!(
-            "{source}: the time column gives a sample time of {f} s but --ts is {ts} s"
-        ))),
+        (Some(t), Some(ts)) if ((t.ts - ts) / ts).abs() > t.tolerance.max(1e-6) => {
+            Err(bad(format!(
+                "{source}: the time column '{}' gives a sample time of {} s but --ts is {ts} s",
+                t.column, t.ts
+            )))
+        }
         (_, Some(ts)) => Ok(ts),
-        (Some(f), None) => Ok(f),
+        (Some(t), None) => Ok(t.ts),
         (None, None) => Err(bad(format!(
             "{source}: no time column, so the sample time is unknown; give --ts SECONDS"
         ))),
@@ -322,17 +329,18 @@ fn resolve_ts(file_ts: Option<f64>, arg: Option<f64>, source: &str) -> anyhow::R
 /// Reads, splits and detrends the data as the options say.
 pub fn prepare(d: &DataArgs) -> anyhow::Result<Prepared> {
     let source = d.data.display().to_string();
-    let cols = d.columns.columns();
-    let io = read_io(&read_input(&d.data)?, &source, &cols, 2)?;
-    let ts = resolve_ts(io.ts, d.ts, &source)?;
+    let io = d.columns.read(&d.data, 2)?;
+    let timing = io.timing.clone();
+    let ts = resolve_ts(timing.as_ref(), d.ts, &source)?;
     let how: Detrend = d.detrend.into();
     let (mut est, mut val) = match (&d.validate, d.split) {
         (Some(path), _) => {
             let vsource = path.display().to_string();
-            let v = read_io(&read_input(path)?, &vsource, &cols, 2)?;
-            if let Some(vts) = v.ts
-                && ((vts - ts) / ts).abs() > 1e-6
+            let v = d.columns.read(path, 2)?;
+            if let Some(vt) = &v.timing
+                && ((vt.ts - ts) / ts).abs() > vt.tolerance.max(1e-6)
             {
+                let vts = vt.ts;
                 return Err(bad(format!(
                     "{vsource}: sample time {vts} s differs from the estimation data's {ts} s"
                 )));
@@ -396,6 +404,7 @@ pub fn prepare(d: &DataArgs) -> anyhow::Result<Prepared> {
         est,
         val,
         ts,
+        timing,
         detrend: how,
         source,
     })
@@ -691,6 +700,7 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
         obj.insert("noise_variance".into(), json!(r.noise_variance));
         obj.insert("condition_number".into(), json!(r.condition_number));
         obj.insert("samples".into(), json!(p.est.y.len()));
+        obj.insert("timing".into(), serde_json::to_value(&p.timing)?);
         obj.insert("detrend".into(), json!(p.detrend));
         obj.insert("whiteness".into(), serde_json::to_value(&white)?);
         obj.insert("stable".into(), json!(stable));
@@ -720,6 +730,9 @@ fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
             Detrend::Linear => "linear",
         }
     );
+    if let Some(t) = &p.timing {
+        say!("  {t}");
+    }
     let den_name = if r.noise == NoiseModel::OutputError {
         "F"
     } else {

@@ -83,12 +83,20 @@ enum Command {
 
 /// Runs the command line and returns the process exit code.
 pub fn main() -> ExitCode {
+    if let Err(message) = reject_ambiguous_options(std::env::args_os().skip(1)) {
+        eprintln!("fts: error: {message}");
+        return ExitCode::from(2);
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        Err(e) => {
-            // clap prints help/version on stdout (exit 0) and usage errors on stderr (exit 2).
+        Err(e) if !e.use_stderr() => {
+            // Help and version go to stdout as clap renders them.
             let _ = e.print();
-            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            eprintln!("fts: {}", usage_error_line(&e.to_string()));
+            return ExitCode::from(2);
         }
     };
     match run(cli) {
@@ -98,6 +106,41 @@ pub fn main() -> ExitCode {
             ExitCode::from(common::exit_code(&e))
         }
     }
+}
+
+/// A clap usage error on one line: its message and tips, without the usage
+/// block and the pointer to `--help`.
+fn usage_error_line(rendered: &str) -> String {
+    rendered
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with("Usage:") && !l.starts_with("For more information"))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// `--input` and `--output` once named columns in some commands and files in
+/// others. Both are refused with the option that is meant, so an old command
+/// line never writes a result file called `y` or reads a column called
+/// `model.json`.
+fn reject_ambiguous_options(args: impl Iterator<Item = std::ffi::OsString>) -> Result<(), String> {
+    for arg in args {
+        let Some(arg) = arg.to_str() else { continue };
+        if arg == "--" {
+            break;
+        }
+        let name = arg.split_once('=').map_or(arg, |(name, _)| name);
+        let hint = match name {
+            "--output" => {
+                "name the result file with -o/--out FILE, or the output column with --output-col COL (budget: --output-index N)"
+            }
+            "--input" => "name the input column with --input-col COL",
+            "--time" => "name the time column with --time-col COL",
+            _ => continue,
+        };
+        return Err(format!("{name} is ambiguous and not an option: {hint}"));
+    }
+    Ok(())
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {

@@ -72,12 +72,7 @@ pub struct SynthArgs {
     #[arg(long, value_name = "NU")]
     ncon: usize,
     /// Write the controller (`fts.ss/1`) here.
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "K.json"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "K.json")]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -260,12 +255,7 @@ pub struct WeightArgs {
     #[arg(long)]
     hf: Option<f64>,
     /// Write the weight (`fts.ss/1`) here.
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "W.json"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "W.json")]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -341,12 +331,7 @@ pub struct MixsynArgs {
     #[arg(long, value_name = "WT.json")]
     wt: Option<PathBuf>,
     /// Write the controller (`fts.ss/1`) here.
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "K.json"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "K.json")]
     output: Option<PathBuf>,
     /// Write the augmented plant (`fts.ss/1`) here.
     #[arg(long, value_name = "P.json")]
@@ -449,12 +434,7 @@ pub struct C2dArgs {
     #[arg(long, value_name = "HZ")]
     prewarp: Option<f64>,
     /// Write the discrete system (`fts.ss/1`) here.
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "OUT.json"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "OUT.json")]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -571,9 +551,9 @@ pub struct BudgetArgs {
     /// Controller closing the loop `F_l(P, K)` (the last NU inputs / NY outputs of P).
     #[arg(long, value_name = "K.json")]
     controller: Option<PathBuf>,
-    /// Which output is the error (0-based).
-    #[arg(long, default_value_t = 0)]
-    output: usize,
+    /// Which output of the system is the error (0-based).
+    #[arg(long, value_name = "INDEX", default_value_t = 0)]
+    output_index: usize,
     /// Highest frequency of the budget in Hz (default: Nyquist, or 10 kHz).
     #[arg(long, value_name = "HZ")]
     fmax: Option<f64>,
@@ -611,10 +591,10 @@ pub fn run_budget(args: BudgetArgs) -> anyhow::Result<()> {
             args.input.display()
         )));
     }
-    if args.output >= sys.ny() {
+    if args.output_index >= sys.ny() {
         return Err(bad(format!(
-            "--output {}: the system has {} outputs",
-            args.output,
+            "--output-index {}: the system has {} outputs (0-based)",
+            args.output_index,
             sys.ny()
         )));
     }
@@ -627,7 +607,7 @@ pub fn run_budget(args: BudgetArgs) -> anyhow::Result<()> {
         return Err(bad("--fmax must be positive and --points at least 2"));
     }
     let grid = crate::lti::linspace(0.0, fmax, args.points);
-    let b = crate::synth::budget::error_budget(&sys, args.output, &grid)
+    let b = crate::synth::budget::error_budget(&sys, args.output_index, &grid)
         .ok_or_else(|| anyhow::anyhow!("frequency response failed"))?;
     if let Some(path) = &args.csv {
         let mut out = String::from("freq_hz");

@@ -100,12 +100,7 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     kd: f64,
     /// Write the trace (t, r, u, y, e) here.
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "TRACE.csv"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "TRACE.csv")]
     output: Option<PathBuf>,
     /// Plot reference, measurement and error to this SVG.
     #[arg(long, value_name = "TRACK.svg")]
@@ -145,18 +140,13 @@ fn build_reference(args: &SimulateArgs, ts: f64, preview: usize) -> anyhow::Resu
     };
     if let Some(path) = &args.reference_file {
         let source = path.display().to_string();
-        let table = crate::io::timeseries::read_table(
-            &read_input(path)?,
-            &source,
-            &crate::io::timeseries::ReadParams {
-                columns: vec![crate::io::timeseries::ColumnRef::parse(
-                    &args.reference_column,
-                )],
-                time: None,
-                header: crate::io::timeseries::HeaderMode::Detect,
-                min_rows: 2,
-            },
-        )?;
+        use crate::io::timeseries::{ColumnRef, ReadParams, read_table};
+        let params = ReadParams {
+            columns: vec![ColumnRef::parse(&args.reference_column)],
+            min_rows: 2,
+            ..ReadParams::default()
+        };
+        let table = read_table(super::common::open_input(path)?, &source, &params)?;
         let samples = table.columns.into_iter().next().unwrap_or_default();
         return Ok(reference::from_samples(
             samples,

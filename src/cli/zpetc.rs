@@ -17,12 +17,7 @@ pub struct ZpetcArgs {
     #[arg(long = "tf", value_name = "PLANT.json")]
     tf: PathBuf,
     /// Write the filter (`fts.zpetc/1`) here.
-    #[arg(
-        short = 'o',
-        long = "out",
-        visible_alias = "output",
-        value_name = "ZPETC.json"
-    )]
+    #[arg(short = 'o', long = "out", value_name = "ZPETC.json")]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]

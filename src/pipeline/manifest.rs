@@ -8,7 +8,9 @@ use crate::ident::data::Detrend;
 use crate::ident::hysteresis::{IdentifyParams, Method, ModelKind, PlayOperator};
 use crate::io::InputError;
 use crate::io::hysteresis_json::SignalInfo;
-use crate::io::timeseries::{ColumnRef, HeaderMode, IoColumns};
+use crate::io::timeseries::{
+    ColumnRef, DEFAULT_TIME_JITTER, Delimiter, HeaderMode, IoColumns, Layout, TimeUnit,
+};
 use crate::runtime::PidSpec;
 use crate::sim::experiment::ExperimentParams;
 use crate::synth::zpetc::{StableInversion, ZpetcParams};
@@ -398,15 +400,59 @@ impl<'a> Fields<'a> {
     }
 
     fn columns(&mut self) -> Result<ColumnSpec, InputError> {
-        let columns = IoColumns {
-            input: self.column("input")?,
-            output: self.column("output")?,
-            time: self.column("time")?,
+        for (old, new) in [
+            ("input", "input_col"),
+            ("output", "output_col"),
+            ("time", "time_col"),
+        ] {
+            if let Some((_, line)) = self.take(old) {
+                return Err(self.err(
+                    old,
+                    line,
+                    format!(
+                        "renamed: the column is chosen with '{new}' (as --{} on the command line)",
+                        new.replace('_', "-")
+                    ),
+                ));
+            }
+        }
+        let delimiter = self.choice(
+            "delimiter",
+            &[
+                ("comma", Delimiter::Comma),
+                ("semicolon", Delimiter::Semicolon),
+                ("tab", Delimiter::Tab),
+                ("whitespace", Delimiter::Whitespace),
+            ],
+        )?;
+        let time_unit = self.choice(
+            "time_unit",
+            &[
+                ("s", TimeUnit::Seconds),
+                ("ms", TimeUnit::Milliseconds),
+                ("us", TimeUnit::Microseconds),
+            ],
+        )?;
+        let jitter_line = self.line("time_jitter");
+        let layout = Layout {
             header: if self.bool("no_header", false)? {
                 HeaderMode::Absent
             } else {
                 HeaderMode::Detect
             },
+            delimiter,
+            skip_rows: self.usize_opt("skip_rows")?,
+            time_unit,
+            time_jitter: self.f64("time_jitter", DEFAULT_TIME_JITTER)?,
+        };
+        layout
+            .validate()
+            .map_err(|m| self.err("time_jitter", jitter_line, m))?;
+        let columns = IoColumns {
+            input: self.column("input_col")?,
+            output: self.column("output_col")?,
+            time: self.column("time_col")?,
+            layout,
         };
         let start = self.usize_opt("start")?.unwrap_or(0);
         let end = self.usize_opt("end")?;

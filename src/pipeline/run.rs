@@ -297,10 +297,7 @@ pub fn build(
                 ))
             })?;
             entry.inputs.insert(f.path.clone(), sha256_hex(&bytes));
-            let text = String::from_utf8(bytes).map_err(|_| {
-                PipelineError::BadInput(format!("{}: not UTF-8 text", path.display()))
-            })?;
-            inputs.insert(f.field.clone(), text);
+            inputs.insert(f.field.clone(), bytes);
         }
         let outputs = execute(plan, step, &inputs).map_err(|e| {
             let prefix = format!(
@@ -356,12 +353,12 @@ fn source(plan: &Plan, f: &FileRef) -> String {
 }
 
 fn read_record(
-    text: &str,
+    bytes: &[u8],
     source: &str,
     spec: &super::manifest::ColumnSpec,
     min_rows: usize,
 ) -> Result<IoData, PipelineError> {
-    let mut data = read_io(text, source, &spec.columns, min_rows)?;
+    let mut data = read_io(bytes, source, &spec.columns, min_rows)?;
     let n = data.input.len();
     let end = spec.end.unwrap_or(n);
     if end > n || spec.start >= end {
@@ -384,13 +381,14 @@ fn ident_err(source: &str, e: IdentError) -> PipelineError {
 
 fn linear(
     spec: &LinearSpec,
-    text: &str,
+    bytes: &[u8],
     source: &str,
     oe_model: bool,
 ) -> Result<TransferFunction, PipelineError> {
-    let io = read_record(text, source, &spec.columns, 2)?;
+    let io = read_record(bytes, source, &spec.columns, 2)?;
+    let tolerance = io.timing.as_ref().map_or(1e-6, |t| t.tolerance.max(1e-6));
     let ts = match (io.ts, spec.ts) {
-        (Some(f), Some(ts)) if ((f - ts) / ts).abs() > 1e-6 => {
+        (Some(f), Some(ts)) if ((f - ts) / ts).abs() > tolerance => {
             return Err(bad(format!(
                 "{source}: the time column gives a sample time of {f} s but field 'ts' is {ts} s"
             )));
@@ -440,17 +438,25 @@ fn linear(
     Ok(TransferFunction::Discrete(tf))
 }
 
-/// Runs one step on its inputs' text; returns every output's bytes (nothing
+/// Runs one step on its inputs' bytes; returns every output's bytes (nothing
 /// is written here).
 fn execute(
     plan: &Plan,
     step: &Step,
-    inputs: &BTreeMap<String, String>,
+    inputs: &BTreeMap<String, Vec<u8>>,
 ) -> Result<Vec<(FileRef, Vec<u8>)>, PipelineError> {
     let out = |field: &str| step.output(field).cloned();
-    let text_of = |field: &str| -> Option<(&str, String)> {
+    let bytes_of = |field: &str| -> Option<(&[u8], String)> {
         let f = step.input(field)?;
-        inputs.get(field).map(|t| (t.as_str(), source(plan, f)))
+        inputs.get(field).map(|t| (t.as_slice(), source(plan, f)))
+    };
+    let text_of = |field: &str| -> Result<Option<(&str, String)>, PipelineError> {
+        bytes_of(field)
+            .map(|(bytes, src)| match std::str::from_utf8(bytes) {
+                Ok(text) => Ok((text, src)),
+                Err(_) => Err(bad(format!("{src}: not UTF-8 text"))),
+            })
+            .transpose()
     };
     let mut files: Vec<(Option<FileRef>, Vec<u8>)> = Vec::new();
     match &step.action {
@@ -464,7 +470,7 @@ fn execute(
             ));
         }
         Action::VirtualSweep(p) => {
-            let model = match text_of("hysteresis") {
+            let model = match text_of("hysteresis")? {
                 Some((text, src)) => Some(parse_model(text, &src)?.model),
                 None => None,
             };
@@ -476,8 +482,8 @@ fn execute(
             ));
         }
         Action::Hysteresis(spec) => {
-            let (text, src) = text_of("data").expect("validated: data is required");
-            let record = read_record(text, &src, &spec.columns, 1)?;
+            let (bytes, src) = bytes_of("data").expect("validated: data is required");
+            let record = read_record(bytes, &src, &spec.columns, 1)?;
             let (u, y, model_in, model_out) = if spec.inverse {
                 (
                     &record.output,
@@ -521,12 +527,12 @@ fn execute(
             files.push((out("out"), model_to_string(&file).into_bytes()));
         }
         Action::Arx(spec) | Action::Oe(spec) => {
-            let (text, src) = text_of("data").expect("validated: data is required");
-            let g = linear(spec, text, &src, matches!(step.action, Action::Oe(_)))?;
+            let (bytes, src) = bytes_of("data").expect("validated: data is required");
+            let g = linear(spec, bytes, &src, matches!(step.action, Action::Oe(_)))?;
             files.push((out("out"), tf_json::tf_to_string(&g).into_bytes()));
         }
         Action::Zpetc(spec) => {
-            let (text, src) = text_of("tf").expect("validated: tf is required");
+            let (text, src) = text_of("tf")?.expect("validated: tf is required");
             let TransferFunction::Discrete(g) = tf_json::parse_tf(text, &src)? else {
                 return Err(bad(format!(
                     "{src} field 'var': ZPETC needs a discrete closed loop (\"var\": \"z^-1\")"
@@ -557,21 +563,29 @@ fn execute(
                 fts_version: env!("CARGO_PKG_VERSION").into(),
                 inputs: Vec::new(),
             };
-            let mut hashed = |field: &str, role: &str| -> Option<(&str, String)> {
-                let f = step.input(field)?;
-                let text = inputs.get(field)?;
-                provenance.inputs.push(InputHash {
-                    role: role.into(),
-                    file: f.path.clone(),
-                    sha256: sha256_hex(text.as_bytes()),
-                });
-                Some((text.as_str(), source(plan, f)))
-            };
-            let inverse = match hashed("hysteresis", "hysteresis_inverse") {
+            let mut hashed =
+                |field: &str, role: &str| -> Result<Option<(&str, String)>, PipelineError> {
+                    let Some(f) = step.input(field) else {
+                        return Ok(None);
+                    };
+                    let Some(bytes) = inputs.get(field) else {
+                        return Ok(None);
+                    };
+                    provenance.inputs.push(InputHash {
+                        role: role.into(),
+                        file: f.path.clone(),
+                        sha256: sha256_hex(bytes),
+                    });
+                    let src = source(plan, f);
+                    std::str::from_utf8(bytes)
+                        .map(|text| Some((text, src.clone())))
+                        .map_err(|_| bad(format!("{src}: not UTF-8 text")))
+                };
+            let inverse = match hashed("hysteresis", "hysteresis_inverse")? {
                 Some((text, src)) => Some(parse_model(text, &src)?.model),
                 None => None,
             };
-            let filter = match hashed("zpetc", "zpetc") {
+            let filter = match hashed("zpetc", "zpetc")? {
                 Some((text, src)) => Some(zpetc_json::parse_zpetc(text, &src)?),
                 None => None,
             };

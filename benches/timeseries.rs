@@ -1,0 +1,54 @@
+//! Reading a measured record: a 1e6-row, 3-column comma CSV (t, u, y with
+//! full-precision floats, about 60 MB), as `fts identify` reads it (open,
+//! stream, parse, check the time column), beside reading the same bytes
+//! without parsing (the floor any reader pays). Target: <= 0.3 s.
+//! Whole-process figures (`fts identify arx` on the same file, numpy's
+//! `loadtxt`, `wc -l`) are in docs/benchmarks.md.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fts::io::timeseries::{IoColumns, read_io};
+use std::hint::black_box;
+use std::io::{BufReader, Write};
+use std::time::Duration;
+
+/// Writes the record; returns its size in bytes.
+fn write_record(path: &std::path::Path, rows: usize) -> u64 {
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let mut uni = move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    writeln!(out, "t,u,y").unwrap();
+    for k in 0..rows {
+        writeln!(out, "{},{},{}", k as f64 * 1e-4, uni(), 20.0 * uni()).unwrap();
+    }
+    out.flush().unwrap();
+    std::fs::metadata(path).unwrap().len()
+}
+
+fn bench(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("record.csv");
+    let bytes = write_record(&path, 1_000_000);
+    eprintln!("record: 1e6 rows, {:.1} MB", bytes as f64 / 1e6);
+    let mut g = c.benchmark_group("read_record_1e6x3");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    g.bench_function("fts_read_io", |b| {
+        b.iter(|| {
+            let file = std::fs::File::open(&path).unwrap();
+            let reader = BufReader::with_capacity(1 << 16, file);
+            let d = read_io(reader, "record.csv", &IoColumns::default(), 2).unwrap();
+            black_box(d)
+        })
+    });
+    g.bench_function("read_bytes_only", |b| {
+        b.iter(|| black_box(std::fs::read(&path).unwrap()))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

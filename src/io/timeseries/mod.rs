@@ -1,0 +1,624 @@
+//! Time-series records: the time-series contract of `docs/formats.md`.
+//!
+//! One row per sample, read in one streaming pass over a buffered reader:
+//! memory grows with the columns kept, not with the file. Text files are
+//! comma-, semicolon-, tab- or whitespace-separated; the separator is sniffed
+//! from the first non-comment line (a header or the first data row) or
+//! forced with [`Layout::delimiter`]. Delimited files go through the `csv`
+//! crate (quoting, an empty first field as in the SmartHysteresis piezo
+//! record) with one reused record; whitespace files (DaISy `.dat`, MATLAB
+//! `save -ascii`) are split by hand. Lines starting with `#` and blank lines
+//! are skipped. A units row under the header (`s,V,um`) is recognised.
+//! MATLAB v5/v7 `.mat` files are recognised by their content and read by
+//! variable name ([`super::mat`]).
+//!
+//! Columns are picked by header name or by 1-based index. A time column is
+//! found by common names (`t`, `time`, `time_ms`, `t [s]`, `Time (us)`, …),
+//! its unit taken from the name, the units row or [`Layout::time_unit`], and
+//! converted to seconds. The sample time is the mean step; steps may deviate
+//! from it by [`Layout::time_jitter`] of the step (DAQ exports print rounded
+//! timestamps), and the jitter is reported in [`Timing`]. Larger deviations
+//! (a gap, a glitch) and non-increasing time are refused with their line.
+
+mod rows;
+mod time;
+
+use super::InputError;
+pub use rows::Delimiter;
+use rows::{LineMap, RowReader, parse_number};
+use std::io::BufRead;
+pub use time::{DEFAULT_TIME_JITTER, TimeUnit, Timing, UnitSource, is_time_name};
+use time::{analyse_time, time_unit};
+
+/// A column, by header name or by 1-based index.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ColumnRef {
+    /// The header cell (or MAT variable) with this trimmed, case-sensitive text.
+    Name(String),
+    /// 1-based position among the fields of a line (an empty leading field counts).
+    Index(usize),
+}
+
+impl ColumnRef {
+    /// Parses the command-line form: digits are an index, anything else a name.
+    pub fn parse(text: &str) -> Self {
+        match text.trim().parse::<usize>() {
+            Ok(i) => ColumnRef::Index(i),
+            Err(_) => ColumnRef::Name(text.trim().to_owned()),
+        }
+    }
+}
+
+impl std::fmt::Display for ColumnRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ColumnRef::Name(n) => f.write_str(n),
+            ColumnRef::Index(i) => write!(f, "column {i}"),
+        }
+    }
+}
+
+/// Whether the first data line is a header row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum HeaderMode {
+    /// A header if any non-empty field of the first line is not a number.
+    #[default]
+    Detect,
+    /// The first line is a header.
+    Present,
+    /// There is no header.
+    Absent,
+}
+
+/// How a text record is laid out. The defaults detect everything.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// Header handling (default: detect).
+    pub header: HeaderMode,
+    /// Field separator (default `None`: sniffed from the first non-comment line).
+    pub delimiter: Option<Delimiter>,
+    /// Rows to skip after the header (or at the top without one); `None`
+    /// detects one units row under a header.
+    pub skip_rows: Option<usize>,
+    /// Unit of the time column (default `None`: from its name or the units
+    /// row, else seconds).
+    pub time_unit: Option<TimeUnit>,
+    /// Largest accepted deviation of a time step from the mean step, as a
+    /// fraction of the mean step (default [`DEFAULT_TIME_JITTER`]).
+    pub time_jitter: f64,
+}
+
+impl Default for Layout {
+    fn default() -> Self {
+        Self {
+            header: HeaderMode::Detect,
+            delimiter: None,
+            skip_rows: None,
+            time_unit: None,
+            time_jitter: DEFAULT_TIME_JITTER,
+        }
+    }
+}
+
+impl Layout {
+    /// Checks the settings that do not depend on a file.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.time_jitter.is_finite() && self.time_jitter >= 0.0 && self.time_jitter < 1.0) {
+            return Err(format!(
+                "time jitter: expected a fraction of the step in [0, 1), got {}",
+                self.time_jitter
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Which columns to read.
+#[derive(Debug, Clone, Default)]
+pub struct ReadParams {
+    /// Data columns to return, in this order.
+    pub columns: Vec<ColumnRef>,
+    /// Time column, if any.
+    pub time: TimeColumn,
+    /// File layout.
+    pub layout: Layout,
+    /// Fewer data rows than this is an error.
+    pub min_rows: usize,
+}
+
+/// Which column holds the time.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub enum TimeColumn {
+    /// No time column is read.
+    #[default]
+    None,
+    /// The first header cell with a common time name (`t`, `time`, `time_ms`,
+    /// `t [s]`, …), if there is one.
+    Find,
+    /// This column; it must exist.
+    Given(ColumnRef),
+}
+
+/// The columns that were read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Data columns in the order requested.
+    pub columns: Vec<Vec<f64>>,
+    /// Display names of the columns (header text or `column N`).
+    pub names: Vec<String>,
+    /// Units of the columns, from a units row.
+    pub units: Vec<Option<String>>,
+    /// The time column in seconds, if one was read.
+    pub time: Option<Vec<f64>>,
+    /// Sample time and jitter of the time column.
+    pub timing: Option<Timing>,
+    /// Number of data rows.
+    pub rows: usize,
+    /// Whether a header row was found.
+    pub had_header: bool,
+    /// The separator used (`None` for a MAT file).
+    pub delimiter: Option<Delimiter>,
+}
+
+impl Table {
+    /// Number of data rows.
+    pub fn len(&self) -> usize {
+        self.rows
+    }
+
+    /// Whether there are no data rows.
+    pub fn is_empty(&self) -> bool {
+        self.rows == 0
+    }
+
+    /// Sample time in seconds from the time column, if one was read.
+    pub fn ts(&self) -> Option<f64> {
+        self.timing.as_ref().map(|t| t.ts)
+    }
+}
+
+/// A single-input single-output record, the usual input of identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IoData {
+    /// Input signal `u`.
+    pub input: Vec<f64>,
+    /// Output signal `y`.
+    pub output: Vec<f64>,
+    /// Sample time in seconds, from the time column, if any.
+    pub ts: Option<f64>,
+    /// Sample time and jitter of the time column, if any.
+    pub timing: Option<Timing>,
+    /// Display names of the input and output columns.
+    pub input_name: String,
+    /// Display name of the output column.
+    pub output_name: String,
+}
+
+/// Column choice for an input/output record. Defaults: `u`, `y`, and a
+/// time column found by its name. A headerless file without explicit
+/// columns reads column 1 as input and column 2 as output (the DaISy
+/// convention).
+#[derive(Debug, Clone, Default)]
+pub struct IoColumns {
+    /// Input column; `None` means the default.
+    pub input: Option<ColumnRef>,
+    /// Output column; `None` means the default.
+    pub output: Option<ColumnRef>,
+    /// Time column; `None` looks for one by name.
+    pub time: Option<ColumnRef>,
+    /// File layout.
+    pub layout: Layout,
+}
+
+fn resolve(
+    col: &ColumnRef,
+    header: Option<&[String]>,
+    source: &str,
+    header_line: Option<usize>,
+) -> Result<(usize, String), InputError> {
+    match col {
+        ColumnRef::Index(0) => Err(InputError::new(
+            source,
+            "column indices are 1-based; 0 is not a column",
+        )),
+        ColumnRef::Index(i) => {
+            let name = header
+                .and_then(|h| h.get(i - 1))
+                .filter(|n| !n.is_empty())
+                .cloned()
+                .unwrap_or_else(|| format!("column {i}"));
+            Ok((i - 1, name))
+        }
+        ColumnRef::Name(name) => match header {
+            None => Err(InputError::new(
+                source,
+                format!("the file has no header row, so column '{name}' cannot be found by name; give a 1-based column index"),
+            )
+            .in_field(name.clone())),
+            Some(h) => h.iter().position(|c| c == name).map(|i| (i, name.clone())).ok_or_else(|| {
+                let have: Vec<&str> = h.iter().map(String::as_str).filter(|s| !s.is_empty()).collect();
+                let mut e = InputError::new(
+                    source,
+                    format!("missing column '{name}' (the header has: {})", have.join(", ")),
+                )
+                .in_field(name.clone());
+                e.line = header_line;
+                e
+            }),
+        },
+    }
+}
+
+struct Cell<'a> {
+    source: &'a str,
+    line: usize,
+    name: &'a str,
+}
+
+impl Cell<'_> {
+    fn err(&self, msg: String) -> InputError {
+        InputError::new(self.source, msg)
+            .at_line(self.line)
+            .in_field(self.name)
+    }
+
+    fn parse(
+        &self,
+        field: Option<&[u8]>,
+        index: usize,
+        count: usize,
+        d: Delimiter,
+    ) -> Result<f64, InputError> {
+        let Some(cell) = field else {
+            return Err(self.err(format!(
+                "missing field: the line has {count} fields, column {} was expected",
+                index + 1
+            )));
+        };
+        if cell.is_empty() {
+            return Err(self.err("empty cell".to_owned()));
+        }
+        let value = parse_number(cell, d).ok_or_else(|| {
+            self.err(format!("not a number: {:?}", String::from_utf8_lossy(cell)))
+        })?;
+        if !value.is_finite() {
+            return Err(self.err(format!(
+                "value must be finite, found {}",
+                String::from_utf8_lossy(cell)
+            )));
+        }
+        Ok(value)
+    }
+}
+
+/// The header row and the units row, as found.
+struct Head {
+    header: Option<Vec<String>>,
+    header_line: Option<usize>,
+    units: Option<Vec<String>>,
+}
+
+/// Reads the header, units and skipped rows; leaves the reader on the first
+/// data row (`Ok(false)` when there is none).
+fn read_head<R: BufRead>(
+    rows: &mut RowReader<'_, R>,
+    layout: &Layout,
+) -> Result<(Head, bool), InputError> {
+    let mut have = rows.next()?;
+    let had_header = have
+        && match layout.header {
+            HeaderMode::Present => true,
+            HeaderMode::Absent => false,
+            HeaderMode::Detect => !rows.is_numeric_row(),
+        };
+    let mut head = Head {
+        header: None,
+        header_line: None,
+        units: None,
+    };
+    if had_header {
+        head.header = Some(rows.fields_text());
+        head.header_line = Some(rows.line);
+        have = rows.next()?;
+    }
+    match layout.skip_rows {
+        Some(n) => {
+            for k in 0..n {
+                if !have {
+                    break;
+                }
+                if k == 0 && had_header && !rows.is_numeric_row() {
+                    head.units = Some(rows.fields_text());
+                }
+                have = rows.next()?;
+            }
+        }
+        None => {
+            if have && had_header && !rows.is_numeric_row() {
+                head.units = Some(rows.fields_text());
+                have = rows.next()?;
+            }
+        }
+    }
+    Ok((head, have))
+}
+
+/// Reads the requested columns of a time-series record (text or MAT file).
+pub fn read_table<R: BufRead>(
+    reader: R,
+    source: &str,
+    params: &ReadParams,
+) -> Result<Table, InputError> {
+    read_table_with(
+        reader,
+        source,
+        &params.layout,
+        params.min_rows,
+        &params.time,
+        |_| params.columns.clone(),
+    )
+}
+
+/// [`read_table`] with the data columns chosen once it is known whether the
+/// file has a header (`pick(had_header)`).
+fn read_table_with<R: BufRead>(
+    mut reader: R,
+    source: &str,
+    layout: &Layout,
+    min_rows: usize,
+    time: &TimeColumn,
+    pick: impl FnOnce(bool) -> Vec<ColumnRef>,
+) -> Result<Table, InputError> {
+    layout.validate().map_err(|m| InputError::new(source, m))?;
+    let peek = reader
+        .fill_buf()
+        .map_err(|e| InputError::new(source, format!("cannot read: {e}")))?;
+    if super::mat::is_mat(peek) {
+        let mut bytes = Vec::new();
+        reader
+            .read_to_end(&mut bytes)
+            .map_err(|e| InputError::new(source, format!("cannot read: {e}")))?;
+        return read_mat_table(&bytes, source, layout, min_rows, time, pick(true));
+    }
+    let Some(mut rows) = RowReader::open(reader, source, layout.delimiter)? else {
+        return Err(InputError::new(
+            source,
+            "no data rows (the file is empty or all comments)",
+        ));
+    };
+    let (head, mut have) = read_head(&mut rows, layout)?;
+    let header = head.header.as_deref();
+    let had_header = header.is_some();
+    let picked = pick(had_header)
+        .iter()
+        .map(|c| resolve(c, header, source, head.header_line))
+        .collect::<Result<Vec<_>, _>>()?;
+    let time_col = match time {
+        TimeColumn::None => None,
+        TimeColumn::Given(c) => Some(resolve(c, header, source, head.header_line)?),
+        TimeColumn::Find => header.and_then(|h| {
+            h.iter()
+                .position(|n| is_time_name(n))
+                .map(|i| (i, h[i].clone()))
+        }),
+    };
+    let unit_of = |i: usize| {
+        head.units
+            .as_ref()
+            .and_then(|u| u.get(i))
+            .filter(|u| !u.is_empty())
+            .cloned()
+    };
+    let time_scale = match &time_col {
+        Some((i, name)) => Some(time_unit(layout, name, unit_of(*i).as_deref(), source)?),
+        None => None,
+    };
+
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); picked.len()];
+    let mut t: Option<Vec<f64>> = time_col.as_ref().map(|_| Vec::new());
+    let mut lines = LineMap::default();
+    let delimiter = rows.delimiter;
+    while have {
+        let count = rows.field_count();
+        let line = rows.line;
+        for ((index, name), column) in picked.iter().zip(columns.iter_mut()) {
+            let cell = Cell { source, line, name };
+            column.push(cell.parse(rows.field(*index), *index, count, delimiter)?);
+        }
+        if let (Some((index, name)), Some(t), Some((unit, _))) = (&time_col, t.as_mut(), time_scale)
+        {
+            let cell = Cell { source, line, name };
+            let value = cell.parse(rows.field(*index), *index, count, delimiter)? * unit.seconds();
+            if let Some(&prev) = t.last()
+                && value <= prev
+            {
+                return Err(cell.err(format!("time must increase: {value} s follows {prev} s")));
+            }
+            t.push(value);
+        }
+        lines.push(line);
+        have = rows.next()?;
+    }
+    let n = lines.rows;
+    if n < min_rows {
+        return Err(InputError::new(
+            source,
+            format!("too few data rows: {n} found, at least {min_rows} needed"),
+        ));
+    }
+    let timing = match (&t, &time_col, time_scale) {
+        (Some(t), Some((_, name)), Some((unit, unit_from))) if t.len() >= 2 => {
+            let (ts, max_jitter, rms_jitter) =
+                analyse_time(t, layout.time_jitter).map_err(|(row, m)| {
+                    InputError::new(source, m)
+                        .at_line(lines.line(row))
+                        .in_field(name.clone())
+                })?;
+            Some(Timing {
+                column: name.clone(),
+                unit,
+                unit_from,
+                ts,
+                max_jitter,
+                rms_jitter,
+                tolerance: layout.time_jitter,
+            })
+        }
+        _ => None,
+    };
+    Ok(Table {
+        units: picked.iter().map(|(i, _)| unit_of(*i)).collect(),
+        names: picked.into_iter().map(|(_, n)| n).collect(),
+        columns,
+        time: t,
+        timing,
+        rows: n,
+        had_header,
+        delimiter: Some(delimiter),
+    })
+}
+
+/// The MAT-file counterpart of the text path: variables by name.
+fn read_mat_table(
+    bytes: &[u8],
+    source: &str,
+    layout: &Layout,
+    min_rows: usize,
+    time: &TimeColumn,
+    columns: Vec<ColumnRef>,
+) -> Result<Table, InputError> {
+    use super::mat::{MatColumn, read_columns, variables};
+    let by_name = |c: &ColumnRef| match c {
+        ColumnRef::Name(n) => Ok(MatColumn::parse(n)),
+        ColumnRef::Index(i) => Err(InputError::new(
+            source,
+            format!("a MAT file's variables are chosen by name, not by index {i}"),
+        )),
+    };
+    let time_name = match time {
+        TimeColumn::None => None,
+        TimeColumn::Given(c) => Some(by_name(c).map(|_| c.to_string())?),
+        TimeColumn::Find => variables(bytes, source)?
+            .into_iter()
+            .map(|v| v.name)
+            .find(|n| is_time_name(n)),
+    };
+    let mut wanted = columns.iter().map(by_name).collect::<Result<Vec<_>, _>>()?;
+    if let Some(name) = &time_name {
+        wanted.push(MatColumn::parse(name));
+    }
+    let mut values = read_columns(bytes, source, &wanted)?;
+    let t = time_name.as_ref().map(|_| values.pop().unwrap_or_default());
+    let rows = values.first().or(t.as_ref()).map_or(0, Vec::len);
+    if rows < min_rows {
+        return Err(InputError::new(
+            source,
+            format!("too few samples: {rows} found, at least {min_rows} needed"),
+        ));
+    }
+    let (t, timing) = match (t, time_name) {
+        (Some(mut t), Some(name)) => {
+            let (unit, unit_from) = time_unit(layout, &name, None, source)?;
+            for v in &mut t {
+                *v *= unit.seconds();
+            }
+            let sample_err = |k: usize, m: String| {
+                InputError::new(source, format!("sample {}: {m}", k + 1)).in_field(name.clone())
+            };
+            if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+                return Err(sample_err(k + 1, "time must increase".to_owned()));
+            }
+            let (ts, max_jitter, rms_jitter) =
+                analyse_time(&t, layout.time_jitter).map_err(|(k, m)| sample_err(k, m))?;
+            let timing = Timing {
+                column: name,
+                unit,
+                unit_from,
+                ts,
+                max_jitter,
+                rms_jitter,
+                tolerance: layout.time_jitter,
+            };
+            (Some(t), Some(timing))
+        }
+        _ => (None, None),
+    };
+    Ok(Table {
+        names: columns.iter().map(ToString::to_string).collect(),
+        units: vec![None; columns.len()],
+        columns: values,
+        time: t,
+        timing,
+        rows,
+        had_header: true,
+        delimiter: None,
+    })
+}
+
+/// Reads an input/output record: columns `u` and `y` (or 1 and 2 without a
+/// header) unless chosen, and a time column found by name unless chosen.
+pub fn read_io<R: BufRead>(
+    reader: R,
+    source: &str,
+    cols: &IoColumns,
+    min_rows: usize,
+) -> Result<IoData, InputError> {
+    let time = match &cols.time {
+        Some(c) => TimeColumn::Given(c.clone()),
+        None => TimeColumn::Find,
+    };
+    let pick = |had_header: bool| {
+        let (default_in, default_out) = if had_header {
+            (ColumnRef::Name("u".into()), ColumnRef::Name("y".into()))
+        } else {
+            (ColumnRef::Index(1), ColumnRef::Index(2))
+        };
+        vec![
+            cols.input.clone().unwrap_or(default_in),
+            cols.output.clone().unwrap_or(default_out),
+        ]
+    };
+    let mut table = read_table_with(reader, source, &cols.layout, min_rows, &time, pick)?;
+    let output = table.columns.pop().unwrap_or_default();
+    let input = table.columns.pop().unwrap_or_default();
+    let output_name = table.names.pop().unwrap_or_default();
+    let input_name = table.names.pop().unwrap_or_default();
+    Ok(IoData {
+        input,
+        output,
+        ts: table.ts(),
+        timing: table.timing,
+        input_name,
+        output_name,
+    })
+}
+
+/// Writes columns as CSV text with a header row. Floats use Rust's shortest
+/// round-trip formatting, so reading the file back gives the same `f64`s.
+/// All columns must have the same length.
+pub fn write_csv(names: &[&str], columns: &[&[f64]]) -> String {
+    use std::fmt::Write;
+    let rows = columns.first().map_or(0, |c| c.len());
+    debug_assert!(columns.iter().all(|c| c.len() == rows));
+    let mut out = String::with_capacity(rows * columns.len() * 12 + 64);
+    out.push_str(&names.join(","));
+    out.push('\n');
+    for k in 0..rows {
+        for (j, c) in columns.iter().enumerate() {
+            if j > 0 {
+                out.push(',');
+            }
+            let _ = write!(out, "{}", c[k]);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Sample times `k * ts` for `n` samples (exact multiples, no accumulated drift).
+pub fn time_column(n: usize, ts: f64) -> Vec<f64> {
+    (0..n).map(|k| k as f64 * ts).collect()
+}
+
+#[cfg(test)]
+mod tests;

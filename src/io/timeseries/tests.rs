@@ -1,0 +1,262 @@
+use super::*;
+
+fn io(text: &str, cols: &IoColumns) -> Result<IoData, InputError> {
+    read_io(text.as_bytes(), "f.csv", cols, 1)
+}
+
+fn with_layout(layout: Layout) -> IoColumns {
+    IoColumns {
+        layout,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn header_names_and_time() {
+    let d = io(
+        "# comment\nt,u,y\n0,1,2\n0.5,3,4\n1.0,5,6\n",
+        &IoColumns::default(),
+    )
+    .unwrap();
+    assert_eq!(d.input, vec![1.0, 3.0, 5.0]);
+    assert_eq!(d.output, vec![2.0, 4.0, 6.0]);
+    assert_eq!(d.ts, Some(0.5));
+    let t = d.timing.unwrap();
+    assert_eq!(
+        (t.unit, t.unit_from),
+        (TimeUnit::Seconds, UnitSource::Default)
+    );
+    assert_eq!(t.max_jitter, 0.0);
+}
+
+#[test]
+fn whitespace_dat_headerless_defaults() {
+    let d = io(
+        "   6.41e+00\t   4.76e+00\t\n   3.41e+00\t 4.70e+00\t\n",
+        &IoColumns::default(),
+    )
+    .unwrap();
+    assert_eq!(d.input, vec![6.41, 3.41]);
+    assert_eq!(d.output, vec![4.76, 4.70]);
+    assert_eq!(d.ts, None);
+}
+
+#[test]
+fn empty_leading_field_counts_as_column_one() {
+    let cols = IoColumns {
+        input: Some(ColumnRef::Index(4)),
+        output: Some(ColumnRef::Index(3)),
+        ..Default::default()
+    };
+    let d = io(",0,-1.6,0\n,0.0002,-1.7,5\n", &cols).unwrap();
+    assert_eq!(d.input, vec![0.0, 5.0]);
+    assert_eq!(d.output, vec![-1.6, -1.7]);
+}
+
+#[test]
+fn errors_name_line_and_field() {
+    let e = io("u,y\n1,2\n3,abc\n", &IoColumns::default()).unwrap_err();
+    assert_eq!(e.line, Some(3));
+    assert_eq!(e.field.as_deref(), Some("y"));
+    assert!(e.to_string().contains("not a number"), "{e}");
+
+    let e = io("u,y\n1,\n", &IoColumns::default()).unwrap_err();
+    assert!(e.to_string().contains("empty cell"), "{e}");
+
+    let e = io("u,y\n1,NaN\n", &IoColumns::default()).unwrap_err();
+    assert!(e.to_string().contains("finite"), "{e}");
+
+    let e = io("a,b\n1,2\n", &IoColumns::default()).unwrap_err();
+    assert!(e.to_string().contains("missing column 'u'"), "{e}");
+    assert_eq!(e.line, Some(1));
+
+    let e = io("t,u,y\n0,1,2\n0,1,2\n", &IoColumns::default()).unwrap_err();
+    assert!(e.to_string().contains("time must increase"), "{e}");
+    assert_eq!(e.line, Some(3));
+
+    let e = read_io("u,y\n1,2\n".as_bytes(), "f.csv", &IoColumns::default(), 5).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("too few data rows: 1 found, at least 5"),
+        "{e}"
+    );
+
+    let e = io("1 2\n3\n", &IoColumns::default()).unwrap_err();
+    assert_eq!(e.line, Some(2));
+    assert!(e.to_string().contains("missing field"), "{e}");
+
+    let e = io("", &IoColumns::default()).unwrap_err();
+    assert!(e.to_string().contains("no data rows"), "{e}");
+    let e = io("# only\n\n  \n", &IoColumns::default()).unwrap_err();
+    assert!(e.to_string().contains("no data rows"), "{e}");
+}
+
+#[test]
+fn line_numbers_survive_comments_and_blank_lines() {
+    // Line 7 holds the bad cell, after a comment and a blank line mid-file.
+    let text = "t,u,y\n0,1,2\n1,1,2\n# note\n\n2,1,2\n3,1,x\n";
+    let e = io(text, &IoColumns::default()).unwrap_err();
+    assert_eq!(e.line, Some(7), "{e}");
+    // A gap after comments: the later sample's own line is named.
+    let text = "t,u,y\n0,1,2\n# a\n# b\n1,1,2\n2,1,2\n5,1,2\n6,1,2\n7,1,2\n8,1,2\n9,1,2\n10,1,2\n";
+    let e = io(text, &IoColumns::default()).unwrap_err();
+    assert_eq!(e.line, Some(7), "{e}");
+    assert!(e.to_string().contains("gap"), "{e}");
+}
+
+#[test]
+fn a_real_gap_is_refused_with_its_line_and_jitter_is_reported() {
+    let mut text = String::from("t,u,y\n");
+    for k in 0..100 {
+        let t = if k < 50 { k as f64 } else { k as f64 + 3.0 };
+        text.push_str(&format!("{t},{k},{k}\n"));
+    }
+    let e = io(&text, &IoColumns::default()).unwrap_err();
+    // The first step that is too long, 49 -> 53, is on data row 51 = line 52.
+    assert_eq!(e.line, Some(52), "{e}");
+    assert_eq!(e.field.as_deref(), Some("t"));
+
+    // Timestamps printed with rounding: steps 1.9998e-4 / 2.0001e-4.
+    let mut text = String::from("time,u,y\n");
+    let mut t_true = Vec::new();
+    for k in 0..1000 {
+        let t = k as f64 * 2e-4;
+        t_true.push(t);
+        text.push_str(&format!(
+            "{:.8},{k},{k}\n",
+            t + if k % 3 == 1 { 1e-8 } else { 0.0 }
+        ));
+    }
+    let d = io(&text, &IoColumns::default()).unwrap();
+    let timing = d.timing.unwrap();
+    assert!((timing.ts - 2e-4).abs() < 1e-12, "{timing:?}");
+    assert!(
+        timing.max_jitter > 0.9e-8 && timing.max_jitter < 2.1e-8,
+        "{timing:?}"
+    );
+    assert!(timing.rms_jitter > 0.5e-8 && timing.rms_jitter < timing.max_jitter);
+
+    // A tight tolerance refuses the same file.
+    let strict = IoColumns {
+        layout: Layout {
+            time_jitter: 1e-6,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let e = io(&text, &strict).unwrap_err();
+    assert!(e.to_string().contains("jitter allowed"), "{e}");
+}
+
+#[test]
+fn time_units_from_names_units_row_and_option() {
+    for (header, want) in [
+        ("time_ms", 1e-4),
+        ("t [ms]", 1e-4),
+        ("Time (ms)", 1e-4),
+        ("t_us", 1e-7),
+        ("t (µs)", 1e-7),
+        ("time_s", 0.1),
+        ("Time", 0.1),
+        ("t [s]", 0.1),
+    ] {
+        let text = format!("{header},u,y\n0,1,2\n0.1,3,4\n0.2,5,6\n");
+        let d = io(&text, &IoColumns::default()).unwrap();
+        let ts = d.ts.unwrap_or_else(|| panic!("{header}: no time found"));
+        assert!((ts - want).abs() < 1e-12 * want, "{header}: {ts}");
+    }
+    // Units row under the header.
+    let d = io("t,u,y\nms,V,um\n0,1,2\n0.1,3,4\n", &IoColumns::default()).unwrap();
+    let t = d.timing.unwrap();
+    assert_eq!(
+        (t.unit, t.unit_from),
+        (TimeUnit::Milliseconds, UnitSource::UnitsRow)
+    );
+    assert!((t.ts - 1e-4).abs() < 1e-16);
+    // The option wins.
+    let cols = with_layout(Layout {
+        time_unit: Some(TimeUnit::Microseconds),
+        ..Default::default()
+    });
+    let d = io("time_ms,u,y\n0,1,2\n100,3,4\n", &cols).unwrap();
+    assert!((d.ts.unwrap() - 1e-4).abs() < 1e-16);
+    // An unknown unit is an error, not seconds.
+    let e = io("t [min],u,y\n0,1,2\n1,3,4\n", &IoColumns::default()).unwrap_err();
+    assert!(e.to_string().contains("unknown time unit 'min'"), "{e}");
+}
+
+#[test]
+fn semicolon_decimal_comma_units_row_and_forced_delimiters() {
+    let text = "t;u;y\ns;V;um\n0;1,5;2\n0,001;3;-4,25\n";
+    let d = io(text, &IoColumns::default()).unwrap();
+    assert_eq!(d.input, vec![1.5, 3.0]);
+    assert_eq!(d.output, vec![2.0, -4.25]);
+    assert!((d.ts.unwrap() - 1e-3).abs() < 1e-18);
+
+    let tab = with_layout(Layout {
+        delimiter: Some(Delimiter::Tab),
+        ..Default::default()
+    });
+    let d = io("u\t\ty\n1\t\t2\n3\t\t4\n", &tab).unwrap();
+    assert_eq!(d.output, vec![2.0, 4.0]);
+    // Sniffed as whitespace, the empty middle field disappears: still u, y by name.
+    let d = io("u\t\ty\n1\t\t2\n", &IoColumns::default()).unwrap();
+    assert_eq!(d.output, vec![2.0]);
+
+    // --skip-rows skips a description row that is numeric-looking too.
+    let skip = with_layout(Layout {
+        skip_rows: Some(2),
+        ..Default::default()
+    });
+    let d = io("u,y\nV,um\n99,99\n1,2\n", &skip).unwrap();
+    assert_eq!(d.input, vec![1.0]);
+}
+
+#[test]
+fn quoted_fields_crlf_and_bom() {
+    let text = "\u{feff}\"t\",\"u\",\"y\"\r\n0,\"1.5\",2\r\n1,3,4\r\n";
+    let d = io(text, &IoColumns::default()).unwrap();
+    assert_eq!(d.input, vec![1.5, 3.0]);
+    assert_eq!(d.ts, Some(1.0));
+}
+
+#[test]
+fn write_then_read_is_exact() {
+    let t = time_column(4, 1e-4);
+    let u = [0.1 + 0.2, 1.0 / 3.0, -1e-300, 5.0];
+    let text = write_csv(&["t", "u", "y"], &[&t, &u, &u]);
+    let d = read_io(text.as_bytes(), "w.csv", &IoColumns::default(), 1).unwrap();
+    assert_eq!(d.input, u);
+    assert!((d.ts.unwrap() - 1e-4).abs() < 1e-18);
+}
+
+#[test]
+fn line_map_counts_runs() {
+    let mut m = LineMap::default();
+    for line in [2, 3, 4, 7, 8, 20] {
+        m.push(line);
+    }
+    let got: Vec<usize> = (0..6).map(|r| m.line(r)).collect();
+    assert_eq!(got, vec![2, 3, 4, 7, 8, 20]);
+    assert_eq!(m.runs.len(), 3);
+}
+
+#[test]
+fn time_names() {
+    for yes in [
+        "t",
+        "time",
+        "Time",
+        "TIME",
+        "time_s",
+        "time_ms",
+        "t [s]",
+        "t (us)",
+        "Time [ms]",
+    ] {
+        assert!(is_time_name(yes), "{yes}");
+    }
+    for no in ["u", "y", "temperature", "tip", "t2", "voltage [V]"] {
+        assert!(!is_time_name(no), "{no}");
+    }
+}

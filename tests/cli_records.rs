@@ -1,0 +1,256 @@
+//! Records as users have them: time columns with units and DAQ jitter,
+//! semicolon exports with a units row, MATLAB `.mat` files; every layout of
+//! the same numbers gives byte-identical models, and every bad record exits 2
+//! with one line naming the file, line and field.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+const PIEZO: &str = "data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv";
+
+fn json_of(cmd: &mut Command) -> Value {
+    let out = cmd.assert().success().get_output().stdout.clone();
+    serde_json::from_slice(&out).expect("exactly one JSON object on stdout")
+}
+
+/// Runs `cmd`, expects exit 2 with exactly one stderr line containing every
+/// `needle`, and returns that line.
+fn fails_with(cmd: &mut Command, needles: &[&str]) -> String {
+    let out = cmd.assert().code(2).get_output().clone();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{n:?} not in {err}");
+    }
+    err
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// The hair-dryer record as comma CSV (s), comma CSV with `time_ms`, a
+/// semicolon export with a units row and decimal commas, and a MATLAB v5
+/// file (tests/data/records/make_records.py): the same numbers, so the same
+/// model to the byte; the time column's unit is read from each layout.
+#[test]
+fn every_layout_of_the_dryer_record_gives_the_same_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut models = Vec::new();
+    for (file, unit, unit_from) in [
+        ("dryer.csv", "s", "default"),
+        ("dryer-ms.csv", "ms", "name"),
+        ("dryer-semicolon.csv", "s", "units-row"),
+        ("dryer.mat", "s", "default"),
+    ] {
+        let out = dir.path().join(format!("{file}.json"));
+        let j = json_of(
+            fts()
+                .args(["identify", "arx"])
+                .arg(repo(&format!("tests/data/records/{file}")))
+                .args(["--na", "2", "--nb", "2", "--nk", "3", "--json", "-o"])
+                .arg(&out),
+        );
+        let timing = &j["timing"];
+        assert_eq!(timing["unit"], unit, "{file}: {timing}");
+        assert_eq!(timing["unit_from"], unit_from, "{file}: {timing}");
+        let ts = timing["ts"].as_f64().unwrap();
+        assert!((ts - 0.08).abs() < 1e-12, "{file}: Ts {ts}");
+        assert_eq!(j["samples"], 1000, "{file}");
+        models.push((file, std::fs::read(&out).unwrap()));
+    }
+    for (file, bytes) in &models[1..] {
+        assert!(bytes == &models[0].1, "{file} gives another model than dryer.csv");
+    }
+    // And the same coefficients as the original whitespace .dat with --ts.
+    let j = json_of(
+        fts()
+            .args(["identify", "arx"])
+            .arg(repo("data/daisy-hairdryer/dryer.dat"))
+            .args(["--ts", "0.08", "--na", "2", "--nb", "2", "--nk", "3", "--json"]),
+    );
+    let from_csv: Value = serde_json::from_slice(&models[0].1).unwrap();
+    assert_eq!(j["num"], from_csv["num"]);
+    assert_eq!(j["den"], from_csv["den"]);
+}
+
+/// The SmartHysteresis record's own time column steps by 1.9998e-4 and
+/// 2.0001e-4 s (printed precision): it is accepted, Ts is 2e-4 s, the jitter
+/// is reported, and the models equal those made without it or with `--ts`.
+#[test]
+fn the_piezo_time_column_is_read_with_its_jitter() {
+    let dir = tempfile::tempdir().unwrap();
+    let hyst = |time: bool, out: &Path| {
+        let mut cmd = fts();
+        cmd.args(["identify", "hysteresis"])
+            .arg(repo(PIEZO))
+            .args(["--no-header", "--input-col", "4", "--output-col", "3"])
+            .args(["--start", "16286", "--json", "-o"])
+            .arg(out);
+        if time {
+            cmd.args(["--time-col", "2"]);
+        }
+        json_of(&mut cmd)
+    };
+    let (a, b) = (dir.path().join("a.json"), dir.path().join("b.json"));
+    let j = hyst(true, &a);
+    let timing = &j["timing"];
+    let ts = timing["ts"].as_f64().unwrap();
+    assert!((ts - 2e-4).abs() < 1e-15, "{timing}");
+    let max = timing["max_jitter"].as_f64().unwrap();
+    let rms = timing["rms_jitter"].as_f64().unwrap();
+    assert!(max > 1e-9 && max < 1e-7, "{timing}");
+    assert!(rms > 0.0 && rms <= max, "{timing}");
+    assert_eq!(hyst(false, &b)["timing"], Value::Null);
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+
+    let arx = |extra: &[&str], out: &Path| {
+        fts()
+            .args(["identify", "arx"])
+            .arg(repo(PIEZO))
+            .args(["--no-header", "--input-col", "4", "--output-col", "3"])
+            .args(["--na", "2", "--nb", "2", "--nk", "1", "-o"])
+            .arg(out)
+            .args(extra)
+            .assert()
+            .success();
+        std::fs::read(out).unwrap()
+    };
+    let with_time = arx(&["--time-col", "2"], &dir.path().join("c.json"));
+    let with_ts = arx(&["--ts", "2e-4"], &dir.path().join("d.json"));
+    assert_eq!(with_time, with_ts);
+
+    // A tolerance tighter than the record's jitter refuses it, naming where.
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(repo(PIEZO))
+            .args(["--no-header", "--input-col", "4", "--output-col", "3"])
+            .args(["--time-col", "2", "--time-jitter", "1e-6"])
+            .args(["--na", "2", "--nb", "2", "--nk", "1"]),
+        &["hysteresis_v_150_1hz.csv line ", "field 'column 2'", "jitter"],
+    );
+}
+
+#[test]
+fn time_units_come_from_the_header_or_the_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("time_ms,u,y\n");
+    let mut plain = String::from("time,u,y\n");
+    for k in 0..200 {
+        let u = ((k * 7919) % 13) as f64 - 6.0;
+        text.push_str(&format!("{},{u},{}\n", k as f64 * 0.1, 0.5 * u));
+        plain.push_str(&format!("{},{u},{}\n", k as f64 * 0.1, 0.5 * u));
+    }
+    let ms = write(dir.path(), "ms.csv", &text);
+    let j = json_of(fts().args(["bode"]).arg(&ms).arg("--json"));
+    let ts = j["ts"].as_f64().unwrap();
+    assert!((ts - 1e-4).abs() < 1e-16, "time_ms read as {ts} s");
+
+    let plain = write(dir.path(), "plain.csv", &plain);
+    let j = json_of(
+        fts()
+            .args(["bode"])
+            .arg(&plain)
+            .args(["--time-unit", "ms", "--json"]),
+    );
+    assert!((j["ts"].as_f64().unwrap() - 1e-4).abs() < 1e-16);
+}
+
+#[test]
+fn bad_records_exit_2_naming_file_line_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let semi = write(d, "semi.csv", "t;u;y\ns;V;um\n0;1,5;2\n0,1;x;3\n0,2;1;2\n");
+    fails_with(
+        fts().args(["identify", "arx"]).arg(&semi).args(["--na", "1", "--nb", "1", "--nk", "1"]),
+        &["semi.csv line 4, field 'u': not a number"],
+    );
+    let mut gap = String::from("t,u,y\n");
+    for k in 0..50 {
+        let t = if k < 30 { k as f64 } else { k as f64 + 4.0 };
+        gap.push_str(&format!("{t},{},{}\n", k % 3, k % 5));
+    }
+    let gap = write(d, "gap.csv", &gap);
+    fails_with(
+        fts().args(["identify", "arx"]).arg(&gap).args(["--na", "1", "--nb", "1", "--nk", "1"]),
+        &["gap.csv line 32, field 't'", "a gap in the record"],
+    );
+    let back = write(d, "back.csv", "t,u,y\n0,1,2\n1,1,2\n0.5,1,2\n");
+    fails_with(
+        fts().args(["identify", "arx"]).arg(&back).args(["--na", "1", "--nb", "1", "--nk", "1"]),
+        &["back.csv line 4, field 't': time must increase"],
+    );
+    let unit = write(d, "unit.csv", "t [min],u,y\n0,1,2\n1,1,2\n");
+    fails_with(
+        fts().args(["bode"]).arg(&unit),
+        &["unit.csv field 't [min]': unknown time unit 'min'"],
+    );
+    fails_with(
+        fts().args(["bode"]).arg(&semi).args(["--time-jitter", "2"]),
+        &["--time-jitter"],
+    );
+    fails_with(
+        fts().args(["bode"]).arg(&semi).args(["--delimiter", "pipe"]),
+        &["--delimiter"],
+    );
+}
+
+/// `--output` named a column in some commands and a file in others: it is
+/// refused with the option that is meant, and nothing is written.
+#[test]
+fn ambiguous_options_are_refused_with_the_right_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("model.json");
+    let err = fails_with(
+        fts()
+            .args(["identify", "oe"])
+            .arg(repo("tests/data/records/dryer.csv"))
+            .args(["--nb", "2", "--nf", "2", "--nk", "3", "--output"])
+            .arg(&model),
+        &["--output", "-o/--out FILE", "--output-col COL"],
+    );
+    assert!(!model.exists(), "{err}");
+    fails_with(
+        fts().args(["zpetc", "--tf", "x.json", "--output=z.json"]),
+        &["-o/--out FILE"],
+    );
+    fails_with(
+        fts().args(["identify", "hysteresis", "x.csv", "--input", "3"]),
+        &["--input-col COL"],
+    );
+    fails_with(
+        fts().args(["hysteresis", "apply", "m.json", "x.csv", "--time", "t"]),
+        &["--time-col COL"],
+    );
+}
+
+#[test]
+fn mat_file_errors_name_the_variable() {
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(repo("tests/data/records/dryer.mat"))
+            .args(["--output-col", "pos_um", "--na", "1", "--nb", "1", "--nk", "1"]),
+        &["dryer.mat", "pos_um"],
+    );
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(repo("tests/data/records/dryer.mat"))
+            .args(["--output-col", "2", "--na", "1", "--nb", "1", "--nk", "1"]),
+        &["dryer.mat", "by name"],
+    );
+}
