@@ -11,5 +11,6 @@ pub mod timeseries;
 pub use error::InputError;
 pub mod controller_file;
 pub mod hysteresis_json;
+pub mod mat;
 pub mod plot;
 pub mod zpetc_json;
