@@ -1,7 +1,7 @@
 //! `fts identify arx|oe|iv|arx-struct DATA ...`: linear models from
 //! input/output records (docs/math.md §2).
 //!
-//! Column options follow docs/formats.md (`--input`, `--output`, `--time`,
+//! Column options follow interfaces.md (`--input`, `--output`, `--time`,
 //! `--no-header`); since `--output` names the output *column*, the result
 //! file is `-o FILE` (long form `--out`).
 
