@@ -7,7 +7,7 @@
 //!   polynomial roots, filtering.
 //! * [`ident`] — identification from measured data (fit metrics, least squares, models).
 //! * [`synth`] — controller and feedforward synthesis (ZPETC, ...).
-//! * [`io`] — the file contracts of `shared/spec/interfaces.md` (CSV time series,
+//! * [`io`] — the file contracts of `docs/formats.md` (CSV time series,
 //!   `fts.tf/1`, ...), parsed from text so that callers decide where bytes come from.
 //! * [`pipeline`] — pipeline manifests (`fts.toml`) and `fts build`: steps in
 //!   dependency order, rebuilt when the content hash of an input or setting

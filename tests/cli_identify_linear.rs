@@ -17,9 +17,7 @@ fn fts() -> Command {
 }
 
 fn dataset(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/datasets")
-        .join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(rel)
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {

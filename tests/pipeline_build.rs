@@ -387,7 +387,7 @@ fn example_manifest_builds_identically_in_two_folders() {
 fn real_record_step_matches_the_command_line() {
     let d = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(d.path().join("data")).unwrap();
-    let dataset = repo("../shared/datasets/piezo-smarthysteresis/hysteresis_v_150_1hz.csv");
+    let dataset = repo("data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv");
     std::fs::copy(&dataset, d.path().join("data/piezo.csv")).unwrap_or_else(|e| {
         panic!(
             "{}: {e} (needs the shared piezo dataset next to the repo)",

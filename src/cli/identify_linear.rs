@@ -1,5 +1,5 @@
 //! `fts identify arx|oe|iv|arx-struct DATA ...`: linear models from
-//! input/output records (math.md 2).
+//! input/output records (docs/math.md §2).
 //!
 //! Column options (`--input-col`, `--output-col`, `--time-col`, the layout
 //! options) are shared with every record-reading command (`columns.rs`); the

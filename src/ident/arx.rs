@@ -1,4 +1,4 @@
-//! ARX identification by QR least squares (math.md 2).
+//! ARX identification by QR least squares (docs/math.md §2).
 //!
 //! Model `A(q) y(k) = B(q) u(k - nk) + e(k)` with
 //! `A = 1 + a1 q^-1 + .. + a_na q^-na`, `B = b0 + .. + b_{nb-1} q^-(nb-1)`;

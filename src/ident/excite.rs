@@ -1,4 +1,4 @@
-//! Excitation signals for identification experiments (math.md 1.5, 2):
+//! Excitation signals for identification experiments (docs/math.md §1.5, §2):
 //! triangle waves of several amplitudes for hysteresis [Li21], sine sweeps
 //! 0-1000 Hz [Li21], Schroeder-phased multisines [Karagoz18], single sines,
 //! and the five-leaved trajectory [Li21] Eq. 13.

@@ -1,4 +1,4 @@
-//! Empirical frequency response from input/output data (math.md 2): Welch
+//! Empirical frequency response from input/output data (docs/math.md §2): Welch
 //! cross-spectra with coherence (MATLAB `tfestimate`/`mscohere`, `spa`-like),
 //! and the empirical transfer-function estimate ETFE (`etfe`: `Y(f)/U(f)`).
 //!

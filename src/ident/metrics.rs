@@ -1,6 +1,6 @@
 //! Fit metrics shared by every identification method.
 
-/// MATLAB `compare` / `goodnessOfFit(..., 'NRMSE')` fit in percent (math.md 2):
+/// MATLAB `compare` / `goodnessOfFit(..., 'NRMSE')` fit in percent (docs/math.md §2):
 /// `100 * (1 - ||y - y_hat|| / ||y - mean(y)||)`. 100 is a perfect fit, 0 is
 /// no better than the mean, and it is negative when worse than the mean.
 /// Returns `NaN` when `y` is constant or the lengths differ or are zero.

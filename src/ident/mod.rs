@@ -1,6 +1,6 @@
 //! Identification from measured data.
 //!
-//! Linear (polynomial) models, math.md 2: [`arx`] (QR least squares),
+//! Linear (polynomial) models, docs/math.md §2: [`arx`] (QR least squares),
 //! [`iv`] (refined instrumental variables), [`oe`] (output error by
 //! Levenberg–Marquardt), [`structure`] (order and delay selection),
 //! [`freq`] (empirical frequency response), sharing [`linear`] (model,

@@ -1,5 +1,5 @@
 //! The controller coefficient file `fts.controller/1` and its C header form
-//! (interfaces.md; schema in docs/formats.md).
+//! (docs/formats.md).
 //!
 //! The JSON lists the blocks in signal order (ZPETC pre-filter, inverse
 //! hysteresis feedforward, PID), each with every coefficient the real-time

@@ -30,7 +30,7 @@ pub struct SignalInfo {
 /// How well the model fitted the record it was identified on.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FitRecord {
-    /// `100 rms(e) / range(y)` (math.md 1.5).
+    /// `100 rms(e) / range(y)` (docs/math.md §1.5).
     pub rms_percent: f64,
     /// `100 max|e| / range(y)`.
     pub max_percent: f64,

@@ -1,4 +1,4 @@
-//! File contracts (`shared/spec/interfaces.md`): every reader here parses text
+//! File contracts (`docs/formats.md`): every reader here parses text
 //! it is handed together with a *source name* (normally the file's path) so that
 //! each error can name the file, the line and the field. Nothing in this module
 //! touches the file system; the CLI reads and writes the bytes.

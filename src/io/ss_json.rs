@@ -1,4 +1,4 @@
-//! The `fts.ss/1` state-space file (interfaces.md):
+//! The `fts.ss/1` state-space file (docs/formats.md):
 //! `{"format":"fts.ss/1","ts":null,"a":[[..]],"b":[[..]],"c":[[..]],"d":[[..]]}`,
 //! row-major, `ts` null/absent for continuous time. Floats round-trip exactly
 //! (serde_json `float_roundtrip`).

@@ -1,4 +1,4 @@
-//! The `fts.tf/1` transfer-function file (interfaces.md).
+//! The `fts.tf/1` transfer-function file (docs/formats.md).
 //!
 //! Floats are written by `serde_json` (shortest representation that parses
 //! back to the same `f64`, via `ryu`) and read with its `float_roundtrip`

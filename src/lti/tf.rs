@@ -494,7 +494,7 @@ mod tests {
     use super::*;
 
     fn li21() -> DiscreteTf {
-        // [Li21] Eq. 11, Ts = 1e-4 s (math.md 2).
+        // [Li21] Eq. 11, Ts = 1e-4 s (docs/math.md §2).
         DiscreteTf::new(
             vec![4.154, -9.631, 10.23, -5.511, 1.154],
             vec![1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447],
@@ -528,7 +528,7 @@ mod tests {
 
     #[test]
     fn li21_phase_lag_matches_math_md() {
-        // math.md 2: about -15 deg at 100 Hz, -75 at 500 Hz, -145 at 1 kHz.
+        // docs/math.md §2: about -15 deg at 100 Hz, -75 at 500 Hz, -145 at 1 kHz.
         let g = li21();
         let grid = linspace(0.0, 1000.0, 1001);
         let bode = Bode::from_fn(&grid, |f| g.response_at_hz(f));

@@ -1,4 +1,4 @@
-//! The embedded virtual fast tool servo (shared/spec/virtual-fts.md).
+//! The embedded virtual fast tool servo (docs/virtual-fts.md).
 //!
 //! Signal chain, integrated on `substeps` internal steps per controller sample:
 //!

@@ -1,5 +1,5 @@
 //! Error budget of a closed loop driven by independent white-noise sources
-//! (Ding22 Eq. 7-10, math.md §5): the disturbance shaping filters sit inside
+//! (Ding22 Eq. 7-10, docs/math.md §5): the disturbance shaping filters sit inside
 //! the system, whose inputs are unit-intensity white noises and whose chosen
 //! output is the error. Per source `PSD_i(f) = 2 |T_i(j 2 pi f)|^2`
 //! (one-sided, units^2/Hz), total = sum over the uncorrelated sources,

@@ -1,9 +1,9 @@
-//! The [Ding22] workflow (math.md §5): a lumped two-mass fast tool servo,
+//! The [Ding22] workflow (docs/math.md §5): a lumped two-mass fast tool servo,
 //! white-noise disturbances shaped by `W1..W3` inside a generalised plant,
 //! the H2-optimal controller, a PID baseline tuned for the same cost, the
 //! error budget, and the structural sweep over the flexure `(k2, c2)`.
 //!
-//! ## Mechanics (topology chosen here; math.md does not fix it)
+//! ## Mechanics (topology chosen here; docs/math.md does not fix it)
 //!
 //! ```text
 //!   x_b (base)          x1                  x4 (tool)
@@ -40,8 +40,8 @@
 //! `d = 2 pi 0.1 rad/s` by default (otherwise the disturbances have infinite
 //! power and the H2 problem is ill posed).
 //! * `W_e = (s/M_s + w_b)/(s + w_b eps)`, `M_s = 1.2721`, `eps = 1e-7`,
-//!   `w_b = 2 pi 1100 rad/s` (math.md gives no `w_b`: the paper's bandwidth).
-//! * `W_u = (s + w_bu/M_u)/(eps_1 s + w_bu)`, `M_u = w_bu = 1e8`. math.md
+//!   `w_b = 2 pi 1100 rad/s` (docs/math.md gives no `w_b`: the paper's bandwidth).
+//! * `W_u = (s + w_bu/M_u)/(eps_1 s + w_bu)`, `M_u = w_bu = 1e8`. docs/math.md
 //!   gives no `eps_1`; `eps_1 = 1` puts the weight's pole at `w_bu/eps_1 = 1e8`
 //!   rad/s. Below that pole `W_u ~ (s + 1)/1e8` for any `eps_1`, so the value
 //!   only matters above 16 MHz, but it must be nonzero (W_u proper,
@@ -305,12 +305,12 @@ impl Ding22Weights {
         )
     }
 
-    /// `W_e` (math.md Eq. 3).
+    /// `W_e` ([Ding22] Eq. 3, docs/math.md §5).
     pub fn we(&self) -> Result<StateSpace, Ding22Error> {
         tf1(&[1.0 / self.ms, self.wb], &[1.0, self.wb * self.eps])
     }
 
-    /// `W_u` (math.md Eq. 4), proper since `eps_1 > 0`.
+    /// `W_u` ([Ding22] Eq. 4, docs/math.md §5), proper since `eps_1 > 0`.
     pub fn wu(&self) -> Result<StateSpace, Ding22Error> {
         tf1(&[1.0, self.wbu / self.mu], &[self.eps1, self.wbu])
     }

@@ -1,4 +1,4 @@
-//! Zero phase error tracking control (Tomizuka 1987; [Li21] Eq. 6-10; math.md 3).
+//! Zero phase error tracking control (Tomizuka 1987; [Li21] Eq. 6-10; docs/math.md §3).
 //!
 //! For a closed loop `G_c = z^-d B_c / A_c`, the zeros of `B_c` are split into
 //! those a feedforward filter may cancel (`B_a`: inside radius `rho` and well
@@ -473,7 +473,7 @@ mod tests {
         let z = design(&li21(), &ZpetcParams::default()).unwrap();
         assert_eq!(z.preview, 5);
         assert_eq!(z.uncancelled_zeros().count(), 0);
-        // reference-values.md: numerator A_c / 4.154, denominator B_c / 4.154.
+        // docs/reference-values.md: numerator A_c / 4.154, denominator B_c / 4.154.
         let num = [0.24073, -0.18902, 0.17571, -0.14781, 0.012412, 0.0082980];
         let den = [1.0, -2.31849, 2.46269, -1.32667, 0.277805];
         for (a, b) in z.num.coeffs().iter().zip(num) {

@@ -1,5 +1,5 @@
 //! Gradient-based identification ([Li21] used gradient descent): L-BFGS with a
-//! More–Thuente line search (argmin) on the least-squares cost of math.md 1.5,
+//! More–Thuente line search (argmin) on the least-squares cost of docs/math.md §1.5,
 //! `J(w) = 1/(2N) ||Phi w - y||^2`.
 //!
 //! The unknowns are scaled by the column norms of `Phi` (`w = D x`,

@@ -1,5 +1,5 @@
 //! Identification of PI, MPI-cbrt and MPI-deadzone models from input/output
-//! records (math.md 1.5).
+//! records (docs/math.md §1.5).
 //!
 //! The model output is linear in its weights once the operator outputs are
 //! known, so the regressor `Phi[k, :] = [1, cbrt(u(k)), F_{r_0}[u](k), ...]`
@@ -39,7 +39,7 @@ pub struct IdentifyParams {
     /// Number of play operators when `thresholds` is `None`. Default 10.
     pub operators: usize,
     /// Explicit play thresholds (strictly increasing, >= 0); `None` uses
-    /// `r_i = i/N max|u|` (math.md 1.1).
+    /// `r_i = i/N max|u|` (docs/math.md §1.1).
     pub thresholds: Option<Vec<f64>>,
     /// Dead-zone operators of MPI-deadzone, on `d_j = (j-1)/m max|v|`. Default 4.
     pub dead_zone_operators: usize,
@@ -48,7 +48,7 @@ pub struct IdentifyParams {
     /// Solver.
     pub method: Method,
     /// Constrain the partial sums of the play weights (and of the dead-zone
-    /// weights) to be positive, which makes the model invertible (math.md 1.5).
+    /// weights) to be positive, which makes the model invertible (docs/math.md §1.5).
     /// Least squares only. Default false.
     pub invertible: bool,
     /// Lower bound of each partial sum under `invertible`, relative to
@@ -88,7 +88,7 @@ impl IdentifyParams {
     }
 }
 
-/// The fit of a model to a record (math.md 1.5), `e = y_model - y`.
+/// The fit of a model to a record (docs/math.md §1.5), `e = y_model - y`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fit {
     /// `100 rms(e) / (max y - min y)`.
@@ -428,7 +428,7 @@ pub fn identify(
 }
 
 /// Identifies the model of `params` mapping `u` to `y`. For the inverse model
-/// ([Li21], math.md 1.6) swap the signals. `observer` sees every gradient
+/// ([Li21], docs/math.md §1.6) swap the signals. `observer` sees every gradient
 /// iteration (it is cloned for each gradient solve).
 pub fn identify_observed<O>(
     u: &[f64],

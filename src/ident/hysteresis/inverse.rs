@@ -1,4 +1,4 @@
-//! The analytic inverse of a classical PI model (math.md 1.6).
+//! The analytic inverse of a classical PI model (docs/math.md §1.6).
 //!
 //! For `y = sum_i w_i F_{r_i}[x]` on the symmetric play with `r_0 = 0` and
 //! positive partial sums `W_i = w_0 + ... + w_i`, the inverse is again a PI
@@ -41,7 +41,7 @@ pub enum InverseError {
     },
 }
 
-/// The analytic inverse of a PI model (math.md 1.6). The input model is
+/// The analytic inverse of a PI model (docs/math.md §1.6). The input model is
 /// assumed valid ([`HysteresisModel::validate`]).
 pub fn analytic_inverse(model: &HysteresisModel) -> Result<HysteresisModel, InverseError> {
     if model.kind != ModelKind::Pi {

@@ -103,7 +103,7 @@ pub enum LsError {
     Svd,
 }
 
-/// Partial-sum constraints (math.md 1.5) on the last `p - free` unknowns:
+/// Partial-sum constraints (docs/math.md §1.5) on the last `p - free` unknowns:
 /// `x_free + ... + x_i >= min_partial_sum` for every constrained `i`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PartialSumConstraint {
@@ -164,7 +164,7 @@ pub fn solve_from_r(
         Some(c) => {
             // Reparametrise the constrained block by its partial sums,
             // w = T s with w_0 = s_0, w_i = s_i - s_{i-1}, and shift s = delta + q
-            // so the constraint reads q >= 0 ([Li21]-style invertibility, math.md 1.5).
+            // so the constraint reads q >= 0 ([Li21]-style invertibility, docs/math.md §1.5).
             // The free unknowns can always zero their own rows of R, so only the
             // trailing block R22 (w) = z2 remains: a small NNLS problem.
             let m = p - free;

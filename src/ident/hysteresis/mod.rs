@@ -1,5 +1,5 @@
 //! Piezo hysteresis: play operators, Prandtl–Ishlinskii models and their
-//! modified forms, their identification and their inverses (math.md 1).
+//! modified forms, their identification and their inverses (docs/math.md §1).
 //!
 //! * [`operators`] — lower and symmetric play, dead zone, threshold grids.
 //! * [`model`] — [`HysteresisModel`], evaluated sample by sample with explicit state.

@@ -1,9 +1,9 @@
-//! Prandtl–Ishlinskii models and their modified forms (math.md 1.2-1.4),
+//! Prandtl–Ishlinskii models and their modified forms (docs/math.md §1.2-1.4),
 //! evaluated sample by sample with explicit state.
 
 use super::operators::{PlayOperator, ThresholdError, check_thresholds, dead_zone};
 
-/// Which model structure (math.md 1.2-1.4).
+/// Which model structure (docs/math.md §1.2-1.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ModelKind {
     /// Classical PI: `y = sum_i w_i F_{r_i}[u]` ([Li21] Eq. 3).
@@ -279,7 +279,7 @@ impl HysteresisModel {
 
     /// Partial sums `W_i = w_0 + ... + w_i` of the play weights: the slopes of
     /// the model's loading curve. All positive means strictly increasing
-    /// (invertible) for a classical PI model (math.md 1.5).
+    /// (invertible) for a classical PI model (docs/math.md §1.5).
     pub fn partial_sums(&self) -> Vec<f64> {
         self.weights
             .iter()

@@ -1,4 +1,4 @@
-//! Play (backlash) and dead-zone operators, math.md 1.1 and 1.4.
+//! Play (backlash) and dead-zone operators, docs/math.md §1.1 and §1.4.
 //!
 //! Every operator here is a pure function of the new input and the previous
 //! state, so a model can keep its state in a plain slice and evaluate sample by
@@ -60,7 +60,7 @@ impl PlayOperator {
     }
 
     /// The state before the first sample: the operators start demagnetised
-    /// (previous output 0), so `F(0) = step(r, u(0), 0)` (math.md 1.1).
+    /// (previous output 0), so `F(0) = step(r, u(0), 0)` (docs/math.md §1.1).
     pub const INITIAL_STATE: f64 = 0.0;
 
     /// The band `[lo, hi]` the output must lie in for input `u`.
@@ -76,7 +76,7 @@ pub fn dead_zone(d: f64, v: f64) -> f64 {
     if d == 0.0 { v } else { (v - d).max(0.0) }
 }
 
-/// The uniform threshold grid `r_i = i/n * max_abs`, `i = 0..n-1` (math.md 1.1;
+/// The uniform threshold grid `r_i = i/n * max_abs`, `i = 0..n-1` (docs/math.md §1.1;
 /// [Li21], and [Tang17]'s `(i-1)/n`, `i = 1..n`, is the same grid).
 pub fn uniform_thresholds(n: usize, max_abs: f64) -> Vec<f64> {
     (0..n).map(|i| i as f64 / n as f64 * max_abs).collect()
@@ -147,7 +147,7 @@ mod tests {
 
     #[test]
     fn initial_states_match_math_md() {
-        // math.md 1.1: lower F(0) = max(u0 - r, min(u0, 0)),
+        // docs/math.md §1.1: lower F(0) = max(u0 - r, min(u0, 0)),
         // symmetric F(0) = max(u0 - r, min(u0 + r, 0)).
         for &(u0, r) in &[(3.0, 1.0), (-3.0, 1.0), (0.5, 1.0), (-0.5, 1.0), (0.0, 0.0)] {
             let lower = PlayOperator::Lower.step(r, u0, PlayOperator::INITIAL_STATE);
