@@ -96,7 +96,7 @@ fn identify_json_model_file_plot_then_invert_and_apply() {
         .stdout
         .clone();
     let v: serde_json::Value = serde_json::from_slice(&out).expect("exactly one JSON object");
-    // interfaces.md fields.
+    // docs/formats.md fields.
     let weights: Vec<f64> = serde_json::from_value(v["weights"].clone()).unwrap();
     let thresholds: Vec<f64> = serde_json::from_value(v["thresholds"].clone()).unwrap();
     assert_eq!(thresholds, truth.thresholds);

@@ -350,7 +350,12 @@ fn bad_inputs_exit_2_and_leave_nothing() {
     let missing = write(d, "missing.csv", "t,u,z\n0,1,2\n1,2,3\n");
     bad_run(d, &missing, &orders, "missing column 'y'");
     let jitter = write(d, "jitter.csv", "t,u,y\n0,1,2\n1,2,3\n2.5,3,1\n3.5,1,1\n");
-    bad_run(d, &jitter, &orders, "jitter.csv line 4, field 't': time step 1.5e0 s");
+    bad_run(
+        d,
+        &jitter,
+        &orders,
+        "jitter.csv line 4, field 't': time step 1.5e0 s",
+    );
     let dat = write(d, "plain.dat", "1 2\n3 4\n5 6\n");
     bad_run(d, &dat, &orders, "give --ts");
     bad_run(

@@ -4,7 +4,6 @@
 //! with one line naming the file, line and field.
 
 use assert_cmd::Command;
-use predicates::prelude::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -72,14 +71,19 @@ fn every_layout_of_the_dryer_record_gives_the_same_model() {
         models.push((file, std::fs::read(&out).unwrap()));
     }
     for (file, bytes) in &models[1..] {
-        assert!(bytes == &models[0].1, "{file} gives another model than dryer.csv");
+        assert!(
+            bytes == &models[0].1,
+            "{file} gives another model than dryer.csv"
+        );
     }
     // And the same coefficients as the original whitespace .dat with --ts.
     let j = json_of(
         fts()
             .args(["identify", "arx"])
             .arg(repo("data/daisy-hairdryer/dryer.dat"))
-            .args(["--ts", "0.08", "--na", "2", "--nb", "2", "--nk", "3", "--json"]),
+            .args([
+                "--ts", "0.08", "--na", "2", "--nb", "2", "--nk", "3", "--json",
+            ]),
     );
     let from_csv: Value = serde_json::from_slice(&models[0].1).unwrap();
     assert_eq!(j["num"], from_csv["num"]);
@@ -140,7 +144,11 @@ fn the_piezo_time_column_is_read_with_its_jitter() {
             .args(["--no-header", "--input-col", "4", "--output-col", "3"])
             .args(["--time-col", "2", "--time-jitter", "1e-6"])
             .args(["--na", "2", "--nb", "2", "--nk", "1"]),
-        &["hysteresis_v_150_1hz.csv line ", "field 'column 2'", "jitter"],
+        &[
+            "hysteresis_v_150_1hz.csv line ",
+            "field 'column 2'",
+            "jitter",
+        ],
     );
 }
 
@@ -175,7 +183,10 @@ fn bad_records_exit_2_naming_file_line_and_field() {
     let d = dir.path();
     let semi = write(d, "semi.csv", "t;u;y\ns;V;um\n0;1,5;2\n0,1;x;3\n0,2;1;2\n");
     fails_with(
-        fts().args(["identify", "arx"]).arg(&semi).args(["--na", "1", "--nb", "1", "--nk", "1"]),
+        fts()
+            .args(["identify", "arx"])
+            .arg(&semi)
+            .args(["--na", "1", "--nb", "1", "--nk", "1"]),
         &["semi.csv line 4, field 'u': not a number"],
     );
     let mut gap = String::from("t,u,y\n");
@@ -185,12 +196,18 @@ fn bad_records_exit_2_naming_file_line_and_field() {
     }
     let gap = write(d, "gap.csv", &gap);
     fails_with(
-        fts().args(["identify", "arx"]).arg(&gap).args(["--na", "1", "--nb", "1", "--nk", "1"]),
+        fts()
+            .args(["identify", "arx"])
+            .arg(&gap)
+            .args(["--na", "1", "--nb", "1", "--nk", "1"]),
         &["gap.csv line 32, field 't'", "a gap in the record"],
     );
     let back = write(d, "back.csv", "t,u,y\n0,1,2\n1,1,2\n0.5,1,2\n");
     fails_with(
-        fts().args(["identify", "arx"]).arg(&back).args(["--na", "1", "--nb", "1", "--nk", "1"]),
+        fts()
+            .args(["identify", "arx"])
+            .arg(&back)
+            .args(["--na", "1", "--nb", "1", "--nk", "1"]),
         &["back.csv line 4, field 't': time must increase"],
     );
     let unit = write(d, "unit.csv", "t [min],u,y\n0,1,2\n1,1,2\n");
@@ -203,7 +220,10 @@ fn bad_records_exit_2_naming_file_line_and_field() {
         &["--time-jitter"],
     );
     fails_with(
-        fts().args(["bode"]).arg(&semi).args(["--delimiter", "pipe"]),
+        fts()
+            .args(["bode"])
+            .arg(&semi)
+            .args(["--delimiter", "pipe"]),
         &["--delimiter"],
     );
 }
@@ -243,7 +263,16 @@ fn mat_file_errors_name_the_variable() {
         fts()
             .args(["identify", "arx"])
             .arg(repo("tests/data/records/dryer.mat"))
-            .args(["--output-col", "pos_um", "--na", "1", "--nb", "1", "--nk", "1"]),
+            .args([
+                "--output-col",
+                "pos_um",
+                "--na",
+                "1",
+                "--nb",
+                "1",
+                "--nk",
+                "1",
+            ]),
         &["dryer.mat", "pos_um"],
     );
     fails_with(

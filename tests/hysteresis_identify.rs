@@ -317,7 +317,7 @@ fn piezo_record() -> (Vec<f64>, Vec<f64>) {
         "/data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv"
     );
     let file = std::fs::File::open(path).unwrap_or_else(|e| {
-        panic!("{path}: {e} (the real-data test needs the shared piezo dataset next to the repo)")
+        panic!("{path}: {e} (the vendored piezo record data/piezo-smarthysteresis is missing)")
     });
     let cols = IoColumns {
         input: Some(ColumnRef::Index(4)),

@@ -340,6 +340,19 @@ fn manifest_errors_name_the_line_and_field() {
         &["line 11", "step.zpetc.out", "missing"],
     );
     manifest_error(&MANIFEST.replace("kp = 0.05", "kp = = 0.05"), &["line 6"]);
+    // Record options: an old column key, a bad delimiter, an absurd jitter.
+    manifest_error(
+        &MANIFEST.replace("operators = 5", "output = 2"),
+        &["line 20", "step.inverse.output", "renamed", "'output_col'"],
+    );
+    manifest_error(
+        &MANIFEST.replace("operators = 5", "delimiter = \"pipe\""),
+        &["line 20", "step.inverse.delimiter", "\"semicolon\""],
+    );
+    manifest_error(
+        &MANIFEST.replace("operators = 5", "time_jitter = 3"),
+        &["line 20", "step.inverse.time_jitter", "[0, 1)"],
+    );
     // Two steps writing one file.
     manifest_error(
         &MANIFEST.replace(
@@ -390,7 +403,7 @@ fn real_record_step_matches_the_command_line() {
     let dataset = repo("data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv");
     std::fs::copy(&dataset, d.path().join("data/piezo.csv")).unwrap_or_else(|e| {
         panic!(
-            "{}: {e} (needs the shared piezo dataset next to the repo)",
+            "{}: {e} (the vendored piezo record data/piezo-smarthysteresis is missing)",
             dataset.display()
         )
     });
