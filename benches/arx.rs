@@ -3,6 +3,8 @@
 //! (target < 1 s), on the [Li21] Eq. 11 closed loop with white input and
 //! white measurement noise.
 
+mod common;
+
 use criterion::{Criterion, criterion_group, criterion_main};
 use fts::ident::arx::{ArxParams, Orders, arx};
 use fts::ident::linear::filter_ab;
@@ -11,13 +13,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 fn signals(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut s = 0x9E37_79B9_7F4A_7C15u64;
-    let mut uni = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut uni = common::uniform();
     let u: Vec<f64> = (0..n).map(|_| uni()).collect();
     let b = [4.154, -9.631, 10.23, -5.511, 1.154];
     let a = [1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447];

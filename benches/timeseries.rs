@@ -5,6 +5,8 @@
 //! Whole-process figures (`fts identify arx` on the same file, numpy's
 //! `loadtxt`, `wc -l`) are in docs/benchmarks.md.
 
+mod common;
+
 use criterion::{Criterion, criterion_group, criterion_main};
 use fts::io::timeseries::{IoColumns, read_io};
 use std::hint::black_box;
@@ -13,13 +15,7 @@ use std::time::Duration;
 
 /// Writes the record; returns its size in bytes.
 fn write_record(path: &std::path::Path, rows: usize) -> u64 {
-    let mut s = 0x9E37_79B9_7F4A_7C15u64;
-    let mut uni = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut uni = common::uniform();
     let mut out = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
     writeln!(out, "t,u,y").unwrap();
     for k in 0..rows {

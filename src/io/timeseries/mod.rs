@@ -27,8 +27,8 @@ use super::InputError;
 pub use rows::Delimiter;
 use rows::{LineMap, RowReader, parse_number};
 use std::io::BufRead;
+use time::time_unit;
 pub use time::{DEFAULT_TIME_JITTER, TimeUnit, Timing, UnitSource, is_time_name};
-use time::{analyse_time, time_unit};
 
 /// A column, by header name or by 1-based index.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -386,95 +386,140 @@ fn read_table_with<R: BufRead>(
             "no data rows (the file is empty or all comments)",
         ));
     };
-    let (head, mut have) = read_head(&mut rows, layout)?;
-    let header = head.header.as_deref();
-    let had_header = header.is_some();
-    let picked = pick(had_header)
-        .iter()
-        .map(|c| resolve(c, header, source, head.header_line))
-        .collect::<Result<Vec<_>, _>>()?;
-    let time_col = match time {
-        TimeColumn::None => None,
-        TimeColumn::Given(c) => Some(resolve(c, header, source, head.header_line)?),
-        TimeColumn::Find => header.and_then(|h| {
-            h.iter()
-                .position(|n| is_time_name(n))
-                .map(|i| (i, h[i].clone()))
-        }),
+    let (head, have) = read_head(&mut rows, layout)?;
+    let plan = TextPlan::new(&head, layout, time, pick, source)?;
+    let Samples {
+        columns,
+        time: t,
+        lines,
+    } = read_rows(&mut rows, have, &plan, source)?;
+    if lines.rows < min_rows {
+        return Err(InputError::new(
+            source,
+            format!(
+                "too few data rows: {} found, at least {min_rows} needed",
+                lines.rows
+            ),
+        ));
+    }
+    let timing = match (&t, plan.time) {
+        (Some(t), Some(tc)) if t.len() >= 2 => Some(
+            Timing::measure(t, tc.name.clone(), tc.unit, layout.time_jitter).map_err(
+                |(row, m)| {
+                    InputError::new(source, m)
+                        .at_line(lines.line(row))
+                        .in_field(tc.name)
+                },
+            )?,
+        ),
+        _ => None,
     };
-    let unit_of = |i: usize| {
-        head.units
-            .as_ref()
-            .and_then(|u| u.get(i))
-            .filter(|u| !u.is_empty())
-            .cloned()
-    };
-    let time_scale = match &time_col {
-        Some((i, name)) => Some(time_unit(layout, name, unit_of(*i).as_deref(), source)?),
-        None => None,
-    };
+    Ok(Table {
+        names: plan.columns.into_iter().map(|(_, n)| n).collect(),
+        units: plan.units,
+        columns,
+        time: t,
+        timing,
+        rows: lines.rows,
+        had_header: head.header.is_some(),
+        delimiter: Some(rows.delimiter),
+    })
+}
 
-    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); picked.len()];
-    let mut t: Option<Vec<f64>> = time_col.as_ref().map(|_| Vec::new());
+/// The time column of a text file: position, name and unit.
+struct TimeSpec {
+    index: usize,
+    name: String,
+    unit: (TimeUnit, UnitSource),
+}
+
+/// Where the requested columns sit in a text file, and their units.
+struct TextPlan {
+    columns: Vec<(usize, String)>,
+    units: Vec<Option<String>>,
+    time: Option<TimeSpec>,
+}
+
+impl TextPlan {
+    fn new(
+        head: &Head,
+        layout: &Layout,
+        time: &TimeColumn,
+        pick: impl FnOnce(bool) -> Vec<ColumnRef>,
+        source: &str,
+    ) -> Result<Self, InputError> {
+        let header = head.header.as_deref();
+        let find = |c: &ColumnRef| resolve(c, header, source, head.header_line);
+        let columns = pick(header.is_some())
+            .iter()
+            .map(find)
+            .collect::<Result<Vec<_>, _>>()?;
+        let time_col = match time {
+            TimeColumn::None => None,
+            TimeColumn::Given(c) => Some(find(c)?),
+            TimeColumn::Find => header.and_then(|h| {
+                let i = h.iter().position(|n| is_time_name(n))?;
+                Some((i, h[i].clone()))
+            }),
+        };
+        let unit_of = |i: usize| {
+            let units = head.units.as_ref()?;
+            units.get(i).filter(|u| !u.is_empty()).cloned()
+        };
+        let time = match time_col {
+            Some((index, name)) => Some(TimeSpec {
+                unit: time_unit(layout, &name, unit_of(index).as_deref(), source)?,
+                index,
+                name,
+            }),
+            None => None,
+        };
+        Ok(Self {
+            units: columns.iter().map(|(i, _)| unit_of(*i)).collect(),
+            columns,
+            time,
+        })
+    }
+}
+
+/// The parsed rows of a text file.
+struct Samples {
+    columns: Vec<Vec<f64>>,
+    /// The time column in seconds.
+    time: Option<Vec<f64>>,
+    lines: LineMap,
+}
+
+/// Parses the planned columns of every row from the current one on.
+fn read_rows<R: BufRead>(
+    rows: &mut RowReader<'_, R>,
+    mut have: bool,
+    plan: &TextPlan,
+    source: &str,
+) -> Result<Samples, InputError> {
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); plan.columns.len()];
+    let mut t: Option<Vec<f64>> = plan.time.as_ref().map(|_| Vec::new());
     let mut lines = LineMap::default();
     let delimiter = rows.delimiter;
     while have {
-        let count = rows.field_count();
-        let line = rows.line;
-        for ((index, name), column) in picked.iter().zip(columns.iter_mut()) {
+        let (count, line) = (rows.field_count(), rows.line);
+        let value = |index: usize, name: &str| {
             let cell = Cell { source, line, name };
-            column.push(cell.parse(rows.field(*index), *index, count, delimiter)?);
+            cell.parse(rows.field(index), index, count, delimiter)
+        };
+        for ((index, name), column) in plan.columns.iter().zip(columns.iter_mut()) {
+            column.push(value(*index, name)?);
         }
-        if let (Some((index, name)), Some(t), Some((unit, _))) = (&time_col, t.as_mut(), time_scale)
-        {
-            let cell = Cell { source, line, name };
-            let value = cell.parse(rows.field(*index), *index, count, delimiter)? * unit.seconds();
-            if let Some(&prev) = t.last()
-                && value <= prev
-            {
-                return Err(cell.err(format!("time must increase: {value} s follows {prev} s")));
-            }
-            t.push(value);
+        if let (Some(tc), Some(t)) = (&plan.time, t.as_mut()) {
+            t.push(value(tc.index, &tc.name)? * tc.unit.0.seconds());
         }
         lines.push(line);
         have = rows.next()?;
     }
-    let n = lines.rows;
-    if n < min_rows {
-        return Err(InputError::new(
-            source,
-            format!("too few data rows: {n} found, at least {min_rows} needed"),
-        ));
-    }
-    let timing = match (&t, &time_col, time_scale) {
-        (Some(t), Some((_, name)), Some((unit, unit_from))) if t.len() >= 2 => {
-            let (ts, max_jitter, rms_jitter) =
-                analyse_time(t, layout.time_jitter).map_err(|(row, m)| {
-                    InputError::new(source, m)
-                        .at_line(lines.line(row))
-                        .in_field(name.clone())
-                })?;
-            Some(Timing {
-                column: name.clone(),
-                unit,
-                unit_from,
-                ts,
-                max_jitter,
-                rms_jitter,
-                tolerance: layout.time_jitter,
-            })
-        }
-        _ => None,
-    };
-    Ok(Table {
-        units: picked.iter().map(|(i, _)| unit_of(*i)).collect(),
-        names: picked.into_iter().map(|(_, n)| n).collect(),
+    Ok(Samples {
         columns,
         time: t,
-        timing,
-        rows: n,
-        had_header,
-        delimiter: Some(delimiter),
+        lines,
     })
 }
 
@@ -518,27 +563,14 @@ fn read_mat_table(
     }
     let (t, timing) = match (t, time_name) {
         (Some(mut t), Some(name)) => {
-            let (unit, unit_from) = time_unit(layout, &name, None, source)?;
+            let unit = time_unit(layout, &name, None, source)?;
             for v in &mut t {
-                *v *= unit.seconds();
+                *v *= unit.0.seconds();
             }
-            let sample_err = |k: usize, m: String| {
-                InputError::new(source, format!("sample {}: {m}", k + 1)).in_field(name.clone())
-            };
-            if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
-                return Err(sample_err(k + 1, "time must increase".to_owned()));
-            }
-            let (ts, max_jitter, rms_jitter) =
-                analyse_time(&t, layout.time_jitter).map_err(|(k, m)| sample_err(k, m))?;
-            let timing = Timing {
-                column: name,
-                unit,
-                unit_from,
-                ts,
-                max_jitter,
-                rms_jitter,
-                tolerance: layout.time_jitter,
-            };
+            let timing =
+                Timing::measure(&t, name.clone(), unit, layout.time_jitter).map_err(|(k, m)| {
+                    InputError::new(source, format!("sample {}: {m}", k + 1)).in_field(name)
+                })?;
             (Some(t), Some(timing))
         }
         _ => (None, None),

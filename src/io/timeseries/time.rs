@@ -165,36 +165,55 @@ pub(super) fn time_unit(
     }
 }
 
-/// Checks that `t` (seconds) steps evenly up to the jitter tolerance and
-/// measures the jitter: `(mean step, max |step - mean|, rms)`. A fault is
-/// `(row index of the later sample, message)` for the step that deviates
-/// most, so a gap is named rather than the ordinary steps its length pulls
-/// away from the mean.
-pub(super) fn analyse_time(t: &[f64], tolerance: f64) -> Result<(f64, f64, f64), (usize, String)> {
-    let n = t.len();
-    if n < 2 {
-        return Err((0, "a time column needs at least 2 samples".to_owned()));
-    }
-    let ts = (t[n - 1] - t[0]) / (n - 1) as f64;
-    let (mut worst, mut max, mut sum_sq) = (0, 0.0_f64, 0.0);
-    for (k, w) in t.windows(2).enumerate() {
-        let dev = (w[1] - w[0]) - ts;
-        if dev.abs() > max {
-            (worst, max) = (k + 1, dev.abs());
+impl Timing {
+    /// Checks that `t` (seconds) increases and steps evenly up to the jitter
+    /// `tolerance`, and measures the jitter. A fault is `(row index of the
+    /// later sample, message)`: the first non-increasing step, else the step
+    /// that deviates most from the mean, so a gap is named rather than the
+    /// ordinary steps its length pulls away from the mean.
+    pub(super) fn measure(
+        t: &[f64],
+        column: String,
+        (unit, unit_from): (TimeUnit, UnitSource),
+        tolerance: f64,
+    ) -> Result<Self, (usize, String)> {
+        let n = t.len();
+        if n < 2 {
+            return Err((0, "a time column needs at least 2 samples".to_owned()));
         }
-        sum_sq += dev * dev;
+        if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+            let msg = format!("time must increase: {} s follows {} s", t[k + 1], t[k]);
+            return Err((k + 1, msg));
+        }
+        let ts = (t[n - 1] - t[0]) / (n - 1) as f64;
+        let (mut worst, mut max, mut sum_sq) = (0, 0.0_f64, 0.0);
+        for (k, w) in t.windows(2).enumerate() {
+            let dev = (w[1] - w[0]) - ts;
+            if dev.abs() > max {
+                (worst, max) = (k + 1, dev.abs());
+            }
+            sum_sq += dev * dev;
+        }
+        if max > tolerance * ts {
+            let step = t[worst] - t[worst - 1];
+            return Err((
+                worst,
+                format!(
+                    "time step {step:e} s differs from the mean step {ts:e} s by {:.2} % (more than the {:.2} % of jitter allowed): a {} in the record; resample it, raise the jitter tolerance, or drop the time column and give the sample time",
+                    100.0 * max / ts,
+                    100.0 * tolerance,
+                    if step > ts { "gap" } else { "glitch" }
+                ),
+            ));
+        }
+        Ok(Self {
+            column,
+            unit,
+            unit_from,
+            ts,
+            max_jitter: max,
+            rms_jitter: (sum_sq / (n - 1) as f64).sqrt(),
+            tolerance,
+        })
     }
-    if max > tolerance * ts {
-        let step = t[worst] - t[worst - 1];
-        return Err((
-            worst,
-            format!(
-                "time step {step:e} s differs from the mean step {ts:e} s by {:.2} % (more than the {:.2} % of jitter allowed): a {} in the record; resample it, raise the jitter tolerance, or drop the time column and give the sample time",
-                100.0 * max / ts,
-                100.0 * tolerance,
-                if step > ts { "gap" } else { "glitch" }
-            ),
-        ));
-    }
-    Ok((ts, max, (sum_sq / (n - 1) as f64).sqrt()))
 }
