@@ -26,3 +26,4 @@ pub mod pipeline;
 pub mod runtime;
 pub mod sim;
 pub mod synth;
+pub mod workflow;

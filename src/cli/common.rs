@@ -94,3 +94,33 @@ pub fn fmt_complex(z: crate::lti::c64) -> String {
         format!("{:.6}{:+.6}j", z.re, z.im)
     }
 }
+
+/// A step's error as a command's: a setting is named by its flag
+/// (`--prewarp`), bad input exits 2 and a failed computation 1.
+pub fn step_error(e: crate::workflow::StepError) -> anyhow::Error {
+    use crate::workflow::StepError;
+    match e {
+        StepError::Input {
+            field: Some(field),
+            message,
+        } => bad(format!("--{}: {message}", field.replace('_', "-"))),
+        StepError::Input {
+            field: None,
+            message,
+        } => bad(message),
+        StepError::Computation(message) => anyhow::anyhow!(message),
+    }
+}
+
+/// Prints a step's report: serialised with `--json`, else its summary.
+pub fn print_report<R: serde::Serialize + std::fmt::Display>(
+    report: &R,
+    json: bool,
+) -> anyhow::Result<()> {
+    if json {
+        print_json(&serde_json::to_value(report)?)
+    } else {
+        print!("{report}");
+        Ok(())
+    }
+}

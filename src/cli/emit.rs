@@ -7,16 +7,16 @@
 //! e.g. from `fts mixsyn`), discretised at the loop's sample time when it is
 //! continuous.
 
-use super::common::{bad, read_input, write_atomic};
+use super::common::{bad, read_input, step_error, write_atomic};
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
 use crate::io::controller_file::{Feedback, StateSpaceBlock};
 use crate::io::{hysteresis_json, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
-use crate::lti::c2d::{C2dMethod, c2d};
-use crate::runtime::{PidSpec, SsAntiWindup};
+use crate::runtime::PidSpec;
 use crate::sim::experiment::build_controller;
 use crate::synth::composite::{FeedbackKind, Stages};
 use crate::synth::zpetc::{self, ZpetcParams};
+use crate::workflow::{AntiWindup, Discretisation, SsController};
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 
@@ -81,60 +81,31 @@ pub fn read_ss_block(
     limits: (Option<f64>, Option<f64>),
     inputs: &mut Vec<InputHash>,
 ) -> anyhow::Result<StateSpaceBlock> {
-    let (_, source) = hashed(path, "state_space", inputs)?;
-    let sys = super::robust::read_system(path)?;
-    let (discrete, label) = if sys.is_discrete() {
-        if args.prewarp.is_some() {
-            return Err(bad(format!(
-                "--prewarp: {source} is already discrete; nothing to discretise"
-            )));
+    let (text, source) = hashed(path, "state_space", inputs)?;
+    let sys = crate::io::ss_json::parse_system(&text, &source)?;
+    args.step(limits)
+        .block(&sys, ts, &source)
+        .map_err(step_error)
+}
+
+impl SsArgs {
+    /// The library step these flags stand for (limits `output_min`/`output_max`).
+    pub fn step(&self, limits: (Option<f64>, Option<f64>)) -> SsController {
+        SsController {
+            ts: None,
+            c2d: match self.c2d {
+                C2dChoice::Tustin => Discretisation::Tustin,
+                C2dChoice::Zoh => Discretisation::Zoh,
+            },
+            prewarp: self.prewarp,
+            ss_anti_windup: match self.ss_anti_windup {
+                AntiWindupChoice::ConditionalUpdate => AntiWindup::ConditionalUpdate,
+                AntiWindupChoice::None => AntiWindup::None,
+            },
+            output_min: limits.0,
+            output_max: limits.1,
         }
-        (sys, "given".to_owned())
-    } else {
-        let (method, label) = match (args.c2d, args.prewarp) {
-            (C2dChoice::Zoh, None) => (C2dMethod::Zoh, "zoh".to_owned()),
-            (C2dChoice::Zoh, Some(_)) => {
-                return Err(bad("--prewarp applies to --c2d tustin only"));
-            }
-            (C2dChoice::Tustin, None) => (C2dMethod::Tustin { prewarp: None }, "tustin".into()),
-            (C2dChoice::Tustin, Some(f)) => {
-                if !(f.is_finite() && f > 0.0 && f < 0.5 / ts) {
-                    return Err(bad(format!(
-                        "--prewarp: expected 0 < HZ < Nyquist ({} Hz), got {f}",
-                        0.5 / ts
-                    )));
-                }
-                (
-                    C2dMethod::Tustin {
-                        prewarp: Some(2.0 * std::f64::consts::PI * f),
-                    },
-                    format!("tustin prewarp {f} Hz"),
-                )
-            }
-        };
-        // Diagonal power-of-two scaling: exact, input-output unchanged, and
-        // the coefficients the loop multiplies are of comparable size.
-        let d = c2d(&sys, ts, method)
-            .map_err(|e| bad(format!("{source}: discretisation: {e}")))?
-            .balanced();
-        (d, label)
-    };
-    let mut block = StateSpaceBlock::from_discrete(&discrete, ts, &label)
-        .map_err(|e| bad(format!("{source}: {e}")))?;
-    if block.order() > crate::runtime::MAX_SS_ORDER {
-        return Err(bad(format!(
-            "{source}: {} states, the runtime takes at most {} (MAX_SS_ORDER); reduce it first (fts mixsyn --order N)",
-            block.order(),
-            crate::runtime::MAX_SS_ORDER
-        )));
     }
-    block.output_min = limits.0;
-    block.output_max = limits.1;
-    block.anti_windup = match args.ss_anti_windup {
-        AntiWindupChoice::ConditionalUpdate => SsAntiWindup::ConditionalUpdate,
-        AntiWindupChoice::None => SsAntiWindup::None,
-    };
-    Ok(block)
 }
 
 #[derive(Debug, Args)]

@@ -8,56 +8,24 @@
 //! * `fts ss-info SYS.json [--json]`
 //! * `fts budget SYS.json [--controller K.json] [--output I] [--fmax HZ] [--csv OUT.csv] [--json]`
 
-use super::common::{bad, complex_pairs, fmt_complex, print_json, read_input, write_atomic};
-use crate::io::{InputError, ss_json, tf_json};
-use crate::lti::balred::balred;
-use crate::lti::c2d::{C2dMethod, c2d};
+use super::common::{
+    bad, complex_pairs, print_json, print_report, read_input, step_error, write_atomic,
+};
+use crate::io::ss_json;
 use crate::lti::norms::{NormError, h2_norm, hinf_norm};
 use crate::lti::ss::StateSpace;
-use crate::lti::{TransferFunction, c64};
-use crate::synth::genplant::SynthError;
-use crate::synth::h2::h2syn;
-use crate::synth::hinf::{HinfOptions, HinfResult, hinfsyn};
-use crate::synth::mixsyn::mixsyn;
-use crate::synth::weights;
+use crate::workflow::robust::poles_summary;
+use crate::workflow::{
+    C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Validate, Weight, WeightShape,
+};
 use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
 /// Reads an `fts.ss/1` file, or an `fts.tf/1` file realised in controllable canonical form.
 pub fn read_system(path: &Path) -> anyhow::Result<StateSpace> {
-    let source = path.display().to_string();
     let text = read_input(path)?;
-    let format = serde_json::from_str::<Value>(&text)
-        .ok()
-        .and_then(|v| v.get("format").and_then(|f| f.as_str().map(str::to_owned)));
-    if format.as_deref() == Some(tf_json::TF_FORMAT) {
-        let g = tf_json::parse_tf(&text, &source)?;
-        let sys = match &g {
-            TransferFunction::Continuous(c) => StateSpace::from_continuous_tf(c),
-            TransferFunction::Discrete(d) => {
-                // G = z^-d b(z^-1)/a(z^-1): descending powers of z after multiplying by z^N.
-                let (b, a) = (d.num().coeffs(), d.den().coeffs());
-                let nn = (b.len() - 1 + d.delay()).max(a.len() - 1);
-                let mut num = vec![0.0; nn + 1];
-                let mut den = vec![0.0; nn + 1];
-                for (i, x) in b.iter().enumerate() {
-                    num[d.delay() + i] = *x;
-                }
-                den[..a.len()].copy_from_slice(a);
-                StateSpace::from_tf(&num, &den, Some(d.ts()))
-            }
-        };
-        return sys.map_err(|e| InputError::new(&source, e.to_string()).into());
-    }
-    Ok(ss_json::parse_ss(&text, &source)?)
-}
-
-fn synth_err(source: &str, e: SynthError) -> anyhow::Error {
-    match e {
-        SynthError::Numerical(m) => anyhow::anyhow!("{source}: numerical failure: {m}"),
-        other => bad(format!("{source}: {other}")),
-    }
+    Ok(ss_json::parse_system(&text, &path.display().to_string())?)
 }
 
 #[derive(Debug, Args)]
@@ -79,143 +47,65 @@ pub struct SynthArgs {
     json: bool,
     /// Smallest weight of the regularising channels added when D12 / D21
     /// lack full rank (raised automatically for conditioning; see docs/robust.md).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = Hinf::default().eps)]
     eps: f64,
     /// Relative tolerance of the gamma bisection (H-inf only).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = Hinf::default().tol)]
     tol: f64,
     /// Largest gamma tried before the problem is declared infeasible (H-inf only).
-    #[arg(long, default_value_t = 1e8)]
+    #[arg(long, default_value_t = Hinf::default().gamma_max)]
     gamma_max: f64,
     /// The controller is built for gamma_opt * (1 + BACKOFF) (H-inf only).
-    #[arg(long, default_value_t = 1e-4)]
+    #[arg(long, default_value_t = Hinf::default().backoff)]
     backoff: f64,
 }
 
-fn check_opts(eps: f64, tol: f64, gmax: f64, backoff: f64) -> anyhow::Result<HinfOptions> {
-    if !(backoff.is_finite() && (0.0..1.0).contains(&backoff)) {
-        return Err(bad(format!(
-            "--backoff: expected 0 <= backoff < 1, got {backoff}"
-        )));
+impl SynthArgs {
+    fn hinf(&self) -> Hinf {
+        Hinf {
+            nmeas: self.nmeas,
+            ncon: self.ncon,
+            eps: self.eps,
+            tol: self.tol,
+            gamma_max: self.gamma_max,
+            backoff: self.backoff,
+        }
     }
-    if !(eps.is_finite() && eps > 0.0) {
-        return Err(bad(format!("--eps: expected a positive number, got {eps}")));
-    }
-    if !(tol.is_finite() && tol > 0.0 && tol < 0.5) {
-        return Err(bad(format!("--tol: expected 0 < tol < 0.5, got {tol}")));
-    }
-    if !(gmax.is_finite() && gmax > 0.0) {
-        return Err(bad(format!(
-            "--gamma-max: expected a positive number, got {gmax}"
-        )));
-    }
-    Ok(HinfOptions {
-        rtol: tol,
-        eps,
-        gamma_max: gmax,
-        backoff,
-    })
 }
 
-fn poles_summary(poles: &[c64]) -> String {
-    let mut p: Vec<_> = poles.to_vec();
-    p.sort_by(|a, b| b.re.total_cmp(&a.re));
-    p.iter()
-        .take(6)
-        .map(|z| fmt_complex(*z))
-        .collect::<Vec<_>>()
-        .join(", ")
-        + if p.len() > 6 { ", ..." } else { "" }
-}
-
-fn hinf_json(r: &HinfResult, eps: f64, tol: f64) -> Value {
-    json!({
-        "gamma": r.gamma,
-        "gamma_opt": r.gamma_opt,
-        "achieved_hinf_norm": r.achieved,
-        "stable": r.stable,
-        "closed_loop_poles": complex_pairs(&r.poles),
-        "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
-        "controller": ss_json::ss_to_value(&r.k),
-        "controller_order": r.k.nx(),
-        "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": eps},
-        "bisection": {"rtol": tol, "iterations": r.iterations},
-    })
-}
-
-fn hinf_text(r: &HinfResult) -> String {
-    let mut s = format!(
-        "gamma            {:.8} (controller level; optimum estimate {:.8})\nachieved ||Tzw|| {:.8} (recomputed, Bruinsma-Steinbuch)\nclosed loop      {} (poles: {})\ncontroller       {} states\nRiccati residual X {:.1e}, Y {:.1e}\n",
-        r.gamma,
-        r.gamma_opt,
-        r.achieved,
-        if r.stable { "stable" } else { "UNSTABLE" },
-        poles_summary(&r.poles),
-        r.k.nx(),
-        r.x_residual,
-        r.y_residual
-    );
-    if let Some(e) = r.regularised.0 {
-        s.push_str(&format!(
-            "note: D12 lacks full column rank: regularised with a control weight {e:e} (eps u added to z)\n"
-        ));
+/// Writes a system to `path`, when given.
+fn write_system(path: Option<&Path>, sys: &StateSpace) -> anyhow::Result<()> {
+    match path {
+        Some(path) => write_atomic(path, ss_json::ss_to_string(sys).as_bytes()),
+        None => Ok(()),
     }
-    if let Some(e) = r.regularised.1 {
-        s.push_str(&format!(
-            "note: D21 lacks full row rank: regularised with a sensor-noise weight {e:e}\n"
-        ));
-    }
-    s
 }
 
 /// `fts hinf`.
 pub fn run_hinf(args: SynthArgs) -> anyhow::Result<()> {
-    let opts = check_opts(args.eps, args.tol, args.gamma_max, args.backoff)?;
-    let source = args.generalized.display().to_string();
+    let step = args.hinf();
+    step.validate().map_err(step_error)?;
     let p = read_system(&args.generalized)?;
-    let r = hinfsyn(&p, args.nmeas, args.ncon, opts).map_err(|e| synth_err(&source, e))?;
-    if let Some(path) = &args.output {
-        write_atomic(path, ss_json::ss_to_string(&r.k).as_bytes())?;
-    }
-    if args.json {
-        print_json(&hinf_json(&r, args.eps, args.tol))
-    } else {
-        print!("{}", hinf_text(&r));
-        Ok(())
-    }
+    let source = args.generalized.display().to_string();
+    let report = step.run(&p, &source).map_err(step_error)?;
+    write_system(args.output.as_deref(), &report.result.k)?;
+    print_report(&report, args.json)
 }
 
 /// `fts h2`.
 pub fn run_h2(args: SynthArgs) -> anyhow::Result<()> {
-    check_opts(args.eps, args.tol, args.gamma_max, args.backoff)?;
-    let source = args.generalized.display().to_string();
+    // The H-inf-only flags are still checked, as they always were.
+    args.hinf().validate().map_err(step_error)?;
+    let step = H2 {
+        nmeas: args.nmeas,
+        ncon: args.ncon,
+        eps: args.eps,
+    };
     let p = read_system(&args.generalized)?;
-    let r = h2syn(&p, args.nmeas, args.ncon, args.eps).map_err(|e| synth_err(&source, e))?;
-    if let Some(path) = &args.output {
-        write_atomic(path, ss_json::ss_to_string(&r.k).as_bytes())?;
-    }
-    if args.json {
-        print_json(&json!({
-            "h2_norm": r.h2_norm,
-            "stable": r.stable,
-            "closed_loop_poles": complex_pairs(&r.poles),
-            "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
-            "controller": ss_json::ss_to_value(&r.k),
-            "controller_order": r.k.nx(),
-            "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": args.eps},
-        }))
-    } else {
-        println!(
-            "closed-loop H2 norm {:.12}\nclosed loop        {} (poles: {})\ncontroller         {} states\nRiccati residual   X {:.1e}, Y {:.1e}",
-            r.h2_norm,
-            if r.stable { "stable" } else { "UNSTABLE" },
-            poles_summary(&r.poles),
-            r.k.nx(),
-            r.x_residual,
-            r.y_residual
-        );
-        Ok(())
-    }
+    let source = args.generalized.display().to_string();
+    let report = step.run(&p, &source).map_err(step_error)?;
+    write_system(args.output.as_deref(), &report.result.k)?;
+    print_report(&report, args.json)
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -228,10 +118,20 @@ pub enum WeightKind {
     Makeweight,
 }
 
+impl From<WeightKind> for WeightShape {
+    fn from(k: WeightKind) -> Self {
+        match k {
+            WeightKind::Ws => WeightShape::Ws,
+            WeightKind::Wt => WeightShape::Wt,
+            WeightKind::Makeweight => WeightShape::Makeweight,
+        }
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct WeightArgs {
-    /// Which weight.
-    #[arg(long, value_enum)]
+    /// Which weight (`shape` in a manifest, where `kind` names the step's kind).
+    #[arg(long, value_enum, visible_alias = "shape")]
     kind: WeightKind,
     /// Peak sensitivity / gain M (ws, wt).
     #[arg(long)]
@@ -262,58 +162,21 @@ pub struct WeightArgs {
     json: bool,
 }
 
-fn need(v: Option<f64>, flag: &str, kind: &str) -> anyhow::Result<f64> {
-    v.ok_or_else(|| bad(format!("--kind {kind} needs --{flag}")))
-}
-
 /// `fts weight`.
 pub fn run_weight(args: WeightArgs) -> anyhow::Result<()> {
-    let w = match args.kind {
-        WeightKind::Ws | WeightKind::Wt => {
-            let k = if matches!(args.kind, WeightKind::Ws) {
-                "ws"
-            } else {
-                "wt"
-            };
-            let (m, w0, a) = (
-                need(args.m, "m", k)?,
-                need(args.w0, "w0", k)?,
-                need(args.a, "a", k)?,
-            );
-            if matches!(args.kind, WeightKind::Ws) {
-                weights::ws(m, w0, a)
-            } else {
-                weights::wt(m, w0, a)
-            }
-        }
-        WeightKind::Makeweight => {
-            let k = "makeweight";
-            weights::makeweight(
-                need(args.dc, "dc", k)?,
-                need(args.freq, "freq", k)?,
-                need(args.mag, "mag", k)?,
-                need(args.hf, "hf", k)?,
-            )
-        }
-    }
-    .map_err(|e| bad(e.0))?;
-    if let Some(path) = &args.output {
-        write_atomic(path, ss_json::ss_to_string(&w).as_bytes())?;
-    }
-    let (num, den) = w.to_tf()?;
-    let dc = w.dc_gain()?[(0, 0)];
-    let hf = w.d[(0, 0)];
-    if args.json {
-        print_json(
-            &json!({"num": num, "den": den, "dc_gain": dc, "hf_gain": hf,
-            "weight": ss_json::ss_to_value(&w)}),
-        )
-    } else {
-        println!(
-            "W(s) = {num:?} / {den:?} (descending powers of s)\nDC gain {dc:.6e}, HF gain {hf:.6e}"
-        );
-        Ok(())
-    }
+    let step = Weight {
+        shape: Some(args.kind.into()),
+        m: args.m,
+        w0: args.w0,
+        a: args.a,
+        dc: args.dc,
+        freq: args.freq,
+        mag: args.mag,
+        hf: args.hf,
+    };
+    let report = step.run().map_err(step_error)?;
+    write_system(args.output.as_deref(), &report.weight)?;
+    print_report(&report, args.json)
 }
 
 #[derive(Debug, Args)]
@@ -341,10 +204,10 @@ pub struct MixsynArgs {
     json: bool,
     /// Smallest weight of the regularising channels added when D12 / D21
     /// lack full rank (raised automatically for conditioning; see docs/robust.md).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = Mixsyn::default().eps)]
     eps: f64,
     /// Relative tolerance of the gamma bisection.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = Mixsyn::default().tol)]
     tol: f64,
     /// Reduce the controller to this many states by balanced truncation
     /// (the closed loop is re-checked with the reduced controller).
@@ -354,61 +217,32 @@ pub struct MixsynArgs {
 
 /// `fts mixsyn`.
 pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
-    let opts = check_opts(args.eps, args.tol, 1e8, 1e-4)?;
+    let step = Mixsyn {
+        eps: args.eps,
+        tol: args.tol,
+        order: args.order,
+    };
+    step.validate().map_err(step_error)?;
     let g = read_system(&args.plant)?;
     let ws = read_system(&args.ws)?;
     let wu = args.wu.as_deref().map(read_system).transpose()?;
     let wt = args.wt.as_deref().map(read_system).transpose()?;
     let source = args.plant.display().to_string();
-    let (p, mut r) =
-        mixsyn(&g, Some(&ws), wu.as_ref(), wt.as_ref(), opts).map_err(|e| synth_err(&source, e))?;
-    let mut reduction = Value::Null;
-    if let Some(order) = args.order {
-        let red = balred(&r.k, order).map_err(|e| bad(format!("--order {order}: {e}")))?;
-        let cl = p.lft(&red.sys)?;
-        let stable = cl.is_stable()?;
-        let achieved = if stable {
-            hinf_norm(&cl, 1e-8).map(|x| x.0).unwrap_or(f64::INFINITY)
-        } else {
-            f64::INFINITY
-        };
-        reduction = json!({"order": red.sys.nx(), "hankel_singular_values": red.hsv,
-            "error_bound": red.bound, "full_order": r.k.nx()});
-        eprintln!(
-            "reduced controller: {} -> {} states (||K - Kr||_inf <= {:.3e}); closed loop {}, ||Tzw|| = {achieved:.6}",
-            r.k.nx(),
-            red.sys.nx(),
-            red.bound,
-            if stable { "stable" } else { "UNSTABLE" }
-        );
-        r.poles = cl.poles()?;
-        r.k = red.sys;
-        r.closed_loop = cl;
-        r.stable = stable;
-        r.achieved = achieved;
+    let report = step
+        .run(MixsynInputs {
+            plant: &g,
+            ws: &ws,
+            wu: wu.as_ref(),
+            wt: wt.as_ref(),
+            source: &source,
+        })
+        .map_err(step_error)?;
+    if let Some(note) = report.reduction_note() {
+        eprintln!("{note}");
     }
-    if let Some(path) = &args.augmented {
-        write_atomic(path, ss_json::ss_to_string(&p).as_bytes())?;
-    }
-    if let Some(path) = &args.output {
-        write_atomic(path, ss_json::ss_to_string(&r.k).as_bytes())?;
-    }
-    let lf: Vec<Value> = [0.0, 1.0, 10.0, 100.0, 1000.0]
-        .iter()
-        .map(|w| json!({"omega": w, "gain": r.k.sigma_at(*w)}))
-        .collect();
-    if args.json {
-        let mut v = hinf_json(&r, args.eps, args.tol);
-        v["controller_gain"] = Value::Array(lf);
-        v["reduction"] = reduction;
-        print_json(&v)
-    } else {
-        print!("{}", hinf_text(&r));
-        for w in [0.0, 1.0, 10.0, 100.0, 1000.0] {
-            println!("|K(j{w})| = {:.6e}", r.k.sigma_at(w));
-        }
-        Ok(())
-    }
+    write_system(args.augmented.as_deref(), &report.augmented)?;
+    write_system(args.output.as_deref(), report.controller())?;
+    print_report(&report, args.json)
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -443,56 +277,21 @@ pub struct C2dArgs {
 
 /// `fts c2d`.
 pub fn run_c2d(args: C2dArgs) -> anyhow::Result<()> {
-    if !(args.ts.is_finite() && args.ts > 0.0) {
-        return Err(bad(format!(
-            "--ts: expected a positive number of seconds, got {}",
-            args.ts
-        )));
-    }
-    let method = match (args.method, args.prewarp) {
-        (Method::Zoh, None) => C2dMethod::Zoh,
-        (Method::Zoh, Some(_)) => return Err(bad("--prewarp applies to --method tustin only")),
-        (Method::Tustin, p) => {
-            if let Some(f) = p
-                && !(f.is_finite() && f > 0.0 && f < 0.5 / args.ts)
-            {
-                return Err(bad(format!(
-                    "--prewarp: expected 0 < HZ < Nyquist ({} Hz), got {f}",
-                    0.5 / args.ts
-                )));
-            }
-            C2dMethod::Tustin {
-                prewarp: p.map(|f| 2.0 * std::f64::consts::PI * f),
-            }
-        }
+    let step = C2d {
+        ts: Some(args.ts),
+        method: match args.method {
+            Method::Zoh => C2dMethodChoice::Zoh,
+            Method::Tustin => C2dMethodChoice::Tustin,
+        },
+        prewarp: args.prewarp,
     };
+    step.validate().map_err(step_error)?;
     let sys = read_system(&args.input)?;
-    if sys.is_discrete() {
-        return Err(bad(format!(
-            "{}: the system is already discrete",
-            args.input.display()
-        )));
-    }
-    let d = c2d(&sys, args.ts, method)?;
-    if let Some(path) = &args.output {
-        write_atomic(path, ss_json::ss_to_string(&d).as_bytes())?;
-    }
-    let poles = d.poles()?;
-    let stable = d.is_stable()?;
-    if args.json {
-        print_json(
-            &json!({"system": ss_json::ss_to_value(&d), "poles": complex_pairs(&poles), "stable": stable}),
-        )
-    } else {
-        println!(
-            "discrete system: {} states, ts = {} s, {} (poles: {})",
-            d.nx(),
-            args.ts,
-            if stable { "stable" } else { "not stable" },
-            poles_summary(&poles)
-        );
-        Ok(())
-    }
+    let report = step
+        .run(&sys, &args.input.display().to_string())
+        .map_err(step_error)?;
+    write_system(args.output.as_deref(), &report.system)?;
+    print_report(&report, args.json)
 }
 
 #[derive(Debug, Args)]

@@ -192,6 +192,34 @@ fn rows(m: &Mat<f64>) -> Value {
     )
 }
 
+/// Parses an `fts.ss/1` file, or an `fts.tf/1` file realised in
+/// controllable canonical form (a discrete one with its delay as states).
+pub fn parse_system(text: &str, source: &str) -> Result<StateSpace, InputError> {
+    use crate::lti::TransferFunction;
+    let format = serde_json::from_str::<Value>(text)
+        .ok()
+        .and_then(|v| v.get("format").and_then(|f| f.as_str().map(str::to_owned)));
+    if format.as_deref() != Some(super::tf_json::TF_FORMAT) {
+        return parse_ss(text, source);
+    }
+    let sys = match super::tf_json::parse_tf(text, source)? {
+        TransferFunction::Continuous(c) => StateSpace::from_continuous_tf(&c),
+        TransferFunction::Discrete(d) => {
+            // G = z^-d b(z^-1)/a(z^-1): descending powers of z after multiplying by z^N.
+            let (b, a) = (d.num().coeffs(), d.den().coeffs());
+            let nn = (b.len() - 1 + d.delay()).max(a.len() - 1);
+            let mut num = vec![0.0; nn + 1];
+            let mut den = vec![0.0; nn + 1];
+            for (i, x) in b.iter().enumerate() {
+                num[d.delay() + i] = *x;
+            }
+            den[..a.len()].copy_from_slice(a);
+            StateSpace::from_tf(&num, &den, Some(d.ts()))
+        }
+    };
+    sys.map_err(|e| InputError::new(source, e.to_string()))
+}
+
 /// The document as a JSON value (keys: format, ts, a, b, c, d).
 pub fn ss_to_value(sys: &StateSpace) -> Value {
     let mut m = Map::new();

@@ -24,7 +24,9 @@ pub struct ZpetcSpec {
     /// `minreal` tolerance applied to the model first, if any.
     pub minreal: Option<f64>,
 }
+use crate::workflow::{C2d, H2, Hinf, Mixsyn, SsController, StepError, Validate, Weight};
 use serde::Deserialize;
+use serde::de::DeserializeOwned;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
 use toml::{Spanned, Value};
@@ -112,6 +114,19 @@ pub enum Action {
     Zpetc(ZpetcSpec),
     /// Coefficient file.
     Controller(ControllerSpec),
+    /// Coefficient file with a state-space feedback controller (a
+    /// `controller` step with an `ss` input).
+    SsController(SsController),
+    /// A performance weight.
+    Weight(Weight),
+    /// Mixed-sensitivity H-infinity design.
+    Mixsyn(Mixsyn),
+    /// H-infinity synthesis on a generalised plant.
+    Hinf(Hinf),
+    /// H2 synthesis on a generalised plant.
+    H2(H2),
+    /// Discretisation of a continuous system.
+    C2d(C2d),
 }
 
 /// One validated step.
@@ -132,6 +147,8 @@ pub struct Step {
     /// SHA-256 of the step's canonical settings (its manifest table as
     /// sorted JSON, plus the fts version).
     pub settings_sha256: String,
+    /// Manifest line of each field, for errors found while running.
+    pub field_lines: BTreeMap<String, usize>,
 }
 
 impl Step {
@@ -503,6 +520,47 @@ impl<'a> Fields<'a> {
         Ok(())
     }
 
+    /// The remaining fields, deserialised into a library step and validated.
+    /// An error names the field at fault: the one that fails on its own, or
+    /// the one a validation error is about.
+    fn typed<T: DeserializeOwned + Validate>(&mut self, step_line: usize) -> Result<T, InputError> {
+        let entries = std::mem::take(&mut self.map);
+        let lines: BTreeMap<String, usize> = entries
+            .iter()
+            .map(|(k, v)| (k.clone(), line_of(self.text, v.span().start)))
+            .collect();
+        let table: toml::Table = entries
+            .into_iter()
+            .map(|(k, v)| (k, v.into_inner()))
+            .collect();
+        let line_of_field = |k: &str| lines.get(k).copied().unwrap_or(step_line);
+        let settings: T = Value::Table(table.clone()).try_into().map_err(|e| {
+            let alone_fails = |(k, v): &(&String, &Value)| {
+                let one = toml::Table::from_iter([((*k).clone(), (*v).clone())]);
+                Value::Table(one).try_into::<T>().is_err()
+            };
+            let message = e.to_string().trim().to_string();
+            match table.iter().find(alone_fails) {
+                Some((k, _)) => self.err(k, line_of_field(k), message),
+                None => self.step_err(step_line, message),
+            }
+        })?;
+        settings.validate().map_err(|e| match e {
+            StepError::Input {
+                field: Some(k),
+                message,
+            } => self.err(k, line_of_field(k), message),
+            other => self.step_err(step_line, other.to_string()),
+        })?;
+        Ok(settings)
+    }
+
+    fn step_err(&self, line: usize, message: impl Into<String>) -> InputError {
+        InputError::new(self.source, message)
+            .at_line(line)
+            .in_field(format!("step.{}", self.step))
+    }
+
     /// Unknown fields are errors (a typo must not silently fall back to a default).
     fn finish(self) -> Result<(Vec<FileRef>, Vec<FileRef>), InputError> {
         if let Some((key, v)) = self.map.iter().next() {
@@ -567,6 +625,20 @@ fn pid(f: &mut Fields<'_>) -> Result<PidSpec, InputError> {
     Ok(pid)
 }
 
+/// A controller step writes `out`, `header` or both.
+fn controller_outputs(f: &mut Fields<'_>, line: usize) -> Result<(), InputError> {
+    f.output("out", false, line)?;
+    f.output("header", false, line)?;
+    if f.outputs.is_empty() {
+        return Err(f.err(
+            "out",
+            line,
+            "missing: a controller step writes `out` (fts.controller/1 JSON), `header` (C header) or both",
+        ));
+    }
+    Ok(())
+}
+
 fn experiment(f: &mut Fields<'_>) -> Result<ExperimentParams, InputError> {
     let mut p = ExperimentParams::default();
     p.seed = f.u64_opt("seed")?.unwrap_or(p.seed);
@@ -597,6 +669,10 @@ fn step(
     let line = line_of(text, table.span().start);
     let table = table.into_inner();
     let settings_sha256 = settings_hash(name, &table);
+    let field_lines = table
+        .iter()
+        .map(|(k, v)| (k.clone(), line_of(text, v.span().start)))
+        .collect();
     let mut f = Fields {
         source,
         text,
@@ -609,7 +685,7 @@ fn step(
         f.err(
             "kind",
             line,
-            "missing: one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\"",
+            "missing: one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\"",
         )
     })?;
     let action = match kind.as_str() {
@@ -762,20 +838,45 @@ fn step(
             f.output("out", true, line)?;
             Action::Zpetc(ZpetcSpec { params, minreal })
         }
+        "controller" if f.map.contains_key("ss") => {
+            f.input("hysteresis", false, line)?;
+            f.input("zpetc", false, line)?;
+            f.input("ss", true, line)?;
+            controller_outputs(&mut f, line)?;
+            Action::SsController(f.typed(line)?)
+        }
+        "weight" => {
+            f.output("out", true, line)?;
+            Action::Weight(f.typed(line)?)
+        }
+        "mixsyn" => {
+            for (key, required) in [("plant", true), ("ws", true), ("wu", false), ("wt", false)] {
+                f.input(key, required, line)?;
+            }
+            f.output("out", true, line)?;
+            f.output("augmented", false, line)?;
+            Action::Mixsyn(f.typed(line)?)
+        }
+        "hinf" | "h2" => {
+            f.input("generalized", true, line)?;
+            f.output("out", true, line)?;
+            if kind == "hinf" {
+                Action::Hinf(f.typed(line)?)
+            } else {
+                Action::H2(f.typed(line)?)
+            }
+        }
+        "c2d" => {
+            f.input("system", true, line)?;
+            f.output("out", true, line)?;
+            Action::C2d(f.typed(line)?)
+        }
         "controller" => {
             let pid = pid(&mut f)?;
             let ts = f.f64_opt("ts")?;
             f.input("hysteresis", false, line)?;
             f.input("zpetc", false, line)?;
-            f.output("out", false, line)?;
-            f.output("header", false, line)?;
-            if f.outputs.is_empty() {
-                return Err(f.err(
-                    "out",
-                    line,
-                    "missing: a controller step writes `out` (fts.controller/1 JSON), `header` (C header) or both",
-                ));
-            }
+            controller_outputs(&mut f, line)?;
             Action::Controller(ControllerSpec { pid, ts })
         }
         other => {
@@ -783,7 +884,7 @@ fn step(
                 "kind",
                 kind_line,
                 format!(
-                    "unknown kind {other:?}; expected one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\""
+                    "unknown kind {other:?}; expected one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\""
                 ),
             ));
         }
@@ -797,6 +898,7 @@ fn step(
         inputs,
         outputs,
         settings_sha256,
+        field_lines,
     })
 }
 

@@ -10,16 +10,18 @@ use crate::ident::hysteresis::{IdentifyError, Method, identify};
 use crate::ident::linear::{IdentError, NoiseModel, fits};
 use crate::ident::oe::{OeParams, oe};
 use crate::io::InputError;
-use crate::io::controller_file::{InputHash, Provenance, to_c_header};
+use crate::io::controller_file::{ControllerFile, InputHash, Provenance, to_c_header};
 use crate::io::hysteresis_json::{FitRecord, ModelFile, model_to_string, parse_model};
 use crate::io::timeseries::{IoData, read_io, time_column, write_csv};
-use crate::io::{tf_json, zpetc_json};
+use crate::io::{ss_json, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
+use crate::lti::ss::StateSpace;
 use crate::sim::experiment::{
     align_triangle_record, build_controller, sweep_record, triangle_record,
 };
 use crate::synth::composite::Stages;
 use crate::synth::zpetc;
+use crate::workflow::{ControllerInputs, MixsynInputs, SsController, StepError};
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::Path;
@@ -558,6 +560,14 @@ fn execute(
                 zpetc_json::zpetc_to_string(&filter).into_bytes(),
             ));
         }
+        Action::Weight(_)
+        | Action::Mixsyn(_)
+        | Action::Hinf(_)
+        | Action::H2(_)
+        | Action::C2d(_)
+        | Action::SsController(_) => {
+            return robust(plan, step, inputs);
+        }
         Action::Controller(spec) => {
             let mut provenance = Provenance {
                 fts_version: env!("CARGO_PKG_VERSION").into(),
@@ -629,4 +639,149 @@ fn execute(
         .into_iter()
         .filter_map(|(f, b)| f.map(|f| (f, b)))
         .collect())
+}
+
+/// A library step's error as the pipeline's, naming the field and its line.
+fn step_error(step: &Step, e: StepError) -> PipelineError {
+    match e {
+        StepError::Input {
+            field: Some(field),
+            message,
+        } => {
+            let line = step.field_lines.get(field).copied().unwrap_or(step.line);
+            bad(format!(
+                "line {line}, field 'step.{}.{field}': {message}",
+                step.name
+            ))
+        }
+        StepError::Input {
+            field: None,
+            message,
+        } => bad(message),
+        StepError::Computation(message) => PipelineError::Failure(message),
+    }
+}
+
+/// The system in the input file of `field`, with its name for messages.
+fn system_input(
+    plan: &Plan,
+    step: &Step,
+    inputs: &BTreeMap<String, Vec<u8>>,
+    field: &str,
+) -> Result<Option<(StateSpace, String)>, PipelineError> {
+    let (Some(f), Some(bytes)) = (step.input(field), inputs.get(field)) else {
+        return Ok(None);
+    };
+    let src = source(plan, f);
+    let text = std::str::from_utf8(bytes).map_err(|_| bad(format!("{src}: not UTF-8 text")))?;
+    Ok(Some((ss_json::parse_system(text, &src)?, src)))
+}
+
+/// Runs a robust-control step (a typed library step) on its inputs' bytes.
+fn robust(
+    plan: &Plan,
+    step: &Step,
+    inputs: &BTreeMap<String, Vec<u8>>,
+) -> Result<Vec<(FileRef, Vec<u8>)>, PipelineError> {
+    let system = |field: &str| -> Result<(StateSpace, String), PipelineError> {
+        system_input(plan, step, inputs, field)?
+            .ok_or_else(|| bad(format!("field '{field}' is required")))
+    };
+    let optional = |field: &str| system_input(plan, step, inputs, field);
+    let err = |e: StepError| step_error(step, e);
+    let ss_file = |sys: &StateSpace| ss_json::ss_to_string(sys).into_bytes();
+    let mut files: Vec<(&str, Vec<u8>)> = Vec::new();
+    match &step.action {
+        Action::Weight(w) => files.push(("out", ss_file(&w.run().map_err(err)?.weight))),
+        Action::Hinf(h) => {
+            let (p, src) = system("generalized")?;
+            files.push(("out", ss_file(&h.run(&p, &src).map_err(err)?.result.k)));
+        }
+        Action::H2(h) => {
+            let (p, src) = system("generalized")?;
+            files.push(("out", ss_file(&h.run(&p, &src).map_err(err)?.result.k)));
+        }
+        Action::C2d(c) => {
+            let (sys, src) = system("system")?;
+            files.push(("out", ss_file(&c.run(&sys, &src).map_err(err)?.system)));
+        }
+        Action::Mixsyn(m) => {
+            let ((g, src), (ws, _)) = (system("plant")?, system("ws")?);
+            let (wu, wt) = (optional("wu")?, optional("wt")?);
+            let report = m
+                .run(MixsynInputs {
+                    plant: &g,
+                    ws: &ws,
+                    wu: wu.as_ref().map(|w| &w.0),
+                    wt: wt.as_ref().map(|w| &w.0),
+                    source: &src,
+                })
+                .map_err(err)?;
+            files.push(("out", ss_file(report.controller())));
+            files.push(("augmented", ss_file(&report.augmented)));
+        }
+        Action::SsController(c) => {
+            let file = ss_controller(plan, step, c, inputs)?;
+            files.push(("out", file.to_json_string().into_bytes()));
+            files.push(("header", to_c_header(&file).into_bytes()));
+        }
+        _ => unreachable!("robust() is called for robust-control steps only"),
+    }
+    // Only the outputs the manifest names are written.
+    Ok(files
+        .into_iter()
+        .filter_map(|(field, bytes)| step.output(field).map(|f| (f.clone(), bytes)))
+        .collect())
+}
+
+/// The coefficient file of a `controller` step with a state-space `ss`:
+/// inputs hashed in the order `fts emit` records them.
+fn ss_controller(
+    plan: &Plan,
+    step: &Step,
+    spec: &SsController,
+    inputs: &BTreeMap<String, Vec<u8>>,
+) -> Result<ControllerFile, PipelineError> {
+    let mut provenance = Provenance {
+        fts_version: env!("CARGO_PKG_VERSION").into(),
+        inputs: Vec::new(),
+    };
+    let mut texts = BTreeMap::new();
+    for (field, role) in [
+        ("hysteresis", "hysteresis_inverse"),
+        ("zpetc", "zpetc"),
+        ("ss", "state_space"),
+    ] {
+        let (Some(f), Some(bytes)) = (step.input(field), inputs.get(field)) else {
+            continue;
+        };
+        provenance.inputs.push(InputHash {
+            role: role.into(),
+            file: f.path.clone(),
+            sha256: sha256_hex(bytes),
+        });
+        let src = source(plan, f);
+        let text = std::str::from_utf8(bytes).map_err(|_| bad(format!("{src}: not UTF-8 text")))?;
+        texts.insert(field, (text, src));
+    }
+    let inverse = match texts.get("hysteresis") {
+        Some((text, src)) => Some(parse_model(text, src)?.model),
+        None => None,
+    };
+    let filter = match texts.get("zpetc") {
+        Some((text, src)) => Some(zpetc_json::parse_zpetc(text, src)?),
+        None => None,
+    };
+    let (ss_text, ss_src) = texts.get("ss").expect("validated: ss is required");
+    let k = ss_json::parse_system(ss_text, ss_src)?;
+    let report = spec
+        .run(ControllerInputs {
+            ss: &k,
+            ss_source: ss_src,
+            hysteresis: inverse.as_ref(),
+            zpetc: filter.as_ref(),
+            provenance,
+        })
+        .map_err(|e| step_error(step, e))?;
+    Ok(report.file)
 }

@@ -1,0 +1,757 @@
+//! Robust-control steps: weights, mixed-sensitivity, H-infinity and H2
+//! synthesis, and discretisation of a continuous system.
+
+use super::{StepError, Validate, positive};
+use crate::io::ss_json;
+use crate::lti::balred::balred;
+use crate::lti::c2d::{C2dMethod, c2d};
+use crate::lti::c64;
+use crate::lti::norms::hinf_norm;
+use crate::lti::ss::StateSpace;
+use crate::synth::genplant::SynthError;
+use crate::synth::h2::{H2Result, h2syn};
+use crate::synth::hinf::{HinfOptions, HinfResult, hinfsyn};
+use crate::synth::mixsyn::mixsyn;
+use crate::synth::weights;
+use serde::{Deserialize, Serialize, Serializer};
+use serde_json::{Value, json};
+use std::fmt;
+
+/// `[re, im]` pairs, the JSON form of complex numbers in reports.
+fn complex_pairs(values: &[c64]) -> Value {
+    Value::Array(values.iter().map(|z| json!([z.re, z.im])).collect())
+}
+
+/// A complex number for people: `0.547500+0.674800j`.
+fn fmt_complex(z: c64) -> String {
+    if z.im == 0.0 {
+        format!("{:.6}", z.re)
+    } else {
+        format!("{:.6}{:+.6}j", z.re, z.im)
+    }
+}
+
+/// The six rightmost poles, for a one-line summary.
+pub fn poles_summary(poles: &[c64]) -> String {
+    let mut p: Vec<_> = poles.to_vec();
+    p.sort_by(|a, b| b.re.total_cmp(&a.re));
+    p.iter()
+        .take(6)
+        .map(|z| fmt_complex(*z))
+        .collect::<Vec<_>>()
+        .join(", ")
+        + if p.len() > 6 { ", ..." } else { "" }
+}
+
+fn stability(stable: bool) -> &'static str {
+    if stable { "stable" } else { "UNSTABLE" }
+}
+
+/// Reports are serialised through their JSON value, so the keys come out
+/// sorted exactly as the commands always printed them.
+macro_rules! serialize_via_value {
+    ($t:ty) => {
+        impl Serialize for $t {
+            fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                self.to_value().serialize(s)
+            }
+        }
+    };
+}
+
+/// Synthesis errors: a numerical breakdown is the computation's fault,
+/// everything else (dimensions, stabilisability, feasibility) the input's.
+fn synth_err(source: &str, e: SynthError) -> StepError {
+    match e {
+        SynthError::Numerical(m) => {
+            StepError::computation(format!("{source}: numerical failure: {m}"))
+        }
+        other => StepError::input(format!("{source}: {other}")),
+    }
+}
+
+fn computation(source: &str) -> impl Fn(crate::lti::ss::SsError) -> StepError + '_ {
+    move |e| StepError::computation(format!("{source}: {e}"))
+}
+
+// ---------------------------------------------------------------- weight
+
+/// The shape of a weight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WeightShape {
+    /// `W_s = (s/M + w0)/(s + w0 A)` (Karagoz18 Eq. 7).
+    Ws,
+    /// `W_t = (s + w0/M)/(A s + w0)` (Karagoz18 Eq. 8).
+    Wt,
+    /// `makeweight(dc, [freq, mag], hf)`, first order.
+    Makeweight,
+}
+
+impl WeightShape {
+    fn name(self) -> &'static str {
+        match self {
+            WeightShape::Ws => "ws",
+            WeightShape::Wt => "wt",
+            WeightShape::Makeweight => "makeweight",
+        }
+    }
+}
+
+/// `fts weight`: a first-order performance weight (continuous `fts.ss/1`).
+/// `shape` is required; `m`, `w0`, `a` go with `ws`/`wt`, `dc`, `freq`,
+/// `mag`, `hf` with `makeweight`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Weight {
+    /// Which weight (no default).
+    pub shape: Option<WeightShape>,
+    /// Peak sensitivity / gain M (ws, wt).
+    pub m: Option<f64>,
+    /// Corner frequency w0, rad/s (ws, wt).
+    pub w0: Option<f64>,
+    /// Low/high-frequency gain parameter A (ws, wt).
+    pub a: Option<f64>,
+    /// makeweight: DC gain.
+    pub dc: Option<f64>,
+    /// makeweight: frequency (rad/s) where the gain is `mag`.
+    pub freq: Option<f64>,
+    /// makeweight: gain at `freq`.
+    pub mag: Option<f64>,
+    /// makeweight: high-frequency gain.
+    pub hf: Option<f64>,
+}
+
+impl Weight {
+    fn shape(&self) -> Result<WeightShape, StepError> {
+        self.shape.ok_or_else(|| {
+            StepError::setting("shape", "missing: one of \"ws\", \"wt\", \"makeweight\"")
+        })
+    }
+
+    /// The parameters the shape needs, in order, each checked positive.
+    fn params(&self) -> Result<Vec<f64>, StepError> {
+        let shape = self.shape()?;
+        let needed: [(&'static str, Option<f64>); 4] = match shape {
+            WeightShape::Ws | WeightShape::Wt => {
+                [("m", self.m), ("w0", self.w0), ("a", self.a), ("", None)]
+            }
+            WeightShape::Makeweight => [
+                ("dc", self.dc),
+                ("freq", self.freq),
+                ("mag", self.mag),
+                ("hf", self.hf),
+            ],
+        };
+        needed
+            .iter()
+            .filter(|(name, _)| !name.is_empty())
+            .map(|&(name, value)| {
+                let x = value.ok_or_else(|| {
+                    StepError::setting(
+                        name,
+                        format!("missing: the {} weight needs it", shape.name()),
+                    )
+                })?;
+                positive(name, x)
+            })
+            .collect()
+    }
+
+    /// Builds the weight.
+    pub fn run(&self) -> Result<WeightReport, StepError> {
+        let p = self.params()?;
+        let weight = match self.shape()? {
+            WeightShape::Ws => weights::ws(p[0], p[1], p[2]),
+            WeightShape::Wt => weights::wt(p[0], p[1], p[2]),
+            WeightShape::Makeweight => weights::makeweight(p[0], p[1], p[2], p[3]),
+        }
+        .map_err(|e| StepError::input(e.0))?;
+        let (num, den) = weight.to_tf().map_err(computation("weight"))?;
+        let dc_gain = weight.dc_gain().map_err(computation("weight"))?[(0, 0)];
+        let hf_gain = weight.d[(0, 0)];
+        Ok(WeightReport {
+            weight,
+            num,
+            den,
+            dc_gain,
+            hf_gain,
+        })
+    }
+}
+
+impl Validate for Weight {
+    fn validate(&self) -> Result<(), StepError> {
+        self.params().map(|_| ())
+    }
+}
+
+/// The weight and its gains.
+#[derive(Debug, Clone)]
+pub struct WeightReport {
+    /// The weight (continuous, SISO).
+    pub weight: StateSpace,
+    /// Numerator, descending powers of s.
+    pub num: Vec<f64>,
+    /// Denominator, descending powers of s.
+    pub den: Vec<f64>,
+    /// Gain at s = 0.
+    pub dc_gain: f64,
+    /// Gain as s -> infinity.
+    pub hf_gain: f64,
+}
+
+impl WeightReport {
+    fn to_value(&self) -> Value {
+        json!({"num": self.num, "den": self.den, "dc_gain": self.dc_gain,
+            "hf_gain": self.hf_gain, "weight": ss_json::ss_to_value(&self.weight)})
+    }
+}
+serialize_via_value!(WeightReport);
+
+impl fmt::Display for WeightReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "W(s) = {:?} / {:?} (descending powers of s)\nDC gain {:.6e}, HF gain {:.6e}",
+            self.num, self.den, self.dc_gain, self.hf_gain
+        )
+    }
+}
+
+// ---------------------------------------------------------------- hinf
+
+/// `fts hinf`: H-infinity synthesis on a generalised plant (inputs [w; u],
+/// outputs [z; y]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Hinf {
+    /// Number of measurements (the last `nmeas` outputs); default 1.
+    pub nmeas: usize,
+    /// Number of controls (the last `ncon` inputs); default 1.
+    pub ncon: usize,
+    /// Smallest weight of the regularising channels added when D12 / D21
+    /// lack full rank; default 1e-6.
+    pub eps: f64,
+    /// Relative tolerance of the gamma bisection; default 1e-6.
+    pub tol: f64,
+    /// Largest gamma tried before the problem is declared infeasible; default 1e8.
+    pub gamma_max: f64,
+    /// The controller is built for gamma_opt * (1 + backoff); default 1e-4.
+    pub backoff: f64,
+}
+
+impl Default for Hinf {
+    fn default() -> Self {
+        let o = HinfOptions::default();
+        Self {
+            nmeas: 1,
+            ncon: 1,
+            eps: o.eps,
+            tol: o.rtol,
+            gamma_max: o.gamma_max,
+            backoff: o.backoff,
+        }
+    }
+}
+
+impl Hinf {
+    fn options(&self) -> Result<HinfOptions, StepError> {
+        self.validate()?;
+        Ok(HinfOptions {
+            rtol: self.tol,
+            eps: self.eps,
+            gamma_max: self.gamma_max,
+            backoff: self.backoff,
+        })
+    }
+
+    /// Synthesises the controller for the generalised plant `p` (`source`
+    /// names it in messages).
+    pub fn run(&self, p: &StateSpace, source: &str) -> Result<HinfReport, StepError> {
+        let result =
+            hinfsyn(p, self.nmeas, self.ncon, self.options()?).map_err(|e| synth_err(source, e))?;
+        Ok(HinfReport {
+            result,
+            eps: self.eps,
+            tol: self.tol,
+        })
+    }
+}
+
+impl Validate for Hinf {
+    fn validate(&self) -> Result<(), StepError> {
+        let (eps, tol, gmax, backoff) = (self.eps, self.tol, self.gamma_max, self.backoff);
+        if !(backoff.is_finite() && (0.0..1.0).contains(&backoff)) {
+            return Err(StepError::setting(
+                "backoff",
+                format!("expected 0 <= backoff < 1, got {backoff}"),
+            ));
+        }
+        positive("eps", eps)?;
+        if !(tol.is_finite() && tol > 0.0 && tol < 0.5) {
+            return Err(StepError::setting(
+                "tol",
+                format!("expected 0 < tol < 0.5, got {tol}"),
+            ));
+        }
+        positive("gamma_max", gmax)?;
+        Ok(())
+    }
+}
+
+/// An H-infinity controller and its closed loop.
+#[derive(Debug, Clone)]
+pub struct HinfReport {
+    /// The synthesis result; `result.k` is the controller.
+    pub result: HinfResult,
+    /// The `eps` setting used.
+    pub eps: f64,
+    /// The `tol` setting used.
+    pub tol: f64,
+}
+
+impl HinfReport {
+    fn to_value(&self) -> Value {
+        let r = &self.result;
+        json!({
+            "gamma": r.gamma,
+            "gamma_opt": r.gamma_opt,
+            "achieved_hinf_norm": r.achieved,
+            "stable": r.stable,
+            "closed_loop_poles": complex_pairs(&r.poles),
+            "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
+            "controller": ss_json::ss_to_value(&r.k),
+            "controller_order": r.k.nx(),
+            "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": self.eps},
+            "bisection": {"rtol": self.tol, "iterations": r.iterations},
+        })
+    }
+}
+serialize_via_value!(HinfReport);
+
+impl fmt::Display for HinfReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.result;
+        writeln!(
+            f,
+            "gamma            {:.8} (controller level; optimum estimate {:.8})\nachieved ||Tzw|| {:.8} (recomputed, Bruinsma-Steinbuch)\nclosed loop      {} (poles: {})\ncontroller       {} states\nRiccati residual X {:.1e}, Y {:.1e}",
+            r.gamma,
+            r.gamma_opt,
+            r.achieved,
+            stability(r.stable),
+            poles_summary(&r.poles),
+            r.k.nx(),
+            r.x_residual,
+            r.y_residual
+        )?;
+        if let Some(e) = r.regularised.0 {
+            writeln!(
+                f,
+                "note: D12 lacks full column rank: regularised with a control weight {e:e} (eps u added to z)"
+            )?;
+        }
+        if let Some(e) = r.regularised.1 {
+            writeln!(
+                f,
+                "note: D21 lacks full row rank: regularised with a sensor-noise weight {e:e}"
+            )?;
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------- h2
+
+/// `fts h2`: H2-optimal synthesis on a generalised plant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct H2 {
+    /// Number of measurements (the last `nmeas` outputs); default 1.
+    pub nmeas: usize,
+    /// Number of controls (the last `ncon` inputs); default 1.
+    pub ncon: usize,
+    /// Smallest weight of the regularising channels; default 1e-6.
+    pub eps: f64,
+}
+
+impl Default for H2 {
+    fn default() -> Self {
+        let h = Hinf::default();
+        Self {
+            nmeas: h.nmeas,
+            ncon: h.ncon,
+            eps: h.eps,
+        }
+    }
+}
+
+impl H2 {
+    /// Synthesises the controller for the generalised plant `p`.
+    pub fn run(&self, p: &StateSpace, source: &str) -> Result<H2Report, StepError> {
+        self.validate()?;
+        let result = h2syn(p, self.nmeas, self.ncon, self.eps).map_err(|e| synth_err(source, e))?;
+        Ok(H2Report {
+            result,
+            eps: self.eps,
+        })
+    }
+}
+
+impl Validate for H2 {
+    fn validate(&self) -> Result<(), StepError> {
+        positive("eps", self.eps).map(|_| ())
+    }
+}
+
+/// An H2 controller and its closed loop.
+#[derive(Debug, Clone)]
+pub struct H2Report {
+    /// The synthesis result; `result.k` is the controller.
+    pub result: H2Result,
+    /// The `eps` setting used.
+    pub eps: f64,
+}
+
+impl H2Report {
+    fn to_value(&self) -> Value {
+        let r = &self.result;
+        json!({
+            "h2_norm": r.h2_norm,
+            "stable": r.stable,
+            "closed_loop_poles": complex_pairs(&r.poles),
+            "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
+            "controller": ss_json::ss_to_value(&r.k),
+            "controller_order": r.k.nx(),
+            "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": self.eps},
+        })
+    }
+}
+serialize_via_value!(H2Report);
+
+impl fmt::Display for H2Report {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.result;
+        writeln!(
+            f,
+            "closed-loop H2 norm {:.12}\nclosed loop        {} (poles: {})\ncontroller         {} states\nRiccati residual   X {:.1e}, Y {:.1e}",
+            r.h2_norm,
+            stability(r.stable),
+            poles_summary(&r.poles),
+            r.k.nx(),
+            r.x_residual,
+            r.y_residual
+        )
+    }
+}
+
+// ---------------------------------------------------------------- mixsyn
+
+/// `fts mixsyn`: mixed-sensitivity H-infinity design `mixsyn(G, Ws, Wu, Wt)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Mixsyn {
+    /// Smallest weight of the regularising channels; default 1e-6.
+    pub eps: f64,
+    /// Relative tolerance of the gamma bisection; default 1e-6.
+    pub tol: f64,
+    /// Reduce the controller to this many states by balanced truncation
+    /// (the closed loop is re-checked); default: no reduction.
+    pub order: Option<usize>,
+}
+
+impl Default for Mixsyn {
+    fn default() -> Self {
+        let h = Hinf::default();
+        Self {
+            eps: h.eps,
+            tol: h.tol,
+            order: None,
+        }
+    }
+}
+
+/// The systems `mixsyn` combines; `source` names the plant in messages.
+#[derive(Debug, Clone, Copy)]
+pub struct MixsynInputs<'a> {
+    /// The plant G.
+    pub plant: &'a StateSpace,
+    /// Sensitivity weight (on S).
+    pub ws: &'a StateSpace,
+    /// Control weight (on KS).
+    pub wu: Option<&'a StateSpace>,
+    /// Complementary sensitivity weight (on T).
+    pub wt: Option<&'a StateSpace>,
+    /// The plant's name (a file path), for messages.
+    pub source: &'a str,
+}
+
+impl Mixsyn {
+    fn hinf(&self) -> Hinf {
+        Hinf {
+            eps: self.eps,
+            tol: self.tol,
+            ..Hinf::default()
+        }
+    }
+
+    /// Designs the controller.
+    pub fn run(&self, inputs: MixsynInputs<'_>) -> Result<MixsynReport, StepError> {
+        let hinf = self.hinf();
+        let (augmented, result) = mixsyn(
+            inputs.plant,
+            Some(inputs.ws),
+            inputs.wu,
+            inputs.wt,
+            hinf.options()?,
+        )
+        .map_err(|e| synth_err(inputs.source, e))?;
+        let mut report = MixsynReport {
+            augmented,
+            hinf: HinfReport {
+                result,
+                eps: self.eps,
+                tol: self.tol,
+            },
+            reduction: None,
+        };
+        if let Some(order) = self.order {
+            report.reduce(order)?;
+        }
+        Ok(report)
+    }
+}
+
+impl Validate for Mixsyn {
+    fn validate(&self) -> Result<(), StepError> {
+        self.hinf().validate()
+    }
+}
+
+/// What balanced truncation did to the controller.
+#[derive(Debug, Clone)]
+pub struct Reduction {
+    /// States of the full controller.
+    pub full_order: usize,
+    /// States kept.
+    pub order: usize,
+    /// Hankel singular values of the full controller.
+    pub hankel_singular_values: Vec<f64>,
+    /// Bound on `||K - Kr||_inf`.
+    pub error_bound: f64,
+}
+
+/// A mixed-sensitivity controller, its closed loop and the augmented plant.
+#[derive(Debug, Clone)]
+pub struct MixsynReport {
+    /// The augmented plant P = augw(G, Ws, Wu, Wt).
+    pub augmented: StateSpace,
+    /// The synthesis (with the reduced controller and its closed loop when
+    /// reduced).
+    pub hinf: HinfReport,
+    /// The reduction, when `order` was set.
+    pub reduction: Option<Reduction>,
+}
+
+/// Frequencies (rad/s) at which the report gives the controller's gain.
+const GAIN_OMEGAS: [f64; 5] = [0.0, 1.0, 10.0, 100.0, 1000.0];
+
+impl MixsynReport {
+    /// The controller.
+    pub fn controller(&self) -> &StateSpace {
+        &self.hinf.result.k
+    }
+
+    /// Replaces the controller by its balanced truncation and re-checks the loop.
+    fn reduce(&mut self, order: usize) -> Result<(), StepError> {
+        let r = &mut self.hinf.result;
+        let red = balred(&r.k, order).map_err(|e| StepError::setting("order", e.to_string()))?;
+        let cl = self
+            .augmented
+            .lft(&red.sys)
+            .map_err(computation("reduced closed loop"))?;
+        let stable = cl.is_stable().map_err(computation("reduced closed loop"))?;
+        let achieved = if stable {
+            hinf_norm(&cl, 1e-8).map(|x| x.0).unwrap_or(f64::INFINITY)
+        } else {
+            f64::INFINITY
+        };
+        self.reduction = Some(Reduction {
+            full_order: r.k.nx(),
+            order: red.sys.nx(),
+            hankel_singular_values: red.hsv,
+            error_bound: red.bound,
+        });
+        r.poles = cl.poles().map_err(computation("reduced closed loop"))?;
+        r.k = red.sys;
+        r.closed_loop = cl;
+        r.stable = stable;
+        r.achieved = achieved;
+        Ok(())
+    }
+
+    /// One line about the reduction, if there was one.
+    pub fn reduction_note(&self) -> Option<String> {
+        let red = self.reduction.as_ref()?;
+        let r = &self.hinf.result;
+        Some(format!(
+            "reduced controller: {} -> {} states (||K - Kr||_inf <= {:.3e}); closed loop {}, ||Tzw|| = {:.6}",
+            red.full_order,
+            red.order,
+            red.error_bound,
+            stability(r.stable),
+            r.achieved
+        ))
+    }
+
+    fn to_value(&self) -> Value {
+        let mut v = self.hinf.to_value();
+        let k = self.controller();
+        v["controller_gain"] = GAIN_OMEGAS
+            .iter()
+            .map(|w| json!({"omega": w, "gain": k.sigma_at(*w)}))
+            .collect();
+        v["reduction"] = self.reduction.as_ref().map_or(Value::Null, |red| {
+            json!({"order": red.order, "hankel_singular_values": red.hankel_singular_values,
+                "error_bound": red.error_bound, "full_order": red.full_order})
+        });
+        v
+    }
+}
+serialize_via_value!(MixsynReport);
+
+impl fmt::Display for MixsynReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.hinf)?;
+        for w in GAIN_OMEGAS {
+            writeln!(f, "|K(j{w})| = {:.6e}", self.controller().sigma_at(w))?;
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------- c2d
+
+/// Discretisation method of [`C2d`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum C2dMethodChoice {
+    /// Zero-order hold (Van Loan block exponential).
+    #[default]
+    Zoh,
+    /// Tustin / bilinear.
+    Tustin,
+}
+
+/// `fts c2d`: discretises a continuous system.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct C2d {
+    /// Sample time in seconds (required).
+    pub ts: Option<f64>,
+    /// Method; default zoh.
+    pub method: C2dMethodChoice,
+    /// Tustin prewarp frequency in Hz; default none.
+    pub prewarp: Option<f64>,
+}
+
+impl C2d {
+    fn ts(&self) -> Result<f64, StepError> {
+        match self.ts {
+            None => Err(StepError::setting(
+                "ts",
+                "missing: the sample time in seconds",
+            )),
+            Some(ts) if ts.is_finite() && ts > 0.0 => Ok(ts),
+            Some(ts) => Err(StepError::setting(
+                "ts",
+                format!("expected a positive number of seconds, got {ts}"),
+            )),
+        }
+    }
+
+    fn method(&self) -> Result<C2dMethod, StepError> {
+        let ts = self.ts()?;
+        match (self.method, self.prewarp) {
+            (C2dMethodChoice::Zoh, None) => Ok(C2dMethod::Zoh),
+            (C2dMethodChoice::Zoh, Some(_)) => Err(StepError::setting(
+                "prewarp",
+                "applies to the tustin method only",
+            )),
+            (C2dMethodChoice::Tustin, p) => Ok(C2dMethod::Tustin {
+                prewarp: p.map(|f| prewarp_rad(f, ts)).transpose()?,
+            }),
+        }
+    }
+
+    /// Discretises the continuous system `sys` (`source` names it).
+    pub fn run(&self, sys: &StateSpace, source: &str) -> Result<C2dReport, StepError> {
+        let (ts, method) = (self.ts()?, self.method()?);
+        if sys.is_discrete() {
+            return Err(StepError::input(format!(
+                "{source}: the system is already discrete"
+            )));
+        }
+        let system = c2d(sys, ts, method).map_err(computation(source))?;
+        let poles = system.poles().map_err(computation(source))?;
+        let stable = system.is_stable().map_err(computation(source))?;
+        Ok(C2dReport {
+            system,
+            poles,
+            stable,
+            ts,
+        })
+    }
+}
+
+/// A Tustin prewarp frequency in Hz, checked below Nyquist, in rad/s.
+pub(crate) fn prewarp_rad(hz: f64, ts: f64) -> Result<f64, StepError> {
+    if hz.is_finite() && hz > 0.0 && hz < 0.5 / ts {
+        Ok(2.0 * std::f64::consts::PI * hz)
+    } else {
+        Err(StepError::setting(
+            "prewarp",
+            format!("expected 0 < HZ < Nyquist ({} Hz), got {hz}", 0.5 / ts),
+        ))
+    }
+}
+
+impl Validate for C2d {
+    fn validate(&self) -> Result<(), StepError> {
+        self.method().map(|_| ())
+    }
+}
+
+/// The discrete system.
+#[derive(Debug, Clone)]
+pub struct C2dReport {
+    /// The discretised system.
+    pub system: StateSpace,
+    /// Its poles.
+    pub poles: Vec<c64>,
+    /// Whether they are inside the unit circle.
+    pub stable: bool,
+    /// The sample time used.
+    pub ts: f64,
+}
+
+impl C2dReport {
+    fn to_value(&self) -> Value {
+        json!({"system": ss_json::ss_to_value(&self.system),
+            "poles": complex_pairs(&self.poles), "stable": self.stable})
+    }
+}
+serialize_via_value!(C2dReport);
+
+impl fmt::Display for C2dReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "discrete system: {} states, ts = {} s, {} (poles: {})",
+            self.system.nx(),
+            self.ts,
+            if self.stable { "stable" } else { "not stable" },
+            poles_summary(&self.poles)
+        )
+    }
+}
