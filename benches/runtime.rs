@@ -123,7 +123,8 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             let mut plant = VirtualFts::new(VirtualFtsParams::default_plant()).unwrap();
             let mut ctrl = RuntimeController::new(&spec(&thresholds, &weights)).unwrap();
-            closed_loop::run_into(&mut plant, &mut ctrl, black_box(&reference), &mut trace);
+            closed_loop::run_into(&mut plant, &mut ctrl, black_box(&reference), &mut trace)
+                .unwrap();
             black_box(trace.command[n - 1])
         })
     });

@@ -283,3 +283,81 @@ fn mat_file_errors_name_the_variable() {
         &["dryer.mat", "by name"],
     );
 }
+
+/// A result never replaces an input of the same run, another result of the
+/// run, or anything that is not a regular file.
+#[test]
+fn results_never_replace_inputs_or_each_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("d.csv");
+    std::fs::copy(repo("tests/data/records/dryer.csv"), &data).unwrap();
+    let before = std::fs::read(&data).unwrap();
+    let arx = ["--na", "2", "--nb", "2", "--nk", "3"];
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&data)
+            .args(arx)
+            .arg("-o")
+            .arg(&data),
+        &["d.csv: refusing to write a result onto an input of this run"],
+    );
+    // The same file by another spelling of its path.
+    let other = dir.path().join(".").join("d.csv");
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&data)
+            .args(arx)
+            .arg("-o")
+            .arg(&other),
+        &["refusing to write a result onto an input"],
+    );
+    assert_eq!(
+        std::fs::read(&data).unwrap(),
+        before,
+        "the input is untouched"
+    );
+
+    let model = dir.path().join("m.json");
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&data)
+            .args(arx)
+            .arg("-o")
+            .arg(&model)
+            .arg("--plot")
+            .arg(&model),
+        &["two results of this run would be written to the same file"],
+    );
+    #[cfg(unix)]
+    {
+        let target = dir.path().join("elsewhere.json");
+        std::fs::write(&target, "keep").unwrap();
+        let link = dir.path().join("link.json");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        fails_with(
+            fts()
+                .args(["identify", "arx"])
+                .arg(&data)
+                .args(arx)
+                .arg("-o")
+                .arg(&link),
+            &["link.json: refusing to write a result onto something that is not a regular file"],
+        );
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
+    }
+}
+
+/// A negative number reaches the option's own check, which names it.
+#[test]
+fn negative_numbers_reach_validation() {
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(repo("data/daisy-hairdryer/dryer.dat"))
+            .args(["--ts", "-1", "--na", "2", "--nb", "2", "--nk", "3"]),
+        &["--ts: expected a positive number of seconds, got -1"],
+    );
+}

@@ -218,3 +218,33 @@ fn bad_controller_and_reference_options() {
             "warning: the command sat on its limits",
         ));
 }
+
+/// A loop that runs away is an error (exit 1) naming when and the likely
+/// cause, never a table of zeros or NaN; no trace is written.
+#[test]
+fn a_diverging_loop_is_reported_with_its_time_and_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let plant = dir.path().join("unstable.json");
+    std::fs::write(
+        &plant,
+        r#"{"format": "fts.tf/1", "var": "z^-1", "ts": 0.0001,
+            "num": [0.1], "den": [1, -1.05], "delay": 1}"#,
+    )
+    .unwrap();
+    let trace = dir.path().join("trace.csv");
+    let out = fts()
+        .args(["simulate", "--controller", "pid", "--plant-tf"])
+        .arg(&plant)
+        .args(["--reference", "sine", "--freq", "100", "--json", "-o"])
+        .arg(&trace)
+        .assert()
+        .code(1)
+        .stdout("")
+        .get_output()
+        .clone();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("the closed loop diverged at t = "), "{err}");
+    assert!(err.contains("unstable.json is unstable"), "{err}");
+    assert!(!trace.exists());
+}

@@ -4,7 +4,8 @@
 use crate::io::InputError;
 use anyhow::Context;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// A bad-usage or bad-input error (exit code 2) that is not an [`InputError`].
 #[derive(Debug)]
@@ -42,9 +43,79 @@ pub fn one_line(e: &anyhow::Error) -> String {
         .join(": ")
 }
 
+/// The files this run has read and written: a result is never written onto
+/// an input of the same run, nor onto another of its results.
+#[derive(Default)]
+struct RunFiles {
+    inputs: Vec<PathBuf>,
+    outputs: Vec<PathBuf>,
+}
+
+static RUN_FILES: Mutex<RunFiles> = Mutex::new(RunFiles {
+    inputs: Vec::new(),
+    outputs: Vec::new(),
+});
+
+/// A path's identity: the canonical path of the file, or of its folder
+/// joined with its name when it does not exist yet.
+fn identity(path: &Path) -> PathBuf {
+    if let Ok(p) = path.canonicalize() {
+        return p;
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    match (parent.canonicalize(), path.file_name()) {
+        (Ok(dir), Some(name)) => dir.join(name),
+        _ => path.to_path_buf(),
+    }
+}
+
+fn note_input(path: &Path) {
+    if let Ok(mut files) = RUN_FILES.lock() {
+        files.inputs.push(identity(path));
+    }
+}
+
+/// Refuses an output path that is an input or an earlier output of this run,
+/// or an existing thing that is not a regular file (a symlink, a device, a
+/// folder); records it otherwise.
+fn claim_output(path: &Path) -> anyhow::Result<()> {
+    if let Ok(meta) = std::fs::symlink_metadata(path)
+        && !meta.file_type().is_file()
+    {
+        return Err(bad(format!(
+            "{}: refusing to write a result onto something that is not a regular file (a link, a device or a folder); name another file",
+            path.display()
+        )));
+    }
+    let id = identity(path);
+    let mut files = RUN_FILES
+        .lock()
+        .map_err(|_| anyhow::anyhow!("output registry poisoned"))?;
+    if files.inputs.contains(&id) {
+        return Err(bad(format!(
+            "{}: refusing to write a result onto an input of this run; name another file",
+            path.display()
+        )));
+    }
+    if files.outputs.contains(&id) {
+        return Err(bad(format!(
+            "{}: two results of this run would be written to the same file; name another file",
+            path.display()
+        )));
+    }
+    files.outputs.push(id);
+    Ok(())
+}
+
 /// Reads a whole input file; a missing or unreadable input is bad input.
 pub fn read_input(path: &Path) -> anyhow::Result<String> {
-    std::fs::read_to_string(path).map_err(|e| bad(format!("{}: cannot read: {e}", path.display())))
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| bad(format!("{}: cannot read: {e}", path.display())))?;
+    note_input(path);
+    Ok(text)
 }
 
 /// Opens an input file for streaming; a missing or unreadable input (or a
@@ -55,13 +126,16 @@ pub fn open_input(path: &Path) -> anyhow::Result<std::io::BufReader<std::fs::Fil
     if file.metadata().map_err(|e| cannot(&e))?.is_dir() {
         return Err(cannot(&"is a folder, not a file"));
     }
+    note_input(path);
     Ok(std::io::BufReader::with_capacity(1 << 16, file))
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
 /// flushed and synced, then renamed over the target. On any error the target
-/// is untouched and the temporary file is removed.
+/// is untouched and the temporary file is removed. A path that is an input or
+/// an earlier result of this run, or not a regular file, is refused (exit 2).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    claim_output(path)?;
     crate::pipeline::write_atomic(path, bytes)
         .with_context(|| format!("{}: cannot write the output atomically", path.display()))
 }

@@ -25,7 +25,7 @@ mod simulate;
 mod tf;
 mod zpetc;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 pub use common::BadInput;
@@ -87,7 +87,10 @@ pub fn main() -> ExitCode {
         eprintln!("fts: error: {message}");
         return ExitCode::from(2);
     }
-    let cli = match Cli::try_parse() {
+    let parsed = allow_negative_numbers(Cli::command())
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m));
+    let cli = match parsed {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
             // Help and version go to stdout as clap renders them.
@@ -106,6 +109,13 @@ pub fn main() -> ExitCode {
             ExitCode::from(common::exit_code(&e))
         }
     }
+}
+
+/// `--ts -1` must reach the option's own validation (which names it), not
+/// read as an unknown flag `-1`.
+fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
+    cmd.allow_negative_numbers(true)
+        .mut_subcommands(allow_negative_numbers)
 }
 
 /// A clap usage error on one line: its message and tips, without the usage

@@ -6,7 +6,7 @@
 use super::common::{bad, print_json, read_input, write_atomic};
 use crate::io::controller_file::{ControllerFile, Feedback, Provenance, parse_controller};
 use crate::io::{hysteresis_json, plot, tf_json, zpetc_json};
-use crate::lti::TransferFunction;
+use crate::lti::{DiscreteTf, TransferFunction};
 use crate::runtime::{PidSpec, RuntimeController};
 use crate::sim::experiment::{self, ExperimentParams};
 use crate::sim::reference::{self, Reference, ReferenceTiming};
@@ -338,10 +338,36 @@ fn run_on<P: Plant>(
     plant: &mut P,
     file: &ControllerFile,
     reference: &Reference,
+    plant_model: Option<(&DiscreteTf, &str)>,
 ) -> anyhow::Result<closed_loop::Trace> {
     let mut rt = RuntimeController::new(&file.runtime_spec())
         .map_err(|e| bad(format!("controller: {e}")))?;
-    Ok(closed_loop::run(plant, &mut rt, &reference.samples))
+    closed_loop::run(plant, &mut rt, &reference.samples)
+        .map_err(|d| anyhow::anyhow!("{d}; {}", likely_cause(file, plant_model)))
+}
+
+/// Why a loop most likely diverged, from the stability of the models it is
+/// made of: an unstable ZPETC denominator runs away on its own; an unstable
+/// plant needs a controller that stabilises it; otherwise the feedback
+/// controller destabilises the plant.
+fn likely_cause(file: &ControllerFile, plant_model: Option<(&DiscreteTf, &str)>) -> String {
+    let unstable = |num: Vec<f64>, den: &[f64]| {
+        DiscreteTf::new(num, den.to_vec(), 0, file.ts).is_ok_and(|g| g.is_stable() == Ok(false))
+    };
+    if let Some(z) = &file.zpetc
+        && unstable(vec![1.0], &z.den)
+    {
+        return "likely cause: the ZPETC filter's denominator has a root outside the unit circle"
+            .into();
+    }
+    if let Some((g, source)) = plant_model
+        && g.is_stable() == Ok(false)
+    {
+        return format!(
+            "likely cause: the plant model {source} is unstable and the feedback controller does not stabilise it"
+        );
+    }
+    "likely cause: the feedback controller destabilises the plant (check the loop's margins)".into()
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
@@ -370,7 +396,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         )
         .map_err(|e| bad(format!("{source}: {e}")))?;
         (
-            run_on(&mut plant, &file, &reference)?,
+            run_on(&mut plant, &file, &reference, Some((&g, &source)))?,
             file,
             origin,
             reference,
@@ -380,7 +406,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         let reference = build_reference(&args, vparams.ts, file.preview())?;
         let mut plant = VirtualFts::new(vparams.clone()).map_err(|e| bad(format!("plant: {e}")))?;
         (
-            run_on(&mut plant, &file, &reference)?,
+            run_on(&mut plant, &file, &reference, None)?,
             file,
             origin,
             reference,

@@ -34,26 +34,64 @@ impl Trace {
     }
 }
 
+/// A measurement this many times the reference's peak (plus one) means the
+/// loop has run away: no tracking loop fts builds gets there while stable.
+pub const DIVERGENCE_FACTOR: f64 = 1e6;
+
+/// Where a run left the finite, bounded world, and in which signal.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "the closed loop diverged at t = {time_s:.6} s (sample {sample}): {signal} = {value:e}{}",
+    if value.is_finite() { " (beyond the divergence bound)" } else { "" }
+)]
+pub struct Divergence {
+    /// 0-based sample.
+    pub sample: usize,
+    /// Its time, s.
+    pub time_s: f64,
+    /// Which signal: `measurement`, `command`, `feedforward` or `filtered reference`.
+    pub signal: &'static str,
+    /// Its value there.
+    pub value: f64,
+}
+
 /// Runs `controller` on `plant` along `reference`; beyond its end the
-/// reference is held at its last value for the controller's preview.
+/// reference is held at its last value for the controller's preview. A run
+/// whose signals stop being finite, or whose measurement exceeds
+/// [`DIVERGENCE_FACTOR`] times the reference's peak, stops there with a
+/// [`Divergence`]: its metrics would be meaningless.
 pub fn run<P: Plant>(
     plant: &mut P,
     controller: &mut RuntimeController,
     reference: &[f64],
-) -> Trace {
+) -> Result<Trace, Divergence> {
     let mut trace = Trace::default();
-    run_into(plant, controller, reference, &mut trace);
-    trace
+    run_into(plant, controller, reference, &mut trace)?;
+    Ok(trace)
+}
+
+/// The first signal of a sample that is not finite, or a measurement beyond `bound`.
+fn diverged(y: f64, rf: f64, uff: f64, u: f64, bound: f64) -> Option<(&'static str, f64)> {
+    [
+        ("measurement", y),
+        ("filtered reference", rf),
+        ("feedforward", uff),
+        ("command", u),
+    ]
+    .into_iter()
+    .find(|(_, v)| !v.is_finite())
+    .or((y.abs() > bound).then_some(("measurement", y)))
 }
 
 /// [`run`] into an existing trace, reusing its buffers (no allocation when
-/// they are already large enough): for repeated runs and benchmarks.
+/// they are already large enough): for repeated runs and benchmarks. On a
+/// divergence the trace holds the samples up to and including it.
 pub fn run_into<P: Plant>(
     plant: &mut P,
     controller: &mut RuntimeController,
     reference: &[f64],
     trace: &mut Trace,
-) {
+) -> Result<(), Divergence> {
     let n = reference.len();
     let preview = controller.preview();
     let last = reference.last().copied().unwrap_or(0.0);
@@ -70,17 +108,29 @@ pub fn run_into<P: Plant>(
         v.clear();
         v.reserve(n);
     }
+    let peak = reference.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+    let bound = DIVERGENCE_FACTOR * (1.0 + peak);
     for k in 0..n {
         let ahead = *reference.get(k + preview).unwrap_or(&last);
         trace.position.push(plant.true_output());
         let y = plant.measure();
         let (rf, uff, u) = controller.step_traced(ahead, y);
-        plant.advance(u);
         trace.filtered_reference.push(rf);
         trace.feedforward.push(uff);
         trace.command.push(u);
         trace.measurement.push(y);
+        if let Some((signal, value)) = diverged(y, rf, uff, u, bound) {
+            trace.reference.truncate(k + 1);
+            return Err(Divergence {
+                sample: k,
+                time_s: k as f64 * trace.ts,
+                signal,
+                value,
+            });
+        }
+        plant.advance(u);
     }
+    Ok(())
 }
 
 /// Tracking figures over the evaluated window.
@@ -141,5 +191,48 @@ pub fn metrics(
             .iter()
             .filter(|&&u| u <= limits.0 || u >= limits.1)
             .count(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lti::DiscreteTf;
+    use crate::runtime::{FeedbackSpec, PidSpec, RuntimeSpec};
+    use crate::sim::ModelPlant;
+
+    fn pid() -> RuntimeController {
+        RuntimeController::new(&RuntimeSpec {
+            zpetc: None,
+            hysteresis: None,
+            feedback: FeedbackSpec::Pid(PidSpec {
+                kp: 0.02,
+                ki: 0.15,
+                kd: 0.0,
+                output_min: 0.0,
+                output_max: 10.0,
+            }),
+        })
+        .unwrap()
+    }
+
+    /// An unstable plant under a saturating PID: the measurement grows as
+    /// 1.05^k; the run stops where it first exceeds the bound, and the
+    /// trace ends there.
+    #[test]
+    fn divergence_stops_the_run_at_the_bound() {
+        let g = DiscreteTf::new(vec![0.1], vec![1.0, -1.05], 1, 1e-4).unwrap();
+        let mut plant = ModelPlant::new(&g, None, (0.0, 10.0), 0.0, 1).unwrap();
+        let reference = vec![1.0; 5000];
+        let d = run(&mut plant, &mut pid(), &reference).unwrap_err();
+        assert_eq!(d.signal, "measurement");
+        assert!(d.value.abs() > DIVERGENCE_FACTOR * 2.0, "{d}");
+        assert!(d.sample > 100 && d.sample < 1000, "{d}");
+        assert!((d.time_s - d.sample as f64 * 1e-4).abs() < 1e-15);
+        // A stable plant runs to the end.
+        let g = DiscreteTf::new(vec![0.1], vec![1.0, -0.5], 1, 1e-4).unwrap();
+        let mut plant = ModelPlant::new(&g, None, (0.0, 10.0), 0.0, 1).unwrap();
+        let trace = run(&mut plant, &mut pid(), &reference).unwrap();
+        assert_eq!(trace.measurement.len(), 5000);
     }
 }

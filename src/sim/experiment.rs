@@ -126,6 +126,9 @@ pub enum ExperimentError {
     /// Bad plant parameters.
     #[error("plant: {0}")]
     Plant(#[from] VirtualFtsError),
+    /// A closed-loop run diverged.
+    #[error(transparent)]
+    Diverged(#[from] closed_loop::Divergence),
     /// A step failed; the message says which and why.
     #[error("{step}: {message}")]
     Step {
@@ -281,7 +284,7 @@ pub fn track(
     let mut plant = fresh_plant(params, run)?;
     let mut rt = RuntimeController::new(&controller.runtime_spec())
         .map_err(|e| step_err("controller")(e.to_string()))?;
-    let trace = closed_loop::run(&mut plant, &mut rt, &reference.samples);
+    let trace = closed_loop::run(&mut plant, &mut rt, &reference.samples)?;
     let metrics = closed_loop::metrics(&trace, reference.evaluated(), controller.command_limits());
     Ok((trace, metrics))
 }
