@@ -361,3 +361,82 @@ fn negative_numbers_reach_validation() {
         &["--ts: expected a positive number of seconds, got -1"],
     );
 }
+
+/// Orders at the top of the integer range are refused as too large for the
+/// data (exit 2), never an overflow panic.
+#[test]
+fn absurd_orders_are_refused_not_a_panic() {
+    let max = u64::MAX.to_string();
+    let data = repo("data/daisy-hairdryer/dryer.dat");
+    for (cmd, orders) in [
+        ("arx", ["--na", "2", "--nb", "2", "--nk", max.as_str()]),
+        ("arx", ["--na", max.as_str(), "--nb", "2", "--nk", "1"]),
+        ("arx", ["--na", "2", "--nb", max.as_str(), "--nk", "1"]),
+        ("oe", ["--nf", max.as_str(), "--nb", "2", "--nk", "1"]),
+        ("oe", ["--nf", "2", "--nb", "2", "--nk", max.as_str()]),
+        ("iv", ["--na", "2", "--nb", max.as_str(), "--nk", "1"]),
+        ("iv", ["--na", "2", "--nb", "2", "--nk", max.as_str()]),
+    ] {
+        fails_with(
+            fts()
+                .args(["identify", cmd])
+                .arg(&data)
+                .args(["--ts", "0.08"])
+                .args(orders),
+            &["dryer.dat: too few samples for the model orders"],
+        );
+    }
+}
+
+/// A stdout that cannot be written (`> /dev/full`) is an error, exit 1 with
+/// one line, not a panic.
+#[cfg(target_os = "linux")]
+#[test]
+fn an_unwritable_stdout_exits_1_with_one_line() {
+    let bin = assert_cmd::cargo::cargo_bin("fts");
+    for args in [
+        vec![
+            "excite",
+            "sine",
+            "--freq",
+            "10",
+            "--amplitude",
+            "1",
+            "--duration",
+            "0.01",
+        ],
+        vec!["tf", "info", "fixtures/li21-closed-loop.json"],
+        vec!["zpetc", "--tf", "fixtures/li21-closed-loop.json", "--json"],
+        vec![
+            "weight", "--kind", "ws", "--m", "2", "--w0", "160", "--a", "0.001",
+        ],
+        vec![
+            "identify",
+            "arx",
+            "data/daisy-hairdryer/dryer.dat",
+            "--ts",
+            "0.08",
+            "--na",
+            "2",
+            "--nb",
+            "2",
+            "--nk",
+            "3",
+        ],
+    ] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = std::process::Command::new(&bin)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(&args)
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains("cannot write to stdout"), "{args:?}: {err}");
+    }
+}

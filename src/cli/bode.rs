@@ -8,24 +8,6 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::path::PathBuf;
 
-/// `println!` that does not panic when stdout is closed (`fts ... | head`):
-/// the summary is best effort, the result file is what matters.
-macro_rules! say {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($t)*);
-    }};
-}
-
-/// `print!` counterpart of `say!`.
-#[allow(unused_macros)]
-macro_rules! say_part {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = write!(std::io::stdout(), $($t)*);
-    }};
-}
-
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Method {
     /// Welch-averaged cross spectra `H1 = P_yu/P_uu` with coherence.

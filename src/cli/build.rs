@@ -66,7 +66,12 @@ pub fn run(args: BuildArgs) -> anyhow::Result<()> {
         }
         Event::Done(r) => {
             if !quiet {
-                bar.suspend(|| println!("{}", line(r)));
+                bar.suspend(|| {
+                    use std::io::Write as _;
+                    // Best effort inside the observer: a stdout that cannot
+                    // be written fails the final summary, with exit 1.
+                    let _ = writeln!(std::io::stdout(), "{}", line(r));
+                });
             }
         }
     };
@@ -102,14 +107,14 @@ pub fn run(args: BuildArgs) -> anyhow::Result<()> {
             })).collect::<Vec<_>>(),
         }))?;
     } else if args.check {
-        println!(
+        say!(
             "{}: {} of {} steps up to date",
             plan.manifest.display(),
             count(Status::UpToDate),
             reports.len()
         );
     } else {
-        println!(
+        say!(
             "{}: {} built, {} up to date, {:.2} s; lock {}",
             plan.manifest.display(),
             count(Status::Built),

@@ -140,11 +140,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot write the output atomically", path.display()))
 }
 
+/// The error of a failed write to stdout (exit 1).
+pub fn stdout_error(e: std::io::Error) -> anyhow::Error {
+    anyhow::anyhow!("cannot write to stdout: {e}")
+}
+
 /// Prints exactly one JSON object on stdout (the `--json` contract).
 pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
-    serde_json::to_writer_pretty(&mut out, value)?;
-    writeln!(out)?;
+    serde_json::to_writer_pretty(&mut out, value)
+        .map_err(std::io::Error::from)
+        .map_err(stdout_error)?;
+    writeln!(out).map_err(stdout_error)?;
     Ok(())
 }
 
@@ -194,7 +201,7 @@ pub fn print_report<R: serde::Serialize + std::fmt::Display>(
     if json {
         print_json(&serde_json::to_value(report)?)
     } else {
-        print!("{report}");
+        say_part!("{report}");
         Ok(())
     }
 }

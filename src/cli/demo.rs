@@ -243,19 +243,19 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         }));
     }
 
-    println!(
+    say!(
         "Li21 experiment on the embedded virtual FTS (seed {}), {:.2} s",
         args.seed,
         elapsed.as_secs_f64()
     );
-    println!(
+    say!(
         "1. inverse MPI-cbrt ({} lower plays) identified from open-loop triangles: fit rms {:.2} %, max {:.2} % (Li21: 2.3 %), condition number {:.3e}",
         m.inverse.model.thresholds.len(),
         info.fit.rms_percent,
         info.fit.max_percent,
         info.condition_number
     );
-    println!(
+    say!(
         "2. closed loop PID + HC from the 0-{} Hz sweep: {} [{} {} {}], simulation fit {:.1} % (ARX){} (Li21: 96.5 %)",
         params.sweep_f1,
         cl.method.to_uppercase(),
@@ -268,9 +268,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             .map(|f| format!(", {:.1} % (OE)", f.simulation_percent))
             .unwrap_or_default()
     );
-    println!("   {}", cl.reason);
+    say!("   {}", cl.reason);
     if !cl.removed_pairs.is_empty() {
-        println!(
+        say!(
             "   near pole-zero cancellations removed before the ZPETC (minreal): {}",
             cl.removed_pairs
                 .iter()
@@ -284,7 +284,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 .join(", ")
         );
     }
-    println!(
+    say!(
         "3. ZPETC: preview {} samples; of {} zeros {} cancelled, {} inverted by an anticausal series of {} terms, {} left to phase cancellation; self-check max phase {:.1e} rad, DC gain {:.12}",
         m.zpetc.preview,
         m.zpetc.zeros.len(),
@@ -295,15 +295,21 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         check.max_phase_error_rad,
         check.dc_gain
     );
-    println!("4. max tracking error (um), 5 um sines; fts (virtual FTS) | Li21 (paper):");
-    println!(
+    say!("4. max tracking error (um), 5 um sines; fts (virtual FTS) | Li21 (paper):");
+    say!(
         "   {:>8} | {:>8} {:>8} {:>11} | {:>8} {:>8} {:>11}",
-        "freq", "PID", "PID+HC", "PID+HC+ZPEC", "PID", "PID+HC", "PID+HC+ZPEC"
+        "freq",
+        "PID",
+        "PID+HC",
+        "PID+HC+ZPEC",
+        "PID",
+        "PID+HC",
+        "PID+HC+ZPEC"
     );
     for (f, p_pid, p_hc, p_z) in LI21_TABLE {
         let label = format!("sine {} um at {f} Hz", params.sine_amplitude);
         let get = |c: &str| find(&label, c).map_or(f64::NAN, |m| m.max_abs_error);
-        println!(
+        say!(
             "   {:>6} Hz | {:>8.4} {:>8.4} {:>11.4} | {:>8.4} {:>8.4} {:>11.4}",
             f,
             get("pid"),
@@ -319,7 +325,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         .iter()
         .filter(|r| !r.reference.starts_with("sine"))
     {
-        println!(
+        say!(
             "   {:<26} {:<12} max {:.4} um ({:.1} % of amplitude), rms {:.4} um{}",
             row.reference,
             row.controller,
@@ -336,10 +342,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             }
         );
     }
-    println!(
+    say!(
         "   (Li21: 0-1000 Hz sweep below 10 % over the band; five-leaved trajectory below 0.3 um)"
     );
-    println!(
+    say!(
         "wrote {}: triangle.csv, inverse-hysteresis.json, hysteresis-loop.svg, sweep.csv, closed-loop.json, closed-loop-bode.svg, zpetc.json, controller.json, controller.h, tracking.csv",
         dir.display()
     );

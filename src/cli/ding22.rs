@@ -385,22 +385,27 @@ pub fn run(args: Ding22Args) -> anyhow::Result<()> {
         return print_json(&v);
     }
     if let Some((s, secs)) = &swept {
-        print!("{}", sweep_text(s));
-        println!(
+        say_part!("{}", sweep_text(s));
+        say!(
             "sweep: {} syntheses in {secs:.2} s; the report below is for the best point\n",
             s.k2.len() * s.c2.len()
         );
     }
-    println!(
+    say!(
         "two-mass plant: m12 = {} kg, k2 = {} N/m, c2 = {} N s/m, m4 = {} kg, k4 = {} N/m, c4 = {} N s/m",
-        m.m12, m.k2, m.c2, m.m4, m.k4, m.c4
+        m.m12,
+        m.k2,
+        m.c2,
+        m.m4,
+        m.k4,
+        m.c4
     );
-    println!(
+    say!(
         "undamped modes {:.2} Hz and {:.2} Hz",
         wn[0] / (2.0 * std::f64::consts::PI),
         wn[1] / (2.0 * std::f64::consts::PI)
     );
-    println!(
+    say!(
         "H2 controller: {} states, closed loop {}, Riccati residual X {:.1e}, Y {:.1e}, {:.1} ms",
         d.h2.k.nx(),
         if d.h2.stable { "stable" } else { "UNSTABLE" },
@@ -408,15 +413,18 @@ pub fn run(args: Ding22Args) -> anyhow::Result<()> {
         d.h2.y_residual,
         synth_secs * 1e3
     );
-    print!("{}", eval_text("H2 optimal", &d.optimal));
+    say_part!("{}", eval_text("H2 optimal", &d.optimal));
     if let Some((p, e)) = &pid {
-        println!(
+        say!(
             "PID baseline (tuned for the same H2 cost): kp {:.4e}, ki {:.4e}, kd {:.4e}, tau {:.4e}",
-            p.kp, p.ki, p.kd, p.tau
+            p.kp,
+            p.ki,
+            p.kd,
+            p.tau
         );
-        print!("{}", eval_text("PID", e));
+        say_part!("{}", eval_text("PID", e));
     }
-    println!(
+    say!(
         "budget grid: {} points to {} Hz, CAS(fmax) = {:.4} nm (exact RMS {:.4} nm)",
         b.freq_hz.len(),
         args.fmax,

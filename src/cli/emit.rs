@@ -296,7 +296,7 @@ pub fn run(args: EmitArgs) -> anyhow::Result<()> {
                 file.ts
             );
         }
-        None => print!("{text}"),
+        None => say_part!("{text}"),
     }
     Ok(())
 }

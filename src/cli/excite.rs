@@ -225,7 +225,7 @@ pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
                 u.len()
             );
         }
-        None => print!("{text}"),
+        None => say_part!("{text}"),
     }
     Ok(())
 }

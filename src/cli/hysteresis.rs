@@ -121,13 +121,13 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
             "model_file": args.out.as_ref().map(|p| p.display().to_string()),
         }));
     }
-    println!(
+    say!(
         "analytic inverse of {source} ({} -> {}), {} operators",
         forward.mapping(),
         file.mapping(),
         file.model.operators()
     );
-    println!("  {:>3} {:>14} {:>14}", "i", "r'_i", "w'_i");
+    say!("  {:>3} {:>14} {:>14}", "i", "r'_i", "w'_i");
     for (i, (r, w)) in file
         .model
         .thresholds
@@ -135,13 +135,13 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
         .zip(&file.model.weights)
         .enumerate()
     {
-        println!("  {i:>3} {r:>14.6} {w:>14.6}");
+        say!("  {i:>3} {r:>14.6} {w:>14.6}");
     }
-    println!(
+    say!(
         "check: max |u - inverse(forward(u))| = {round_trip:.3e} on a triangle of amplitude {amplitude:.6}"
     );
     if let Some(path) = &args.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }
@@ -187,7 +187,7 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
             "output_file": args.out.as_ref().map(|p| p.display().to_string()),
         }));
     }
-    println!(
+    say!(
         "applied {} ({} {}, {}) to {} samples of {source}: output {lo:.6} .. {hi:.6} {}",
         args.model.display(),
         model.kind.name(),
@@ -197,7 +197,7 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
         model_file.output.unit
     );
     if let Some(path) = &args.out {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -244,7 +244,7 @@ pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
         return print_json(&value);
     }
 
-    println!(
+    say!(
         "{} model ({}), {} operators, {}: {} samples of {source} from sample {}",
         model.kind.name(),
         model.operator.name(),
@@ -253,7 +253,7 @@ pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
         u.len(),
         args.columns.start
     );
-    println!(
+    say!(
         "fit: rms {:.4} %, max {:.4} % of the output range; condition number {:.3e}; {}{}",
         info.fit.rms_percent,
         info.fit.max_percent,
@@ -265,31 +265,32 @@ pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
         }
     );
     if let Some(t) = &record.timing {
-        println!("{t}");
+        say!("{t}");
     }
     if model.kind == ModelKind::MpiDeadzone {
-        println!("alternations: {}", info.alternations);
+        say!("alternations: {}", info.alternations);
     }
-    println!("  {:>3} {:>14} {:>14}", "i", "r_i", "w_i");
+    say!("  {:>3} {:>14} {:>14}", "i", "r_i", "w_i");
     for (i, (r, w)) in model.thresholds.iter().zip(&model.weights).enumerate() {
-        println!("  {i:>3} {r:>14.6} {w:>14.6}");
+        say!("  {i:>3} {r:>14.6} {w:>14.6}");
     }
-    println!(
+    say!(
         "cbrt gain {:.6}, offset {:.6}",
-        model.cbrt_gain, model.offset
+        model.cbrt_gain,
+        model.offset
     );
     if let Some(dz) = &model.dead_zone {
-        println!("dead-zone stage:");
-        println!("  {:>3} {:>14} {:>14}", "j", "d_j", "g_j");
+        say!("dead-zone stage:");
+        say!("  {:>3} {:>14} {:>14}", "j", "d_j", "g_j");
         for (j, (d, g)) in dz.thresholds.iter().zip(&dz.weights).enumerate() {
-            println!("  {j:>3} {d:>14.6} {g:>14.6}");
+            say!("  {j:>3} {d:>14.6} {g:>14.6}");
         }
     }
     if info.constraint_active {
-        println!("invertibility constraint active (some partial sums at their bound)");
+        say!("invertibility constraint active (some partial sums at their bound)");
     }
     for path in args.out.iter().chain(&args.plot) {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

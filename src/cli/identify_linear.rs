@@ -26,24 +26,6 @@ use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
-/// `println!` that does not panic when stdout is closed (`fts ... | head`):
-/// the summary is best effort, the result file is what matters.
-macro_rules! say {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($t)*);
-    }};
-}
-
-/// `print!` counterpart of `say!`.
-#[allow(unused_macros)]
-macro_rules! say_part {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = write!(std::io::stdout(), $($t)*);
-    }};
-}
-
 /// Lags of the residual tests (MATLAB `resid` default).
 const RESID_LAGS: usize = 25;
 

@@ -8,6 +8,24 @@
 //! | 1 | any other failure (I/O while writing, numerical breakdown) |
 //! | 2 | bad usage or bad input (the message names the file, line or field) |
 
+/// `println!` for summaries: a stdout that cannot be written (`> /dev/full`)
+/// returns an error (exit 1) instead of panicking; a closed pipe
+/// (`fts ... | head`) ends the process quietly through the default SIGPIPE.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($t)*).map_err($crate::cli::common::stdout_error)?
+    }};
+}
+
+/// `print!` counterpart of `say!`.
+macro_rules! say_part {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($t)*).map_err($crate::cli::common::stdout_error)?
+    }};
+}
+
 mod bode;
 mod build;
 mod columns;

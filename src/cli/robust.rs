@@ -324,7 +324,7 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
             "h2_norm": h2, "hinf_norm": hinf.map(|h| h.0), "hinf_omega": hinf.map(|h| h.1),
         }))
     } else {
-        println!(
+        say!(
             "{} states, {} inputs, {} outputs, {}\npoles: {}\nstable: {stable}\nH2 norm: {h2}\nH-inf norm: {}",
             sys.nx(),
             sys.nu(),
@@ -426,9 +426,9 @@ pub fn run_budget(args: BudgetArgs) -> anyhow::Result<()> {
     if args.json {
         print_json(&json!({"rms": b.rms, "rms_per_source": b.rms_per_source, "fmax_hz": fmax}))
     } else {
-        println!("RMS error up to {fmax} Hz: {:.6e}", b.rms);
+        say!("RMS error up to {fmax} Hz: {:.6e}", b.rms);
         for (i, r) in b.rms_per_source.iter().enumerate() {
-            println!(
+            say!(
                 "  source {i}: {r:.6e} ({:.1}% of the power)",
                 100.0 * r * r / (b.rms * b.rms).max(1e-300)
             );

@@ -455,23 +455,29 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             "models": origin,
         }));
     }
-    println!("controller: {controller_name} ({origin})");
-    println!(
+    say!("controller: {controller_name} ({origin})");
+    say!(
         "reference: {}, evaluated from t = {evaluated_from_s:.3} s ({} samples; lead-in and settling excluded)",
-        reference.label, m.samples
+        reference.label,
+        m.samples
     );
-    println!(
+    say!(
         "tracking error: max {:.4} um, rms {:.4} um, max {:.2} % of the {:.3} um amplitude",
-        m.max_abs_error, m.rms_error, m.max_error_percent, m.amplitude
+        m.max_abs_error,
+        m.rms_error,
+        m.max_error_percent,
+        m.amplitude
     );
     if m.saturated_samples > 0 {
-        println!(
+        say!(
             "warning: the command sat on its limits ({} .. {} V) for {} samples: the reference leaves the actuator's range or the loop overshoots",
-            limits.0, limits.1, m.saturated_samples
+            limits.0,
+            limits.1,
+            m.saturated_samples
         );
     }
     for p in [&args.output, &args.plot].into_iter().flatten() {
-        println!("wrote {}", p.display());
+        say!("wrote {}", p.display());
     }
     Ok(())
 }

@@ -106,7 +106,7 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
         return print_json(&doc);
     }
     match &g {
-        TransferFunction::Discrete(d) => println!(
+        TransferFunction::Discrete(d) => say!(
             "{source}: discrete, ts = {} s, delay {} samples, {} zeros, {} poles",
             d.ts(),
             d.delay(),
@@ -114,7 +114,7 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
             poles.len()
         ),
         TransferFunction::Continuous(_) => {
-            println!(
+            say!(
                 "{source}: {kind}, {} zeros, {} poles",
                 zeros.len(),
                 poles.len()
@@ -122,22 +122,25 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
         }
     }
     let plane = if kind == "discrete" { "|z|" } else { "|s|" };
-    println!("poles ({}):", if stable { "stable" } else { "UNSTABLE" });
+    say!("poles ({}):", if stable { "stable" } else { "UNSTABLE" });
     for p in &poles {
-        println!("  {:<26} {plane} = {:.6}", fmt_complex(*p), p.norm());
+        say!("  {:<26} {plane} = {:.6}", fmt_complex(*p), p.norm());
     }
-    println!("zeros:");
+    say!("zeros:");
     for z in &zeros {
-        println!("  {:<26} {plane} = {:.6}", fmt_complex(*z), z.norm());
+        say!("  {:<26} {plane} = {:.6}", fmt_complex(*z), z.norm());
     }
-    println!("DC gain: {:.6}", g.dc_gain());
-    println!("frequency response:");
-    println!(
+    say!("DC gain: {:.6}", g.dc_gain());
+    say!("frequency response:");
+    say!(
         "  {:>12} {:>12} {:>10} {:>10}",
-        "freq (Hz)", "magnitude", "dB", "phase (deg)"
+        "freq (Hz)",
+        "magnitude",
+        "dB",
+        "phase (deg)"
     );
     for (f, v) in responses {
-        println!(
+        say!(
             "  {f:>12.3} {:>12.6} {:>10.3} {:>10.2}",
             v.norm(),
             20.0 * v.norm().log10(),
@@ -145,7 +148,7 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.bode {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

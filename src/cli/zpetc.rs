@@ -129,7 +129,7 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
     let d = plant.delay();
     let s = filter.uncancelled_zeros().count();
     let m = filter.series_inverted_zeros().count();
-    println!(
+    say!(
         "closed loop {source}: z^-{d} B_c/A_c, ts = {} s, {} zeros, {} poles, DC gain {:.6}",
         plant.ts(),
         filter.zeros.len(),
@@ -137,18 +137,21 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
         plant.dc_gain()
     );
     match params.stable_inversion {
-        Some(si) => println!(
+        Some(si) => say!(
             "zero map (invert by series if |z| >= {}; else cancel if |z| < rho = {} and damping >= {}):",
-            si.min_radius, params.rho, params.min_damping
+            si.min_radius,
+            params.rho,
+            params.min_damping
         ),
-        None => println!(
+        None => say!(
             "zero map (cancel if |z| < rho = {} and damping >= {}):",
-            params.rho, params.min_damping
+            params.rho,
+            params.min_damping
         ),
     }
-    println!("  {:<26} {:>8} {:>8}  status", "zero", "|z|", "damping");
+    say!("  {:<26} {:>8} {:>8}  status", "zero", "|z|", "damping");
     for z in &filter.zeros {
-        println!(
+        say!(
             "  {:<26} {:>8.4} {:>8.3}  {}",
             fmt_complex(z.zero),
             z.magnitude,
@@ -157,23 +160,23 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
         );
     }
     if m > 0 {
-        println!(
+        say!(
             "preview: {} samples (delay d = {d}, uncancelled zeros s = {s}, series-inverted zeros m = {m}, series terms N = {}) = {:.3} ms",
             filter.preview,
             filter.series_terms,
             filter.preview as f64 * plant.ts() * 1e3
         );
     } else {
-        println!(
+        say!(
             "preview: {} samples (delay d = {d}, uncancelled zeros s = {s}) = {:.3} ms",
             filter.preview,
             filter.preview as f64 * plant.ts() * 1e3
         );
     }
-    println!("G_z = z^{} num(z^-1)/den(z^-1)", filter.preview);
-    println!("  num = {:?}", filter.num.coeffs());
-    println!("  den = {:?}", filter.den.coeffs());
-    println!(
+    say!("G_z = z^{} num(z^-1)/den(z^-1)", filter.preview);
+    say!("  num = {:?}", filter.num.coeffs());
+    say!("  den = {:?}", filter.den.coeffs());
+    say!(
         "self-check over 0..{} Hz ({} points): max |phase(G_z G_c)| = {:.3e} rad, DC gain of G_z G_c = {:.12}, filter {}",
         plant.nyquist_hz(),
         check.points,
@@ -186,10 +189,10 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
         }
     );
     if let Some(path) = &args.output {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     if let Some(path) = &args.plot {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -38,12 +38,14 @@ impl Orders {
 
     /// Number of parameters `na + nb`.
     pub fn params(&self) -> usize {
-        self.na + self.nb
+        // Saturating: absurd orders must reach the data-length check, not overflow.
+        self.na.saturating_add(self.nb)
     }
 
     /// Past samples each regression row needs: `max(na, nb + nk - 1)`.
     pub fn memory(&self) -> usize {
-        self.na.max((self.nb + self.nk).saturating_sub(1))
+        self.na
+            .max(self.nb.saturating_add(self.nk).saturating_sub(1))
     }
 }
 
@@ -131,7 +133,7 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
         return Err(IdentError::TooShort {
             samples: n,
             rows,
-            needed: d + 1,
+            needed: d.saturating_add(1),
             params: d,
             orders: o.to_string(),
         });

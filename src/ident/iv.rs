@@ -245,7 +245,7 @@ pub fn iv(u: &[f64], y: &[f64], params: &IvParams) -> Result<IvEstimate, IdentEr
         return Err(IdentError::TooShort {
             samples: y.len(),
             rows,
-            needed: d + 1,
+            needed: d.saturating_add(1),
             params: d,
             orders: o.to_string(),
         });

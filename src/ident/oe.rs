@@ -235,11 +235,11 @@ pub fn oe(
             }
         }
     };
-    if n <= d + nic {
+    if n <= d.saturating_add(nic) {
         return Err(IdentError::TooShort {
             samples: n,
             rows: n,
-            needed: d + nic + 1,
+            needed: d.saturating_add(nic).saturating_add(1),
             params: d,
             orders: o.to_string(),
         });
