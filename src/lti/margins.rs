@@ -52,7 +52,11 @@ pub enum LoopError {
         inputs: usize,
     },
     /// Continuous and discrete, or two different sample times.
-    #[error("plant and controller differ in sample time ({plant:?} s and {controller:?} s)")]
+    #[error(
+        "plant and controller differ in sample time (plant {}, controller {})",
+        describe_ts(*plant),
+        describe_ts(*controller)
+    )]
     SampleTimeMismatch {
         /// Plant sample time, `None` when continuous.
         plant: Option<f64>,
@@ -66,6 +70,13 @@ pub enum LoopError {
     /// (improper transfer function, `1 + L(inf) = 0`, no convergence).
     #[error("{0}")]
     Ss(#[from] SsError),
+}
+
+fn describe_ts(ts: Option<f64>) -> String {
+    match ts {
+        None => "continuous".into(),
+        Some(t) => format!("ts = {t} s"),
+    }
 }
 
 /// A SISO system as given: a transfer function (evaluated from its
