@@ -5,7 +5,8 @@
 
 use super::common::{bad, print_json, read_input, write_atomic};
 use crate::io::{plot, ss_json, tf_json};
-use crate::lti::margins::{LoopParams, LoopSystem, analyze_loop};
+use crate::lti::margins::{LoopError, LoopParams, LoopSystem, analyze_loop};
+use crate::lti::ss::SsError;
 use crate::lti::{Bode, ContinuousTf, DiscreteTf, TransferFunction, logspace};
 use clap::Args;
 use serde_json::Value;
@@ -179,7 +180,11 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         f_max_hz: args.fmax,
         ..LoopParams::default()
     };
-    let report = analyze_loop(&g, &k, &params).map_err(|e| bad(e.to_string()))?;
+    let report = analyze_loop(&g, &k, &params).map_err(|e| match e {
+        // A failed eigenvalue iteration is a computation failure (exit 1).
+        LoopError::Ss(SsError::NoConvergence) => anyhow::Error::new(e),
+        e => bad(e.to_string()),
+    })?;
     if let Some(path) = &args.plot {
         let grid = logspace(
             report.diagnostics.f_min_hz,
