@@ -186,3 +186,31 @@ fn bad_input_is_one_line_and_exit_2() {
         assert!(out.stdout.is_empty());
     }
 }
+
+#[test]
+fn docs_worked_example_is_the_output() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let doc = std::fs::read_to_string(root.join("docs/loop.md")).unwrap();
+    let start = doc
+        .find("$ fts loop --plant tests/data/loop/virtual-fts-linear.json")
+        .unwrap();
+    let block = &doc[start..];
+    let block = &block[block.find('\n').unwrap() + 1..block.find("```").unwrap()];
+    let out = fts()
+        .current_dir(root)
+        .args([
+            "loop",
+            "--plant",
+            "tests/data/loop/virtual-fts-linear.json",
+            "--kp",
+            "0.02",
+            "--ki",
+            "0.15",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    assert_eq!(String::from_utf8(out).unwrap(), block);
+}

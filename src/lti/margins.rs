@@ -265,7 +265,8 @@ pub struct LoopReport {
     pub phase_crossovers: Vec<PhaseCrossover>,
     /// Every gain crossover, by frequency.
     pub gain_crossovers: Vec<GainCrossover>,
-    /// Closed-loop poles as `[re, im]` (s-plane in rad/s, or z-plane).
+    /// Closed-loop poles as `[re, im]`: s-plane in rad/s (continuous), or
+    /// z-plane (discrete). The summary adds their natural frequencies in Hz.
     pub closed_loop_poles: Vec<[f64; 2]>,
     /// All closed-loop poles strictly inside the stability region.
     pub closed_loop_stable: bool,
@@ -875,14 +876,14 @@ impl std::fmt::Display for LoopReport {
             self.modulus_margin.value, self.modulus_margin.freq_hz
         )?;
         for (name, p) in [
-            ("peak |S|: ", &self.peak_s),
-            ("peak |T|: ", &self.peak_t),
+            ("peak |S|:", &self.peak_s),
+            ("peak |T|:", &self.peak_t),
             ("peak |KS|:", &self.peak_ks),
             ("peak |GS|:", &self.peak_gs),
         ] {
             writeln!(
                 f,
-                "{name}      {:.6} ({:+.3} dB) at {:.6} Hz",
+                "{name:<17}{:.6} ({:+.3} dB) at {:.6} Hz",
                 p.value, p.value_db, p.freq_hz
             )?;
         }
@@ -912,14 +913,50 @@ impl std::fmt::Display for LoopReport {
         }
         writeln!(
             f,
-            "closed loop:     {} ({} poles)",
+            "closed loop:     {} ({} poles, {})",
             if self.closed_loop_stable {
                 "stable"
             } else {
                 "NOT stable"
             },
-            self.closed_loop_poles.len()
+            self.closed_loop_poles.len(),
+            if self.ts.is_some() {
+                "z-plane"
+            } else {
+                "s-plane in rad/s"
+            }
         )?;
+        // Each real pole and each upper-half-plane pole of a complex pair,
+        // slowest first, with its natural frequency (Hz) and damping ratio
+        // (of the s-plane equivalent ln(z)/ts when discrete).
+        let mut shown: Vec<(f64, f64, c64)> = self
+            .closed_loop_poles
+            .iter()
+            .map(|p| c64::new(p[0], p[1]))
+            .filter(|p| p.im >= 0.0)
+            .map(|p| {
+                let s = match self.ts {
+                    None => p,
+                    Some(t) if p.norm() > 0.0 => p.ln() / t,
+                    Some(_) => c64::new(f64::NEG_INFINITY, 0.0),
+                };
+                let wn = s.norm();
+                (wn / (2.0 * PI), -s.re / wn, p)
+            })
+            .collect();
+        shown.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (fn_hz, zeta, p) in shown {
+            let pole = if p.im == 0.0 {
+                format!("{:.6e}", p.re)
+            } else {
+                format!("{:.6e} +/- {:.6e}j", p.re, p.im)
+            };
+            if fn_hz.is_finite() {
+                writeln!(f, "  pole {pole}: f_n {fn_hz:.6} Hz, zeta {zeta:.4}")?;
+            } else {
+                writeln!(f, "  pole {pole} (z-plane origin: a pure delay)")?;
+            }
+        }
         for n in &self.diagnostics.notes {
             writeln!(f, "note: {n}")?;
         }
