@@ -214,3 +214,20 @@ fn docs_worked_example_is_the_output() {
         .clone();
     assert_eq!(String::from_utf8(out).unwrap(), block);
 }
+
+#[test]
+fn mixsyn_example_controller() {
+    let g = data("examples/mixsyn/plant.json");
+    let k = data("examples/mixsyn/K.json");
+    let v = json_of(&["--plant", "@", "--controller", "@"], &[&g, &k]);
+    assert_eq!(v["closed_loop_stable"], true);
+    assert_eq!(v["diagnostics"]["gain_crossovers"], 1);
+    let pm = v["phase_margin"]["phase_margin_deg"].as_f64().unwrap();
+    let f = v["phase_margin"]["freq_hz"].as_f64().unwrap();
+    assert!(
+        (pm - 89.38).abs() < 0.01 && (f - 987.2).abs() < 0.1,
+        "{pm} {f}"
+    );
+    let mm = v["modulus_margin"]["value"].as_f64().unwrap();
+    assert!((mm - 0.990).abs() < 1e-3, "{mm}");
+}
