@@ -38,6 +38,7 @@ mod hysteresis;
 mod identify;
 mod identify_hysteresis;
 mod identify_linear;
+mod loop_analysis;
 mod robust;
 mod simulate;
 mod tf;
@@ -95,6 +96,8 @@ enum Command {
     SsInfo(robust::SsInfoArgs),
     /// Error budget: per-source PSD, cumulative amplitude spectrum, RMS.
     Budget(robust::BudgetArgs),
+    /// Margins (gain, phase, delay, modulus), |S| |T| |KS| |GS| peaks, bandwidth and closed-loop poles of L = G K.
+    Loop(loop_analysis::LoopArgs),
     /// Ding22 workflow: two-mass FTS, H2 design vs PID, error budget, structural sweep.
     Ding22(ding22::Ding22Args),
 }
@@ -192,6 +195,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::C2d(args) => robust::run_c2d(args),
         Command::SsInfo(args) => robust::run_ss_info(args),
         Command::Budget(args) => robust::run_budget(args),
+        Command::Loop(args) => loop_analysis::run(args),
         Command::Ding22(args) => ding22::run(args),
     }
 }

@@ -6,6 +6,7 @@ pub mod balred;
 pub mod c2d;
 pub mod filter;
 pub mod lyapunov;
+pub mod margins;
 pub mod norms;
 pub mod poly;
 pub mod riccati;

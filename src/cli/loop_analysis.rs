@@ -1,0 +1,218 @@
+//! `fts loop --plant G.json (--controller K.json | --kp KP [--ki KI] [--kd KD]
+//! [--tf-derivative N]) [--points-per-decade N] [--fmin HZ] [--fmax HZ]
+//! [--plot FILE.svg] [--json]`: margins, sensitivity peaks, bandwidth and
+//! closed-loop poles of the negative-feedback loop `L = G K`.
+
+use super::common::{bad, print_json, read_input, write_atomic};
+use crate::io::{plot, ss_json, tf_json};
+use crate::lti::margins::{LoopError, LoopParams, LoopSystem, analyze_loop};
+use crate::lti::ss::SsError;
+use crate::lti::{Bode, ContinuousTf, DiscreteTf, TransferFunction, logspace};
+use clap::Args;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Args)]
+pub struct LoopArgs {
+    /// The plant G (`fts.tf/1` or `fts.ss/1`, continuous or discrete, SISO).
+    #[arg(long, value_name = "G.json")]
+    plant: PathBuf,
+    /// The controller K (`fts.tf/1` or `fts.ss/1`, same sample time as G).
+    #[arg(long, value_name = "K.json", conflicts_with_all = ["kp", "ki", "kd", "tf_derivative"])]
+    controller: Option<PathBuf>,
+    /// PID proportional gain. Continuous plant: C(s) = kp + ki/s + kd N s/(s+N);
+    /// discrete plant: the [Li21] per-sample form kp + ki/(1 - z^-1) + kd (1 - z^-1).
+    #[arg(long, allow_hyphen_values = true)]
+    kp: Option<f64>,
+    /// PID integral gain (1/s for a continuous plant, per sample for a discrete one).
+    #[arg(long, allow_hyphen_values = true)]
+    ki: Option<f64>,
+    /// PID derivative gain (s for a continuous plant, per sample for a discrete one).
+    #[arg(long, allow_hyphen_values = true)]
+    kd: Option<f64>,
+    /// Derivative filter pole N in rad/s (continuous plants; needed with --kd).
+    #[arg(long, value_name = "N")]
+    tf_derivative: Option<f64>,
+    /// Grid density used to bracket crossovers and peaks.
+    #[arg(long, default_value_t = LoopParams::default().points_per_decade)]
+    points_per_decade: usize,
+    /// Lowest frequency analysed, Hz (default: 3 decades below the slowest pole or zero).
+    #[arg(long, value_name = "HZ")]
+    fmin: Option<f64>,
+    /// Highest frequency analysed, Hz (default: 3 decades above the fastest; Nyquist at most).
+    #[arg(long, value_name = "HZ")]
+    fmax: Option<f64>,
+    /// Write a Bode plot of L, S and T (SVG) here.
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+    /// Print the report as one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Reads an `fts.tf/1` file as a transfer function, anything else as `fts.ss/1`.
+fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
+    let text = read_input(path)?;
+    let source = path.display().to_string();
+    let is_tf = serde_json::from_str::<Value>(&text)
+        .ok()
+        .and_then(|v| v.get("format").and_then(|f| f.as_str().map(str::to_owned)))
+        .is_some_and(|f| f == tf_json::TF_FORMAT);
+    Ok(if is_tf {
+        LoopSystem::Tf(tf_json::parse_tf(&text, &source)?)
+    } else {
+        LoopSystem::Ss(ss_json::parse_ss(&text, &source)?)
+    })
+}
+
+/// Descending-power product.
+fn conv(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
+/// Descending-power sum, aligned at the constant term.
+fn add(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let n = a.len().max(b.len());
+    let mut out = vec![0.0; n];
+    for (i, x) in a.iter().enumerate() {
+        out[n - a.len() + i] += x;
+    }
+    for (i, x) in b.iter().enumerate() {
+        out[n - b.len() + i] += x;
+    }
+    out
+}
+
+/// The PID controller for the plant's time domain, and a description.
+fn pid(args: &LoopArgs, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)> {
+    let (kp, ki, kd) = (
+        args.kp.unwrap_or(0.0),
+        args.ki.unwrap_or(0.0),
+        args.kd.unwrap_or(0.0),
+    );
+    for (name, v) in [("--kp", kp), ("--ki", ki), ("--kd", kd)] {
+        if !v.is_finite() {
+            return Err(bad(format!("{name} must be a finite number, got {v}")));
+        }
+    }
+    if kp == 0.0 && ki == 0.0 && kd == 0.0 {
+        return Err(bad("the PID gains are all zero: there is no loop"));
+    }
+    match ts {
+        Some(ts) => {
+            if args.tf_derivative.is_some() {
+                return Err(bad(
+                    "--tf-derivative applies to continuous plants; a discrete plant takes the [Li21] per-sample PID kp + ki/(1 - z^-1) + kd (1 - z^-1)",
+                ));
+            }
+            let (num, den) = if ki != 0.0 {
+                (vec![kp + ki + kd, -kp - 2.0 * kd, kd], vec![1.0, -1.0])
+            } else {
+                (vec![kp + kd, -kd], vec![1.0])
+            };
+            let k = DiscreteTf::new(num, den, 0, ts).map_err(|e| bad(format!("PID: {e}")))?;
+            Ok((
+                LoopSystem::Tf(TransferFunction::Discrete(k)),
+                format!(
+                    "PID [Li21] per-sample form K = {kp} + {ki}/(1 - z^-1) + {kd} (1 - z^-1), ts = {ts} s"
+                ),
+            ))
+        }
+        None => {
+            let n = match (kd != 0.0, args.tf_derivative) {
+                (true, None) => {
+                    return Err(bad(
+                        "--kd on a continuous plant needs --tf-derivative N (rad/s): a pure derivative is improper",
+                    ));
+                }
+                (_, Some(n)) if !(n.is_finite() && n > 0.0) => {
+                    return Err(bad(format!(
+                        "--tf-derivative must be a positive number of rad/s, got {n}"
+                    )));
+                }
+                (_, n) => n.unwrap_or(0.0),
+            };
+            let int_den: &[f64] = if ki != 0.0 { &[1.0, 0.0] } else { &[1.0] };
+            let der_den: &[f64] = if kd != 0.0 { &[1.0, n] } else { &[1.0] };
+            let den = conv(int_den, der_den);
+            let mut num = conv(&[kp], &den);
+            if ki != 0.0 {
+                num = add(&num, &conv(&[ki], der_den));
+            }
+            if kd != 0.0 {
+                num = add(&num, &conv(&[kd * n, 0.0], int_den));
+            }
+            let k = ContinuousTf::new(num, den).map_err(|e| bad(format!("PID: {e}")))?;
+            let filter = if kd != 0.0 {
+                format!(" + {kd} {n} s/(s + {n})")
+            } else {
+                String::new()
+            };
+            Ok((
+                LoopSystem::Tf(TransferFunction::Continuous(k)),
+                format!("PID parallel form C(s) = {kp} + {ki}/s{filter}"),
+            ))
+        }
+    }
+}
+
+/// `fts loop`.
+pub fn run(args: LoopArgs) -> anyhow::Result<()> {
+    let g = read_loop_system(&args.plant)?;
+    let (k, controller) = match &args.controller {
+        Some(path) => (read_loop_system(path)?, path.display().to_string()),
+        None if args.kp.is_some() || args.ki.is_some() || args.kd.is_some() => pid(&args, g.ts())?,
+        None => {
+            return Err(bad(
+                "give the controller: --controller K.json, or PID gains --kp/--ki/--kd",
+            ));
+        }
+    };
+    let params = LoopParams {
+        points_per_decade: args.points_per_decade,
+        f_min_hz: args.fmin,
+        f_max_hz: args.fmax,
+        ..LoopParams::default()
+    };
+    let report = analyze_loop(&g, &k, &params).map_err(|e| match e {
+        // A failed eigenvalue iteration is a computation failure (exit 1).
+        LoopError::Ss(SsError::NoConvergence) => anyhow::Error::new(e),
+        e => bad(e.to_string()),
+    })?;
+    if let Some(path) = &args.plot {
+        let grid = logspace(
+            report.diagnostics.f_min_hz,
+            report.diagnostics.f_max_hz,
+            1000,
+        );
+        let l = |f: f64| g.response_at_hz(f) * k.response_at_hz(f);
+        let bl = Bode::from_fn(&grid, l);
+        let bs = Bode::from_fn(&grid, |f| 1.0 / (1.0 + l(f)));
+        let bt = Bode::from_fn(&grid, |f| l(f) / (1.0 + l(f)));
+        let svg = plot::bode_svg(
+            "Loop L = G K, sensitivity S and complementary sensitivity T",
+            &[("L", &bl), ("S", &bs), ("T", &bt)],
+            true,
+        )?;
+        write_atomic(path, svg.as_bytes())?;
+    }
+    if args.json {
+        let mut v = serde_json::to_value(&report)?;
+        if let Value::Object(m) = &mut v {
+            m.insert("plant".into(), args.plant.display().to_string().into());
+            m.insert("controller".into(), controller.into());
+        }
+        print_json(&v)
+    } else {
+        println!("plant:           {}", args.plant.display());
+        println!("controller:      {controller}");
+        print!("{report}");
+        Ok(())
+    }
+}
