@@ -210,9 +210,9 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         }
         print_json(&v)
     } else {
-        println!("plant:           {}", args.plant.display());
-        println!("controller:      {controller}");
-        print!("{report}");
+        say!("plant:           {}", args.plant.display());
+        say!("controller:      {controller}");
+        say_part!("{report}");
         Ok(())
     }
 }

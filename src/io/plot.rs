@@ -51,6 +51,21 @@ fn bounds<'a>(series: &[Series<'a>], pick: impl Fn(&Series<'a>) -> &'a [f64]) ->
     (lo - pad, hi + pad)
 }
 
+/// An axis tick for people: `1e8` rather than `100000000.0`, `0.25`
+/// rather than `0.25000000000000006`.
+fn tick_label(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if !(1e-2..1e5).contains(&a) {
+        let text = format!("{v:.1e}");
+        text.replace(".0e", "e")
+    } else {
+        let rounded = (v * 1e3).round() / 1e3;
+        format!("{rounded}")
+    }
+}
+
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     title: &str,
@@ -72,6 +87,7 @@ fn draw_panel<DB: DrawingBackend>(
             let mut chart = $chart;
             chart
                 .configure_mesh()
+                .x_label_formatter(&|v| tick_label(*v))
                 .x_desc(x_label)
                 .y_desc(y_label)
                 .draw()
