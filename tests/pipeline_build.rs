@@ -485,3 +485,44 @@ fn damaged_lock_and_json_summary() {
     assert_eq!(v["up_to_date"], 3);
     assert_eq!(v["stale"], 0);
 }
+
+/// A step's outputs are committed all or none: when one of them cannot be
+/// written, none is replaced and the step stays stale. Temporary files a
+/// killed run left beside the outputs are removed by the next build.
+#[test]
+fn a_step_commits_all_its_outputs_or_none_and_stale_temps_go() {
+    let d = tempfile::tempdir().unwrap();
+    project(d.path());
+    build(d.path()).success();
+    std::fs::write(d.path().join("models/.fts-killed1.tmp"), "half").unwrap();
+    std::fs::write(d.path().join(".fts-killed2.tmp"), "half").unwrap();
+    // A new PID gain changes both controller files; the header's path is
+    // now a folder, so neither may be replaced.
+    let text = std::fs::read_to_string(d.path().join("fts.toml")).unwrap();
+    std::fs::write(
+        d.path().join("fts.toml"),
+        text.replace("kp = 0.05", "kp = 0.04"),
+    )
+    .unwrap();
+    let json_before = std::fs::read(d.path().join("out/controller.json")).unwrap();
+    std::fs::remove_file(d.path().join("out/controller.h")).unwrap();
+    std::fs::create_dir(d.path().join("out/controller.h")).unwrap();
+    build(d.path()).code(2).stderr(predicate::str::contains(
+        "out/controller.h: cannot read: Is a directory",
+    ));
+    assert_eq!(
+        std::fs::read(d.path().join("out/controller.json")).unwrap(),
+        json_before
+    );
+    assert!(!d.path().join("models/.fts-killed1.tmp").exists());
+    assert!(!d.path().join(".fts-killed2.tmp").exists());
+    // With the folder gone, the step is rebuilt, both files together.
+    std::fs::remove_dir(d.path().join("out/controller.h")).unwrap();
+    check(d.path()).code(1);
+    build(d.path()).success();
+    check(d.path()).success();
+    assert_ne!(
+        std::fs::read(d.path().join("out/controller.json")).unwrap(),
+        json_before
+    );
+}

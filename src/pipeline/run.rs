@@ -103,12 +103,23 @@ pub fn load(manifest: &Path) -> Result<Plan, PipelineError> {
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
 /// synced, then renamed over the target. On error the target is untouched.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    stage(path, bytes)?.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+/// Prefix and suffix of the temporary files outputs are staged in.
+const TEMP_PREFIX: &str = ".fts-";
+const TEMP_SUFFIX: &str = ".tmp";
+
+/// Writes `bytes` to a synced temporary file beside `path`, to be renamed
+/// over it (`persist`); dropped unpersisted, it is removed.
+fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
     let mut builder = tempfile::Builder::new();
-    builder.prefix(".fts-").suffix(".tmp");
+    builder.prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX);
     // tempfile creates 0600 files; an output gets the usual 0644 (less the
     // umask), or keeps the mode of the file it replaces.
     #[cfg(unix)]
@@ -120,8 +131,34 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let mut tmp = builder.tempfile_in(dir)?;
     tmp.write_all(bytes)?;
     tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| e.error)?;
-    Ok(())
+    Ok(tmp)
+}
+
+/// Removes temporary files that a killed run left beside the plan's outputs.
+fn remove_stale_temps(plan: &Plan) {
+    let outputs = plan.steps.iter().flat_map(|s| &s.outputs);
+    let mut dirs: Vec<std::path::PathBuf> = outputs
+        .map(|f| plan.locate(&f.path))
+        .chain([plan.lock.clone()])
+        .map(|p| match p.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+            _ => std::path::PathBuf::from("."),
+        })
+        .collect();
+    dirs.sort();
+    dirs.dedup();
+    for dir in dirs {
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            if name.starts_with(TEMP_PREFIX) && name.ends_with(TEMP_SUFFIX) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
 }
 
 fn read_lock(plan: &Plan) -> Result<(Lock, Option<String>), PipelineError> {
@@ -256,6 +293,7 @@ pub fn build(
         Err(_) if force => (Lock::default(), None),
         other => other?,
     };
+    remove_stale_temps(plan);
     let names: BTreeSet<&str> = plan.steps.iter().map(|s| s.name.as_str()).collect();
     let mut lock = old.clone();
     lock.steps.retain(|name, _| names.contains(name.as_str()));
@@ -314,24 +352,7 @@ pub fn build(
                 PipelineError::Failure(m) => PipelineError::Failure(format!("{prefix}: {m}")),
             }
         })?;
-        for (f, bytes) in &outputs {
-            let path = plan.locate(&f.path);
-            let hash = sha256_hex(bytes);
-            // Identical content is not rewritten (its time stamp stays).
-            if file_hash(&path).ok().flatten().as_deref() != Some(hash.as_str()) {
-                if let Some(dir) = path.parent()
-                    && !dir.as_os_str().is_empty()
-                {
-                    std::fs::create_dir_all(dir).map_err(|e| {
-                        PipelineError::Failure(format!("{}: cannot create: {e}", dir.display()))
-                    })?;
-                }
-                write_atomic(&path, bytes).map_err(|e| {
-                    PipelineError::Failure(format!("{}: cannot write: {e}", path.display()))
-                })?;
-            }
-            entry.outputs.insert(f.path.clone(), hash);
-        }
+        commit_outputs(plan, &outputs, &mut entry)?;
         lock.steps.insert(step.name.clone(), entry);
         write_lock(&lock)?;
         let r = report(step, Status::Built, reasons, start.elapsed().as_secs_f64());
@@ -344,6 +365,49 @@ pub fn build(
         write_lock(&lock)?;
     }
     Ok(reports)
+}
+
+/// Writes a step's outputs all or none: every changed output is staged in a
+/// synced temporary file first, and only when all are staged are they
+/// renamed into place (the lock is written after, by the caller). Identical
+/// content is not rewritten, so its time stamp stays.
+fn commit_outputs(
+    plan: &Plan,
+    outputs: &[(FileRef, Vec<u8>)],
+    entry: &mut LockEntry,
+) -> Result<(), PipelineError> {
+    let mut staged = Vec::new();
+    for (f, bytes) in outputs {
+        let path = plan.locate(&f.path);
+        let hash = sha256_hex(bytes);
+        if file_hash(&path).ok().flatten().as_deref() != Some(hash.as_str()) {
+            // Caught before anything is renamed, so the step stays all or none.
+            if std::fs::symlink_metadata(&path).is_ok_and(|m| !m.is_file()) {
+                return Err(PipelineError::Failure(format!(
+                    "{}: cannot write: it exists and is not a regular file",
+                    path.display()
+                )));
+            }
+            if let Some(dir) = path.parent()
+                && !dir.as_os_str().is_empty()
+            {
+                std::fs::create_dir_all(dir).map_err(|e| {
+                    PipelineError::Failure(format!("{}: cannot create: {e}", dir.display()))
+                })?;
+            }
+            let tmp = stage(&path, bytes).map_err(|e| {
+                PipelineError::Failure(format!("{}: cannot write: {e}", path.display()))
+            })?;
+            staged.push((tmp, path));
+        }
+        entry.outputs.insert(f.path.clone(), hash);
+    }
+    for (tmp, path) in staged {
+        tmp.persist(&path).map_err(|e| {
+            PipelineError::Failure(format!("{}: cannot write: {}", path.display(), e.error))
+        })?;
+    }
+    Ok(())
 }
 
 fn bad(m: impl Into<String>) -> PipelineError {
