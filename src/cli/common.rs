@@ -140,6 +140,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot write the output atomically", path.display()))
 }
 
+/// The most frequency points a command evaluates (checked before any work,
+/// so a mistyped count is an error, not an allocation abort).
+pub const MAX_POINTS: usize = 1_000_000;
+
+/// `--points`: a whole number from 2 to [`MAX_POINTS`].
+pub fn parse_points(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if (2..=MAX_POINTS).contains(&n) => Ok(n),
+        _ => Err(format!("expected a whole number from 2 to {MAX_POINTS}")),
+    }
+}
+
 /// The error of a failed write to stdout (exit 1).
 pub fn stdout_error(e: std::io::Error) -> anyhow::Error {
     anyhow::anyhow!("cannot write to stdout: {e}")

@@ -56,7 +56,7 @@ pub struct Ding22Args {
     #[arg(long, value_name = "HZ", default_value_t = 1e5)]
     fmax: f64,
     /// Log-spaced points of the budget grid (extra points are added around lightly damped poles).
-    #[arg(long, default_value_t = 3000)]
+    #[arg(long, default_value_t = 3000, value_parser = super::common::parse_points)]
     points: usize,
     /// Skip the PID baseline.
     #[arg(long)]

@@ -357,7 +357,7 @@ pub struct BudgetArgs {
     #[arg(long, value_name = "HZ")]
     fmax: Option<f64>,
     /// Number of grid points (uniform from 0 to fmax).
-    #[arg(long, default_value_t = 20001)]
+    #[arg(long, default_value_t = 20001, value_parser = super::common::parse_points)]
     points: usize,
     /// Write freq_hz, psd_<i>..., psd_total, cas to this CSV.
     #[arg(long, value_name = "OUT.csv")]

@@ -25,7 +25,7 @@ pub struct InfoArgs {
     #[arg(long, value_name = "OUT.csv")]
     bode: Option<PathBuf>,
     /// Points of the Bode table.
-    #[arg(long, default_value_t = 1001)]
+    #[arg(long, default_value_t = 1001, value_parser = super::common::parse_points)]
     points: usize,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]

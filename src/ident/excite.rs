@@ -45,6 +45,20 @@ pub fn sample_count(duration: f64, ts: f64) -> Result<usize, ExciteError> {
     samples(duration, ts)
 }
 
+/// The most samples one signal may have: 5e7, i.e. 5000 s at 10 kHz, 400 MB
+/// per column. Checked before anything is allocated, so a mistyped duration
+/// is an error naming its option, not an out-of-memory abort.
+pub const MAX_SAMPLES: f64 = 5e7;
+
+/// Refuses a signal of `n` samples beyond [`MAX_SAMPLES`], blaming `field`.
+fn check_total(field: &'static str, n: f64) -> Result<(), ExciteError> {
+    check(
+        n <= MAX_SAMPLES,
+        field,
+        format!("the signal would have {n:.3e} samples, more than fts generates ({MAX_SAMPLES:e})"),
+    )
+}
+
 fn samples(duration: f64, ts: f64) -> Result<usize, ExciteError> {
     check(
         duration.is_finite() && duration > 0.0,
@@ -52,11 +66,7 @@ fn samples(duration: f64, ts: f64) -> Result<usize, ExciteError> {
         format!("must be a positive number of seconds, got {duration}"),
     )?;
     let n = (duration / ts).round();
-    check(
-        n <= 1e9,
-        "duration",
-        format!("{n} samples is more than fts generates (1e9)"),
-    )?;
+    check_total("duration", n)?;
     Ok((n as usize).max(1))
 }
 
@@ -117,6 +127,10 @@ pub fn triangle(p: &TriangleParams) -> Result<Vec<f64>, ExciteError> {
         per_period >= 4,
         "freq",
         "a period must span at least 4 samples",
+    )?;
+    check_total(
+        "cycles",
+        per_period as f64 * p.cycles as f64 * p.amplitudes.len() as f64,
     )?;
     let mut out = Vec::with_capacity(per_period * p.cycles * p.amplitudes.len() + 1);
     for &a in &p.amplitudes {
@@ -303,6 +317,7 @@ pub fn multisine(p: &MultisineParams) -> Result<(Vec<f64>, Vec<f64>), ExciteErro
     check(!lines.is_empty(), "freqs", "give at least one frequency")?;
     lines.sort_unstable();
     let per_period = samples(p.period, p.ts)?;
+    check_total("periods", per_period as f64 * p.periods as f64)?;
     let big_k = lines.len() as f64;
     let one_period: Vec<f64> = (0..per_period)
         .map(|n| {

@@ -12,6 +12,45 @@ use serde_json::{Map, Value};
 /// The format tag this module reads and writes.
 pub const TF_FORMAT: &str = "fts.tf/1";
 
+/// The most coefficients a polynomial in a file may have (the runtime's
+/// filter capacity): roots and responses stay fast and bounded.
+pub const MAX_COEFFS: usize = 512;
+
+/// The largest input delay in a file, samples (100 s at 10 kHz).
+pub const MAX_DELAY: u64 = 1_000_000;
+
+/// The largest coefficient magnitude accepted; beyond it (and for subnormal
+/// values, which make root finding crawl) the model is refused as absurd
+/// rather than computed with.
+pub const MAX_COEFF_MAGNITUDE: f64 = 1e100;
+
+/// Refuses polynomials that are too long or hold absurd coefficients.
+fn check_coeffs(source: &str, field: &str, c: &[f64]) -> Result<(), InputError> {
+    if c.len() > MAX_COEFFS {
+        return Err(field_err(
+            source,
+            field,
+            &format!(
+                "{} coefficients; at most {MAX_COEFFS} are accepted",
+                c.len()
+            ),
+        ));
+    }
+    let absurd =
+        |v: f64| v != 0.0 && (v.abs() < f64::MIN_POSITIVE || v.abs() > MAX_COEFF_MAGNITUDE);
+    if let Some(i) = c.iter().position(|&v| v.is_finite() && absurd(v)) {
+        return Err(field_err(
+            source,
+            field,
+            &format!(
+                "coefficient {i} = {:e} is subnormal or beyond {MAX_COEFF_MAGNITUDE:e}; rescale the model (e.g. time in ms, gain in other units)",
+                c[i]
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Parses an `fts.tf/1` document. Unknown fields are ignored; an unknown
 /// `format` is an error.
 pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError> {
@@ -24,6 +63,8 @@ pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError
     let var = get_str(obj, source, "var")?;
     let num = get_f64_array(obj, source, "num")?;
     let den = get_f64_array(obj, source, "den")?;
+    check_coeffs(source, "num", &num)?;
+    check_coeffs(source, "den", &den)?;
     let tf_err = |e: TfError| {
         let field = match &e {
             TfError::BadDenominator(_) => "den",
@@ -48,13 +89,23 @@ pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError
             };
             let delay = match obj.get("delay") {
                 None | Some(Value::Null) => 0,
-                Some(Value::Number(n)) => n.as_u64().ok_or_else(|| {
-                    field_err(
-                        source,
-                        "delay",
-                        "expected a non-negative whole number of samples",
-                    )
-                })? as usize,
+                Some(Value::Number(n)) => match n.as_u64() {
+                    Some(d) if d <= MAX_DELAY => d as usize,
+                    Some(d) => {
+                        return Err(field_err(
+                            source,
+                            "delay",
+                            &format!("{d} samples; at most {MAX_DELAY} are accepted"),
+                        ));
+                    }
+                    None => {
+                        return Err(field_err(
+                            source,
+                            "delay",
+                            "expected a non-negative whole number of samples",
+                        ));
+                    }
+                },
                 Some(_) => {
                     return Err(field_err(
                         source,
@@ -212,6 +263,39 @@ mod tests {
       "delay": 5, "comment": "ignored"
     }"#;
 
+    /// Sizes and magnitudes a user controls are bounded before any work: each
+    /// refusal names the field.
+    #[test]
+    fn absurd_models_are_refused_naming_the_field() {
+        let doc = |num: &str, den: &str, delay: &str| {
+            format!(
+                r#"{{"format": "fts.tf/1", "var": "z^-1", "ts": 1e-4, "num": {num}, "den": {den}, "delay": {delay}}}"#
+            )
+        };
+        let long = format!("[1{}]", ", 0.001".repeat(MAX_COEFFS));
+        for (text, field, needle) in [
+            (doc("[1]", "[1e-320, 1]", "0"), "den", "subnormal"),
+            (doc("[1e200]", "[1, 0.5]", "0"), "num", "beyond 1e100"),
+            (
+                doc("[1]", "[1, 0.5]", "1000000000000"),
+                "delay",
+                "at most 1000000",
+            ),
+            (
+                doc("[1]", &long, "0"),
+                "den",
+                "513 coefficients; at most 512",
+            ),
+        ] {
+            let e = parse_tf(&text, "g.json").unwrap_err();
+            assert_eq!(e.field.as_deref(), Some(field), "{e}");
+            assert!(e.to_string().contains(needle), "{e}");
+        }
+        // At the bounds, accepted.
+        let edge = format!("[1{}]", ", 0.001".repeat(MAX_COEFFS - 1));
+        assert!(parse_tf(&doc("[1e100]", &edge, "1000000"), "g.json").is_ok());
+    }
+
     #[test]
     fn reads_interfaces_example() {
         let TransferFunction::Discrete(g) = parse_tf(LI21, "p.json").unwrap() else {
@@ -224,9 +308,41 @@ mod tests {
 
     #[test]
     fn round_trip_is_bit_exact() {
-        let g = DiscreteTf::new(
+        // The writer's floats parse back to the same bits, extremes included.
+        let extreme = DiscreteTf::new(
             vec![0.1 + 0.2, 1.0 / 3.0, -2.0f64.sqrt(), 1e-300, 5e-324],
             vec![1.0, std::f64::consts::PI, f64::MAX],
+            3,
+            1e-4,
+        )
+        .unwrap();
+        let text = tf_to_string(&TransferFunction::Discrete(extreme.clone()));
+        let doc: Value = serde_json::from_str(&text).unwrap();
+        let bits = |v: &Value| -> Vec<u64> {
+            v.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap().to_bits())
+                .collect()
+        };
+        let want = |c: &[f64]| -> Vec<u64> { c.iter().map(|x| x.to_bits()).collect() };
+        assert_eq!(bits(&doc["num"]), want(extreme.num().coeffs()));
+        assert_eq!(bits(&doc["den"]), want(extreme.den().coeffs()));
+        // A model with subnormal or huge coefficients is refused on reading.
+        assert_eq!(
+            parse_tf(&text, "x").unwrap_err().field.as_deref(),
+            Some("num")
+        );
+
+        let g = DiscreteTf::new(
+            vec![
+                0.1 + 0.2,
+                1.0 / 3.0,
+                -2.0f64.sqrt(),
+                1e-300,
+                f64::MIN_POSITIVE,
+            ],
+            vec![1.0, std::f64::consts::PI, 1e100],
             3,
             1e-4,
         )
