@@ -7,6 +7,7 @@ use super::common::{bad, print_json, read_input, write_atomic};
 use crate::io::{plot, ss_json, tf_json};
 use crate::lti::margins::{LoopError, LoopParams, LoopSystem, analyze_loop};
 use crate::lti::ss::SsError;
+use crate::lti::tf::{add_descending, convolve};
 use crate::lti::{Bode, ContinuousTf, DiscreteTf, TransferFunction, logspace};
 use clap::Args;
 use serde_json::Value;
@@ -65,30 +66,6 @@ fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
     })
 }
 
-/// Descending-power product.
-fn conv(a: &[f64], b: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; a.len() + b.len() - 1];
-    for (i, x) in a.iter().enumerate() {
-        for (j, y) in b.iter().enumerate() {
-            out[i + j] += x * y;
-        }
-    }
-    out
-}
-
-/// Descending-power sum, aligned at the constant term.
-fn add(a: &[f64], b: &[f64]) -> Vec<f64> {
-    let n = a.len().max(b.len());
-    let mut out = vec![0.0; n];
-    for (i, x) in a.iter().enumerate() {
-        out[n - a.len() + i] += x;
-    }
-    for (i, x) in b.iter().enumerate() {
-        out[n - b.len() + i] += x;
-    }
-    out
-}
-
 /// The PID controller for the plant's time domain, and a description.
 fn pid(args: &LoopArgs, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)> {
     let (kp, ki, kd) = (
@@ -140,13 +117,13 @@ fn pid(args: &LoopArgs, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)>
             };
             let int_den: &[f64] = if ki != 0.0 { &[1.0, 0.0] } else { &[1.0] };
             let der_den: &[f64] = if kd != 0.0 { &[1.0, n] } else { &[1.0] };
-            let den = conv(int_den, der_den);
-            let mut num = conv(&[kp], &den);
+            let den = convolve(int_den, der_den);
+            let mut num = convolve(&[kp], &den);
             if ki != 0.0 {
-                num = add(&num, &conv(&[ki], der_den));
+                num = add_descending(&num, &convolve(&[ki], der_den));
             }
             if kd != 0.0 {
-                num = add(&num, &conv(&[kd * n, 0.0], int_den));
+                num = add_descending(&num, &convolve(&[kd * n, 0.0], int_den));
             }
             let k = ContinuousTf::new(num, den).map_err(|e| bad(format!("PID: {e}")))?;
             let filter = if kd != 0.0 {

@@ -204,18 +204,7 @@ pub fn parse_system(text: &str, source: &str) -> Result<StateSpace, InputError> 
     }
     let sys = match super::tf_json::parse_tf(text, source)? {
         TransferFunction::Continuous(c) => StateSpace::from_continuous_tf(&c),
-        TransferFunction::Discrete(d) => {
-            // G = z^-d b(z^-1)/a(z^-1): descending powers of z after multiplying by z^N.
-            let (b, a) = (d.num().coeffs(), d.den().coeffs());
-            let nn = (b.len() - 1 + d.delay()).max(a.len() - 1);
-            let mut num = vec![0.0; nn + 1];
-            let mut den = vec![0.0; nn + 1];
-            for (i, x) in b.iter().enumerate() {
-                num[d.delay() + i] = *x;
-            }
-            den[..a.len()].copy_from_slice(a);
-            StateSpace::from_tf(&num, &den, Some(d.ts()))
-        }
+        TransferFunction::Discrete(d) => crate::lti::margins::discrete_tf_to_ss(&d),
     };
     sys.map_err(|e| InputError::new(source, e.to_string()))
 }

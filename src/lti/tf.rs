@@ -346,7 +346,8 @@ impl ContinuousTf {
     }
 }
 
-fn convolve(a: &[f64], b: &[f64]) -> Vec<f64> {
+/// Product of two coefficient lists (either power order).
+pub(crate) fn convolve(a: &[f64], b: &[f64]) -> Vec<f64> {
     let mut out = vec![0.0; a.len() + b.len() - 1];
     for (i, x) in a.iter().enumerate() {
         for (j, y) in b.iter().enumerate() {
@@ -357,7 +358,7 @@ fn convolve(a: &[f64], b: &[f64]) -> Vec<f64> {
 }
 
 /// Sum of two descending-power coefficient lists (aligned at the constant term).
-fn add_descending(a: &[f64], b: &[f64]) -> Vec<f64> {
+pub(crate) fn add_descending(a: &[f64], b: &[f64]) -> Vec<f64> {
     let n = a.len().max(b.len());
     let mut out = vec![0.0; n];
     for (i, x) in a.iter().enumerate() {
