@@ -689,10 +689,11 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
         last_rank = Some(rank);
         match kind {
             "zpetc" => {
-                let preview = b.get("preview").and_then(Value::as_u64).ok_or_else(|| {
-                    InputError::new(source, "expected a non-negative whole number of samples")
-                        .in_field(format!("{field}.preview"))
-                })? as usize;
+                let preview = super::zpetc_json::read_preview(
+                    b.get("preview"),
+                    source,
+                    &format!("{field}.preview"),
+                )?;
                 file.zpetc = Some(ZpetcBlock {
                     preview,
                     num: block_array(b, source, "num", &field)?,

@@ -19,6 +19,30 @@ use crate::lti::{Poly, c64};
 use crate::synth::zpetc::{ClassifiedZero, StableInversion, ZeroStatus, Zpetc, ZpetcParams};
 use serde_json::{Value, json};
 
+/// The longest preview a file may declare, samples: the longest input delay
+/// of a model file plus the runtime's filter capacity.
+pub const MAX_PREVIEW: u64 = super::tf_json::MAX_DELAY + crate::runtime::MAX_FILTER_LEN as u64;
+
+/// A `preview` field: a whole number of samples up to [`MAX_PREVIEW`].
+pub(crate) fn read_preview(
+    value: Option<&Value>,
+    source: &str,
+    field: &str,
+) -> Result<usize, InputError> {
+    match value.and_then(Value::as_u64) {
+        Some(p) if p <= MAX_PREVIEW => Ok(p as usize),
+        Some(p) => Err(InputError::new(
+            source,
+            format!("{p} samples of preview; at most {MAX_PREVIEW} are accepted"),
+        )
+        .in_field(field)),
+        None => Err(
+            InputError::new(source, "expected a non-negative whole number of samples")
+                .in_field(field),
+        ),
+    }
+}
+
 /// The format tag.
 pub const ZPETC_FORMAT: &str = "fts.zpetc/1";
 
@@ -129,10 +153,7 @@ pub fn parse_zpetc(text: &str, source: &str) -> Result<Zpetc, InputError> {
     if den[0] == 0.0 {
         return Err(InputError::new(source, "den[0] must be non-zero").in_field("den"));
     }
-    let preview = obj.get("preview").and_then(Value::as_u64).ok_or_else(|| {
-        InputError::new(source, "expected a non-negative whole number of samples")
-            .in_field("preview")
-    })? as usize;
+    let preview = read_preview(obj.get("preview"), source, "preview")?;
     let defaults = ZpetcParams::default();
     let params = ZpetcParams {
         rho: obj
@@ -230,6 +251,24 @@ mod tests {
         assert_eq!(back.preview, z.preview);
         assert_eq!(zpetc_to_string(&back), text);
     }
+    /// A preview beyond what fts can produce is refused on reading, naming
+    /// the field, before anything is sized by it.
+    #[test]
+    fn an_absurd_preview_is_refused() {
+        let g = DiscreteTf::new(vec![1.0, -2.0, 0.75], vec![1.0, -0.3], 2, 1e-3).unwrap();
+        let text = zpetc_to_string(&design(&g, &ZpetcParams::default()).unwrap());
+        let mut doc: Value = serde_json::from_str(&text).unwrap();
+        doc["preview"] = Value::from(1_000_000_000_000u64);
+        let e = parse_zpetc(&doc.to_string(), "z.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("preview"), "{e}");
+        assert!(e.to_string().contains("at most 1000512"), "{e}");
+        doc["preview"] = Value::from(MAX_PREVIEW);
+        assert_eq!(
+            parse_zpetc(&doc.to_string(), "z.json").unwrap().preview as u64,
+            MAX_PREVIEW
+        );
+    }
+
     #[test]
     fn round_trip_with_stable_inversion() {
         let g = DiscreteTf::new(vec![1.0, -2.0, 0.75], vec![1.0, -0.3], 2, 1e-3).unwrap();
