@@ -440,3 +440,98 @@ fn an_unwritable_stdout_exits_1_with_one_line() {
         assert!(err.contains("cannot write to stdout"), "{args:?}: {err}");
     }
 }
+
+/// Sizes are refused before any work, naming the option that is the
+/// culprit (not the duration they make too long).
+#[test]
+fn oversized_requests_name_their_option() {
+    for (args, needle) in [
+        (
+            vec![
+                "excite",
+                "sweep",
+                "--f0",
+                "0",
+                "--f1",
+                "100",
+                "--duration",
+                "99999",
+            ],
+            "--duration: the signal would have 1.000e9 samples",
+        ),
+        (
+            vec![
+                "excite",
+                "triangle",
+                "--amplitudes",
+                "1",
+                "--freq",
+                "1",
+                "--cycles",
+                "4000000000",
+            ],
+            "--cycles:",
+        ),
+        (
+            vec![
+                "excite",
+                "multisine",
+                "--period",
+                "1",
+                "--periods",
+                "100000000",
+                "--freqs",
+                "10",
+            ],
+            "--periods:",
+        ),
+        (
+            vec![
+                "excite",
+                "sine",
+                "--freq",
+                "10",
+                "--amplitude",
+                "1",
+                "--duration",
+                "1",
+                "--ts",
+                "1e-300",
+            ],
+            "--ts: sample time must be",
+        ),
+        (
+            vec![
+                "simulate",
+                "--controller",
+                "pid",
+                "--reference",
+                "sine",
+                "--freq",
+                "0",
+                "--amplitude",
+                "1",
+            ],
+            "--freq: expected a positive frequency",
+        ),
+        (
+            vec!["simulate", "--controller", "pid", "--duration", "99999"],
+            "--duration:",
+        ),
+        (
+            vec![
+                "tf",
+                "info",
+                "fixtures/li21-closed-loop.json",
+                "--points",
+                "1000000000",
+            ],
+            "--points",
+        ),
+    ] {
+        fails_with(
+            fts().current_dir(env!("CARGO_MANIFEST_DIR")).args(&args),
+            &[needle],
+        );
+    }
+}

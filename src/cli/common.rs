@@ -45,7 +45,6 @@ pub fn one_line(e: &anyhow::Error) -> String {
 
 /// The files this run has read and written: a result is never written onto
 /// an input of the same run, nor onto another of its results.
-#[derive(Default)]
 struct RunFiles {
     inputs: Vec<PathBuf>,
     outputs: Vec<PathBuf>,

@@ -156,9 +156,18 @@ fn build_reference(args: &SimulateArgs, ts: f64, preview: usize) -> anyhow::Resu
     }
     match args.reference {
         ReferenceKind::Sine => {
-            let duration = args
-                .duration
-                .unwrap_or((20.0 / args.freq.max(1e-9)).max(0.2));
+            // The default duration is 20 periods: without a positive
+            // frequency there is none, and the frequency is the culprit.
+            let duration = match args.duration {
+                Some(d) => d,
+                None if args.freq.is_finite() && args.freq > 0.0 => (20.0 / args.freq).max(0.2),
+                None => {
+                    return Err(bad(format!(
+                        "--freq: expected a positive frequency in Hz for a sine reference, got {} (or give --duration)",
+                        args.freq
+                    )));
+                }
+            };
             reference::sine(args.amplitude, args.freq, args.offset, duration, &timing)
                 .map_err(excite_err)
         }

@@ -28,11 +28,15 @@ fn check(ok: bool, field: &'static str, message: impl Into<String>) -> Result<()
     }
 }
 
+/// The shortest sample time accepted, s (a 1 GHz loop): below it every
+/// signal would be too long to generate, and the sample time is the culprit.
+pub const MIN_TS: f64 = 1e-9;
+
 fn check_ts(ts: f64) -> Result<(), ExciteError> {
     check(
-        ts.is_finite() && ts > 0.0,
+        ts.is_finite() && ts >= MIN_TS,
         "ts",
-        format!("sample time must be a positive number of seconds, got {ts}"),
+        format!("sample time must be a number of seconds of at least {MIN_TS:e}, got {ts:e}"),
     )
 }
 
