@@ -6,7 +6,7 @@
 //! * `fts mixsyn --plant G.json --ws WS.json [--wu WU.json] [--wt WT.json] [-o K.json] [--json]`
 //! * `fts c2d K.json --ts SECONDS --method zoh|tustin [--prewarp HZ] [-o KD.json] [--json]`
 //! * `fts ss-info SYS.json [--json]`
-//! * `fts budget SYS.json [--controller K.json] [--output I] [--fmax HZ] [--csv OUT.csv] [--json]`
+//! * `fts budget SYS.json [--controller K.json] [--output-index I] [--fmax HZ] [--csv OUT.csv] [--json]`
 
 use super::common::{
     bad, complex_pairs, print_json, print_report, read_input, step_error, write_atomic,
