@@ -535,3 +535,39 @@ fn oversized_requests_name_their_option() {
         );
     }
 }
+
+/// `fts emit` checks its PID flags where they are named, not in the file it
+/// would have written.
+#[test]
+fn emit_names_a_bad_gain_or_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let zpetc = dir.path().join("z.json");
+    fts()
+        .args(["zpetc", "--tf"])
+        .arg(repo("fixtures/li21-closed-loop.json"))
+        .arg("-o")
+        .arg(&zpetc)
+        .assert()
+        .success();
+    let out = dir.path().join("c.json");
+    for (flags, needle) in [
+        (vec!["--kp", "NaN"], "--kp: expected a finite gain, got NaN"),
+        (vec!["--kd", "inf"], "--kd: expected a finite gain, got inf"),
+        (
+            vec!["--output-min", "5", "--output-max", "1"],
+            "min < max, got 5 and 1",
+        ),
+    ] {
+        fails_with(
+            fts()
+                .arg("emit")
+                .arg("--zpetc")
+                .arg(&zpetc)
+                .args(&flags)
+                .arg("-o")
+                .arg(&out),
+            &[needle],
+        );
+        assert!(!out.exists());
+    }
+}

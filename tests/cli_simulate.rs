@@ -150,7 +150,7 @@ fn bad_coefficient_files_exit_2() {
                 d["blocks"][1]["weights"].as_array_mut().unwrap().pop();
                 d
             },
-            "hysteresis.weights",
+            "field 'blocks[1].weights'",
         ),
         (
             {

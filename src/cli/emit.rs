@@ -242,16 +242,7 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
             )?),
             FeedbackKind::StateSpace,
         ),
-        None => (
-            Feedback::Pid(PidSpec {
-                kp: args.kp,
-                ki: args.ki,
-                kd: args.kd,
-                output_min: args.output_min.unwrap_or(0.0),
-                output_max: args.output_max.unwrap_or(10.0),
-            }),
-            FeedbackKind::Pid,
-        ),
+        None => (Feedback::Pid(pid_from_flags(args)?), FeedbackKind::Pid),
     };
     let stages = Stages {
         feedback: kind,
@@ -270,6 +261,32 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
         },
     )
     .map_err(bad)
+}
+
+/// The PID block from its flags, each checked where it is named: the gains
+/// finite, the limits finite and ordered.
+fn pid_from_flags(args: &EmitArgs) -> anyhow::Result<PidSpec> {
+    for (name, value) in [("--kp", args.kp), ("--ki", args.ki), ("--kd", args.kd)] {
+        if !value.is_finite() {
+            return Err(bad(format!("{name}: expected a finite gain, got {value}")));
+        }
+    }
+    let (lo, hi) = (
+        args.output_min.unwrap_or(0.0),
+        args.output_max.unwrap_or(10.0),
+    );
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(bad(format!(
+            "--output-min/--output-max: expected finite limits with min < max, got {lo} and {hi}"
+        )));
+    }
+    Ok(PidSpec {
+        kp: args.kp,
+        ki: args.ki,
+        kd: args.kd,
+        output_min: lo,
+        output_max: hi,
+    })
 }
 
 pub fn run(args: EmitArgs) -> anyhow::Result<()> {

@@ -227,6 +227,52 @@ impl ZpetcBlock {
 }
 
 impl HysteresisBlock {
+    /// Checks the block as strictly as a model file is checked: a known
+    /// `model`, strictly increasing non-negative thresholds, one finite
+    /// weight per threshold, parts that match the model kind.
+    fn validate(&self, source: &str, field: &str) -> Result<(), InputError> {
+        use crate::ident::hysteresis::{
+            DeadZoneStage, HysteresisModel, ModelError, ModelKind, PlayOperator,
+        };
+        let err = |key: &str, msg: String| {
+            InputError::new(source, msg).in_field(format!("{field}.{key}"))
+        };
+        let kind = ModelKind::from_name(&self.model).ok_or_else(|| {
+            err(
+                "model",
+                format!(
+                    "expected \"pi\", \"mpi-cbrt\" or \"mpi-deadzone\", found {:?}",
+                    self.model
+                ),
+            )
+        })?;
+        let model = HysteresisModel {
+            kind,
+            operator: match self.operator {
+                PlayForm::Lower => PlayOperator::Lower,
+                PlayForm::Symmetric => PlayOperator::Symmetric,
+            },
+            thresholds: self.thresholds.clone(),
+            weights: self.weights.clone(),
+            cbrt_gain: self.cbrt_gain,
+            offset: self.offset,
+            input_offset: self.input_offset,
+            dead_zone: (!self.dead_zone_thresholds.is_empty()).then(|| DeadZoneStage {
+                thresholds: self.dead_zone_thresholds.clone(),
+                weights: self.dead_zone_weights.clone(),
+            }),
+        };
+        model.validate().map_err(|e| {
+            let key = match &e {
+                ModelError::LengthMismatch { field, .. }
+                | ModelError::Thresholds { field, .. }
+                | ModelError::NonFinite { field } => field.replace("dead_zone.", "dead_zone_"),
+                ModelError::Inconsistent(_) => "model".to_owned(),
+            };
+            err(&key, e.to_string())
+        })
+    }
+
     /// The block of an (inverse) hysteresis model.
     pub fn from_model(m: &crate::ident::hysteresis::HysteresisModel) -> Self {
         use crate::ident::hysteresis::PlayOperator;
@@ -716,7 +762,7 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
                         .in_field(format!("{field}.operator")));
                     }
                 };
-                file.hysteresis = Some(HysteresisBlock {
+                let block = HysteresisBlock {
                     model: b
                         .get("model")
                         .and_then(Value::as_str)
@@ -735,7 +781,9 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
                         &field,
                     )?,
                     dead_zone_weights: optional_array(b, source, "dead_zone_weights", &field)?,
-                });
+                };
+                block.validate(source, &field)?;
+                file.hysteresis = Some(block);
             }
             "state_space" => {
                 file.feedback = Feedback::StateSpace(parse_state_space(b, source, &field, ts)?);
@@ -1340,7 +1388,19 @@ mod tests {
                 edit(&|d| {
                     d["blocks"][1]["weights"].as_array_mut().unwrap().pop();
                 }),
-                "hysteresis.weights",
+                "blocks[1].weights",
+            ),
+            // Checked as strictly as the model file it came from.
+            (
+                edit(&|d| {
+                    let t = d["blocks"][1]["thresholds"].as_array_mut().unwrap();
+                    t.swap(0, 1);
+                }),
+                "blocks[1].thresholds",
+            ),
+            (
+                edit(&|d| d["blocks"][1]["model"] = json!("preisach")),
+                "blocks[1].model",
             ),
             (edit(&|d| d["preview"] = json!(4)), "preview"),
             (
