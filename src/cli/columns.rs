@@ -117,19 +117,14 @@ impl IoColumnArgs {
     /// Reads the record and cuts it to `start..end`.
     pub fn read(&self, path: &Path) -> anyhow::Result<IoData> {
         let mut data = self.columns.read(path, 1)?;
-        let n = data.input.len();
-        let end = self.end.unwrap_or(n);
-        if end > n || self.start >= end {
-            return Err(bad(format!(
-                "{}: sample range {}..{end} is empty or outside the {n} data rows",
+        data.keep_rows(self.start, self.end).map_err(|n| {
+            bad(format!(
+                "{}: sample range {}..{} is empty or outside the {n} data rows",
                 path.display(),
-                self.start
-            )));
-        }
-        data.input.truncate(end);
-        data.output.truncate(end);
-        data.input.drain(..self.start);
-        data.output.drain(..self.start);
+                self.start,
+                self.end.unwrap_or(n)
+            ))
+        })?;
         Ok(data)
     }
 }

@@ -166,26 +166,8 @@ pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `[re, im]` pairs, the JSON form of complex numbers in summaries.
-pub fn complex_pairs<'a>(
-    values: impl IntoIterator<Item = &'a crate::lti::c64>,
-) -> serde_json::Value {
-    serde_json::Value::Array(
-        values
-            .into_iter()
-            .map(|z| serde_json::json!([z.re, z.im]))
-            .collect(),
-    )
-}
-
-/// A complex number for people: `0.547500+0.674800j`.
-pub fn fmt_complex(z: crate::lti::c64) -> String {
-    if z.im == 0.0 {
-        format!("{:.6}", z.re)
-    } else {
-        format!("{:.6}{:+.6}j", z.re, z.im)
-    }
-}
+/// The JSON and text forms of complex numbers, shared with the library's reports.
+pub use crate::workflow::{complex_pairs, fmt_complex};
 
 /// A step's error as a command's: a setting is named by its flag
 /// (`--prewarp`), bad input exits 2 and a failed computation 1.

@@ -425,16 +425,13 @@ fn read_record(
     min_rows: usize,
 ) -> Result<IoData, PipelineError> {
     let mut data = read_io(bytes, source, &spec.columns, min_rows)?;
-    let n = data.input.len();
-    let end = spec.end.unwrap_or(n);
-    if end > n || spec.start >= end {
-        return Err(bad(format!(
-            "{source}: sample range {}..{end} (fields start/end) is empty or outside the {n} data rows",
-            spec.start
-        )));
-    }
-    data.input = data.input[spec.start..end].to_vec();
-    data.output = data.output[spec.start..end].to_vec();
+    data.keep_rows(spec.start, spec.end).map_err(|n| {
+        bad(format!(
+            "{source}: sample range {}..{} (fields start/end) is empty or outside the {n} data rows",
+            spec.start,
+            spec.end.unwrap_or(n)
+        ))
+    })?;
     Ok(data)
 }
 

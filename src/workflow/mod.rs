@@ -20,6 +20,27 @@ pub use robust::{
     MixsynReport, Weight, WeightReport, WeightShape,
 };
 
+/// `[re, im]` pairs, the JSON form of complex numbers in reports.
+pub fn complex_pairs<'a>(
+    values: impl IntoIterator<Item = &'a crate::lti::c64>,
+) -> serde_json::Value {
+    serde_json::Value::Array(
+        values
+            .into_iter()
+            .map(|z| serde_json::json!([z.re, z.im]))
+            .collect(),
+    )
+}
+
+/// A complex number for people: `0.547500+0.674800j`.
+pub fn fmt_complex(z: crate::lti::c64) -> String {
+    if z.im == 0.0 {
+        format!("{:.6}", z.re)
+    } else {
+        format!("{:.6}{:+.6}j", z.re, z.im)
+    }
+}
+
 /// Why a step failed: its settings or inputs are at fault (`Input`), or the
 /// computation broke down on valid input (`Computation`). Messages name the
 /// setting (`field`) as a manifest key, never as a command-line flag; the

@@ -2,6 +2,7 @@
 //! synthesis, and discretisation of a continuous system.
 
 use super::{StepError, Validate, positive};
+use super::{complex_pairs, fmt_complex};
 use crate::io::ss_json;
 use crate::lti::balred::balred;
 use crate::lti::c2d::{C2dMethod, c2d};
@@ -16,20 +17,6 @@ use crate::synth::weights;
 use serde::{Deserialize, Serialize, Serializer};
 use serde_json::{Value, json};
 use std::fmt;
-
-/// `[re, im]` pairs, the JSON form of complex numbers in reports.
-fn complex_pairs(values: &[c64]) -> Value {
-    Value::Array(values.iter().map(|z| json!([z.re, z.im])).collect())
-}
-
-/// A complex number for people: `0.547500+0.674800j`.
-fn fmt_complex(z: c64) -> String {
-    if z.im == 0.0 {
-        format!("{:.6}", z.re)
-    } else {
-        format!("{:.6}{:+.6}j", z.re, z.im)
-    }
-}
 
 /// The six rightmost poles, for a one-line summary.
 pub fn poles_summary(poles: &[c64]) -> String {
@@ -300,6 +287,26 @@ impl Validate for Hinf {
     }
 }
 
+/// What H2 and H-infinity reports share: the closed loop, the Riccati
+/// residuals, the controller and the regularisation. (`serde_json` keeps
+/// keys sorted, so the fields added after stay in the same place.)
+fn synthesis_value(
+    stable: bool,
+    poles: &[c64],
+    (x_residual, y_residual): (f64, f64),
+    k: &StateSpace,
+    ((d12, d21), eps_min): ((Option<f64>, Option<f64>), f64),
+) -> Value {
+    json!({
+        "stable": stable,
+        "closed_loop_poles": complex_pairs(poles),
+        "riccati_residuals": {"x": x_residual, "y": y_residual},
+        "controller": ss_json::ss_to_value(k),
+        "controller_order": k.nx(),
+        "regularised": {"d12": d12, "d21": d21, "eps_min": eps_min},
+    })
+}
+
 /// An H-infinity controller and its closed loop.
 #[derive(Debug, Clone)]
 pub struct HinfReport {
@@ -314,18 +321,18 @@ pub struct HinfReport {
 impl HinfReport {
     fn to_value(&self) -> Value {
         let r = &self.result;
-        json!({
-            "gamma": r.gamma,
-            "gamma_opt": r.gamma_opt,
-            "achieved_hinf_norm": r.achieved,
-            "stable": r.stable,
-            "closed_loop_poles": complex_pairs(&r.poles),
-            "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
-            "controller": ss_json::ss_to_value(&r.k),
-            "controller_order": r.k.nx(),
-            "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": self.eps},
-            "bisection": {"rtol": self.tol, "iterations": r.iterations},
-        })
+        let mut v = synthesis_value(
+            r.stable,
+            &r.poles,
+            (r.x_residual, r.y_residual),
+            &r.k,
+            (r.regularised, self.eps),
+        );
+        v["gamma"] = json!(r.gamma);
+        v["gamma_opt"] = json!(r.gamma_opt);
+        v["achieved_hinf_norm"] = json!(r.achieved);
+        v["bisection"] = json!({"rtol": self.tol, "iterations": r.iterations});
+        v
     }
 }
 serialize_via_value!(HinfReport);
@@ -416,15 +423,15 @@ pub struct H2Report {
 impl H2Report {
     fn to_value(&self) -> Value {
         let r = &self.result;
-        json!({
-            "h2_norm": r.h2_norm,
-            "stable": r.stable,
-            "closed_loop_poles": complex_pairs(&r.poles),
-            "riccati_residuals": {"x": r.x_residual, "y": r.y_residual},
-            "controller": ss_json::ss_to_value(&r.k),
-            "controller_order": r.k.nx(),
-            "regularised": {"d12": r.regularised.0, "d21": r.regularised.1, "eps_min": self.eps},
-        })
+        let mut v = synthesis_value(
+            r.stable,
+            &r.poles,
+            (r.x_residual, r.y_residual),
+            &r.k,
+            (r.regularised, self.eps),
+        );
+        v["h2_norm"] = json!(r.h2_norm);
+        v
     }
 }
 serialize_via_value!(H2Report);

@@ -194,6 +194,24 @@ pub struct IoData {
     pub output_name: String,
 }
 
+impl IoData {
+    /// Keeps the rows `start..end` (0-based, `end` exclusive, default the
+    /// end of the record). An empty or out-of-range request changes nothing
+    /// and returns the number of rows, for the caller's message.
+    pub fn keep_rows(&mut self, start: usize, end: Option<usize>) -> Result<(), usize> {
+        let n = self.input.len();
+        let end = end.unwrap_or(n);
+        if end > n || start >= end {
+            return Err(n);
+        }
+        for column in [&mut self.input, &mut self.output] {
+            column.truncate(end);
+            column.drain(..start);
+        }
+        Ok(())
+    }
+}
+
 /// Column choice for an input/output record. Defaults: `u`, `y`, and a
 /// time column found by its name. A headerless file without explicit
 /// columns reads column 1 as input and column 2 as output (the DaISy

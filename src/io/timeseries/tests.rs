@@ -260,3 +260,13 @@ fn time_names() {
         assert!(!is_time_name(no), "{no}");
     }
 }
+
+#[test]
+fn keep_rows_cuts_both_signals_or_refuses() {
+    let mut d = io("u,y\n1,10\n2,20\n3,30\n4,40\n", &IoColumns::default()).unwrap();
+    assert_eq!(d.clone().keep_rows(4, None), Err(4));
+    assert_eq!(d.clone().keep_rows(1, Some(5)), Err(4));
+    assert_eq!(d.clone().keep_rows(2, Some(2)), Err(4));
+    d.keep_rows(1, Some(3)).unwrap();
+    assert_eq!((d.input, d.output), (vec![2.0, 3.0], vec![20.0, 30.0]));
+}
