@@ -8,7 +8,7 @@ use crate::io::controller_file::{Provenance, sha256_hex, to_c_header};
 use crate::io::hysteresis_json::{FitRecord, ModelFile, SignalInfo, model_to_string};
 use crate::io::timeseries::{time_column, write_csv};
 use crate::io::{plot, tf_json, zpetc_json};
-use crate::lti::{Bode, TransferFunction, linspace};
+use crate::lti::{Bode, TransferFunction, logspace};
 use crate::sim::experiment::{self, ExperimentParams, Progress, build_controller};
 use crate::synth::composite::Stages;
 use clap::Args;
@@ -129,7 +129,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let cl = &m.closed_loop;
     let cl_text = tf_json::tf_to_string(&TransferFunction::Discrete(cl.tf.clone()));
     write(dir, "closed-loop.json", cl_text.as_bytes())?;
-    let grid = linspace(1.0, 0.5 / ts, 1000);
+    let grid = logspace(1.0, 0.5 / ts, 1000);
     let model_bode = Bode::from_fn(&grid, |f| cl.tf.response_at_hz(f));
     let paper = crate::lti::DiscreteTf::new(
         vec![4.154, -9.631, 10.23, -5.511, 1.154],
@@ -144,7 +144,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             ("identified (virtual FTS)", &model_bode),
             ("[Li21] Eq. 11", &paper_bode),
         ],
-        false,
     )?;
     write(dir, "closed-loop-bode.svg", bode_svg.as_bytes())?;
 

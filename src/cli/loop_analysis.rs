@@ -43,7 +43,7 @@ pub struct LoopArgs {
     /// Highest frequency analysed, Hz (default: 3 decades above the fastest; Nyquist at most).
     #[arg(long, value_name = "HZ")]
     fmax: Option<f64>,
-    /// Write a Bode plot of L, S and T (SVG) here.
+    /// Write a Bode plot of L, S and T and a Nyquist plot of L (SVG) here.
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
     /// Print the report as one JSON object on stdout instead of the summary.
@@ -172,11 +172,19 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         let bl = Bode::from_fn(&grid, l);
         let bs = Bode::from_fn(&grid, |f| 1.0 / (1.0 + l(f)));
         let bt = Bode::from_fn(&grid, |f| l(f) / (1.0 + l(f)));
-        let svg = plot::bode_svg(
+        let curves = [
+            ("L = G K", &bl, plot::Style::Line),
+            ("S = 1/(1 + L)", &bs, plot::Style::Line),
+            ("T = L/(1 + L)", &bt, plot::Style::Line),
+        ];
+        let mags: Vec<Vec<f64>> = curves.iter().map(|(_, b, _)| b.magnitude_db()).collect();
+        let [mag, phase] = plot::bode_panels(
             "Loop L = G K, sensitivity S and complementary sensitivity T",
-            &[("L", &bl), ("S", &bs), ("T", &bt)],
-            true,
-        )?;
+            &curves,
+            &mags,
+        );
+        let nyquist = nyquist_points(&grid, l);
+        let svg = plot::panels_svg(&[mag, phase, nyquist.panel()])?;
         write_atomic(path, svg.as_bytes())?;
     }
     if args.json {
@@ -193,3 +201,79 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         Ok(())
     }
 }
+
+/// The Nyquist curve of `L` near the critical point: positive and mirrored
+/// negative frequencies, cut where `|L|` exceeds [`NYQUIST_RADIUS`] so that
+/// an integrator's large low-frequency values do not hide the region that
+/// decides stability.
+struct NyquistPoints {
+    re: Vec<f64>,
+    im: Vec<f64>,
+    im_mirror: Vec<f64>,
+}
+
+const NYQUIST_RADIUS: f64 = 4.0;
+
+fn nyquist_points(grid: &[f64], l: impl Fn(f64) -> crate::lti::c64) -> NyquistPoints {
+    let mut p = NyquistPoints {
+        re: Vec::new(),
+        im: Vec::new(),
+        im_mirror: Vec::new(),
+    };
+    // Denser than the Bode grid: the curve moves fastest near crossover.
+    let fine = logspace(grid[0], grid[grid.len() - 1], 8 * grid.len());
+    for f in fine {
+        let z = l(f);
+        // NaN breaks the curve where it leaves the window.
+        let (re, im) = if z.norm() <= NYQUIST_RADIUS {
+            (z.re, z.im)
+        } else {
+            (f64::NAN, f64::NAN)
+        };
+        p.re.push(re);
+        p.im.push(im);
+        p.im_mirror.push(-im);
+    }
+    p
+}
+
+impl NyquistPoints {
+    fn panel(&self) -> plot::Panel<'_> {
+        plot::Panel {
+            title: "Nyquist plot of L (|L| <= 4 shown; the critical point is -1)",
+            x_label: "Re L",
+            y_label: "Im L",
+            series: vec![
+                (
+                    plot::Series {
+                        label: "L(j w), w > 0",
+                        x: &self.re,
+                        y: &self.im,
+                    },
+                    plot::Style::Line,
+                ),
+                (
+                    plot::Series {
+                        label: "L(j w), w < 0",
+                        x: &self.re,
+                        y: &self.im_mirror,
+                    },
+                    plot::Style::Faint,
+                ),
+                (
+                    plot::Series {
+                        label: "critical point -1",
+                        x: &CRITICAL_X,
+                        y: &CRITICAL_Y,
+                    },
+                    plot::Style::Marker,
+                ),
+            ],
+            log_x: false,
+            shade: None,
+        }
+    }
+}
+
+const CRITICAL_X: [f64; 1] = [-1.0];
+const CRITICAL_Y: [f64; 1] = [0.0];

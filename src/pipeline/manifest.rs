@@ -13,18 +13,10 @@ use crate::io::timeseries::{
 };
 use crate::runtime::PidSpec;
 use crate::sim::experiment::ExperimentParams;
-use crate::synth::zpetc::{StableInversion, ZpetcParams};
 
-/// Settings of a `zpetc` step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ZpetcSpec {
-    /// Classification and stable-inversion settings (`rho`, `min_damping`,
-    /// `stable_inversion` radius, `series_tol`).
-    pub params: ZpetcParams,
-    /// `minreal` tolerance applied to the model first, if any.
-    pub minreal: Option<f64>,
-}
-use crate::workflow::{C2d, H2, Hinf, Mixsyn, SsController, StepError, Validate, Weight};
+use crate::workflow::{
+    C2d, DesignZpetc, H2, Hinf, Mixsyn, SsController, StepError, Validate, Weight,
+};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use std::collections::{BTreeMap, BTreeSet};
@@ -111,7 +103,7 @@ pub enum Action {
     /// Output-error identification.
     Oe(LinearSpec),
     /// ZPETC design.
-    Zpetc(ZpetcSpec),
+    Zpetc(DesignZpetc),
     /// Coefficient file.
     Controller(ControllerSpec),
     /// Coefficient file with a state-space feedback controller (a
@@ -811,32 +803,9 @@ fn step(
             }
         }
         "zpetc" => {
-            let d = ZpetcParams::default();
-            let si = StableInversion::default();
-            let stable_inversion = f.f64_opt("stable_inversion")?;
-            let series_tol = f.f64("series_tol", si.tolerance)?;
-            let params = ZpetcParams {
-                rho: f.f64("rho", d.rho)?,
-                min_damping: f.f64("min_damping", d.min_damping)?,
-                stable_inversion: stable_inversion.map(|min_radius| StableInversion {
-                    min_radius,
-                    tolerance: series_tol,
-                    ..si
-                }),
-            };
-            let minreal = f.f64_opt("minreal")?;
-            if let Some(tol) = minreal
-                && !(tol > 0.0 && tol < 1.0)
-            {
-                return Err(f.err(
-                    "minreal",
-                    line,
-                    format!("expected a tolerance in (0, 1), got {tol}"),
-                ));
-            }
             f.input("tf", true, line)?;
             f.output("out", true, line)?;
-            Action::Zpetc(ZpetcSpec { params, minreal })
+            Action::Zpetc(f.typed(line)?)
         }
         "controller" if f.map.contains_key("ss") => {
             f.input("hysteresis", false, line)?;

@@ -20,7 +20,6 @@ use crate::sim::experiment::{
     align_triangle_record, build_controller, sweep_record, triangle_record,
 };
 use crate::synth::composite::Stages;
-use crate::synth::zpetc;
 use crate::workflow::{ControllerInputs, MixsynInputs, SsController, StepError};
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
@@ -596,26 +595,11 @@ fn execute(
         }
         Action::Zpetc(spec) => {
             let (text, src) = text_of("tf")?.expect("validated: tf is required");
-            let TransferFunction::Discrete(g) = tf_json::parse_tf(text, &src)? else {
-                return Err(bad(format!(
-                    "{src} field 'var': ZPETC needs a discrete closed loop (\"var\": \"z^-1\")"
-                )));
-            };
-            let g = match spec.minreal {
-                Some(tol) => {
-                    g.minreal(tol)
-                        .map_err(|e| PipelineError::Failure(format!("{src}: {e}")))?
-                        .tf
-                }
-                None => g,
-            };
-            let filter = zpetc::design(&g, &spec.params).map_err(|e| match e {
-                zpetc::ZpetcError::InvalidParams(m) => bad(format!(
-                    "fields rho/min_damping/stable_inversion/series_tol: {m}"
-                )),
-                zpetc::ZpetcError::ZeroAtDc => bad(format!("{src}: {e}")),
-                other => PipelineError::Failure(format!("{src}: {other}")),
-            })?;
+            let model = tf_json::parse_tf(text, &src)?;
+            let filter = spec
+                .run(&model, &src)
+                .map_err(|e| step_error(step, e))?
+                .filter;
             files.push((
                 out("out"),
                 zpetc_json::zpetc_to_string(&filter).into_bytes(),

@@ -238,7 +238,7 @@ pub fn build_controller(
             stages.name(),
             match stages.feedback {
                 FeedbackKind::Pid => "PID gains, not a state-space controller",
-                FeedbackKind::StateSpace => "a state-space controller (--ss K.json)",
+                FeedbackKind::StateSpace => "a state-space controller",
             }
         ));
     }

@@ -152,7 +152,7 @@ impl SsController {
             .map_err(|e| StepError::input(format!("{source}: {e}")))?;
         if block.order() > MAX_SS_ORDER {
             return Err(StepError::input(format!(
-                "{source}: {} states, the runtime takes at most {MAX_SS_ORDER} (MAX_SS_ORDER); reduce it first (mixsyn's order setting, fts mixsyn --order N)",
+                "{source}: {} states, the runtime takes at most {MAX_SS_ORDER} (MAX_SS_ORDER); reduce it first (mixsyn's order setting)",
                 block.order(),
             )));
         }

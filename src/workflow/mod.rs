@@ -11,6 +11,7 @@
 
 pub mod controller;
 pub mod robust;
+pub mod zpetc;
 
 pub use controller::{
     AntiWindup, ControllerInputs, ControllerReport, Discretisation, SsController,
@@ -19,6 +20,7 @@ pub use robust::{
     C2d, C2dMethodChoice, C2dReport, H2, H2Report, Hinf, HinfReport, Mixsyn, MixsynInputs,
     MixsynReport, Weight, WeightReport, WeightShape,
 };
+pub use zpetc::{DesignZpetc, ZpetcReport};
 
 /// `[re, im]` pairs, the JSON form of complex numbers in reports.
 pub fn complex_pairs<'a>(
