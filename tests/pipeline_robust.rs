@@ -76,7 +76,11 @@ fn check_names_the_outputs_a_weight_edit_makes_stale() {
     build(dir.path(), "fts.toml");
     let manifest = dir.path().join("fts.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();
-    std::fs::write(&manifest, text.replace("w0 = 2000.0", "w0 = 3000.0")).unwrap();
+    std::fs::write(
+        &manifest,
+        text.replace("w0_rad = 2000.0", "w0_rad = 3000.0"),
+    )
+    .unwrap();
     let out = fts()
         .current_dir(dir.path())
         .args(["build", "--check"])
@@ -97,7 +101,11 @@ fn rebuilt_header_equals_the_commands_by_hand() {
     let dir = fresh_example();
     let manifest = dir.path().join("fts.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();
-    std::fs::write(&manifest, text.replace("w0 = 2000.0", "w0 = 3000.0")).unwrap();
+    std::fs::write(
+        &manifest,
+        text.replace("w0_rad = 2000.0", "w0_rad = 3000.0"),
+    )
+    .unwrap();
     build(dir.path(), "fts.toml");
     let hand = tempfile::tempdir().unwrap();
     let h = hand.path();
@@ -106,7 +114,7 @@ fn rebuilt_header_equals_the_commands_by_hand() {
         fts().current_dir(h).args(args).assert().success();
     };
     run(&[
-        "weight", "--kind", "ws", "--m", "2", "--w0", "3000", "--a", "1e-4", "-o", "ws.json",
+        "weight", "--kind", "ws", "--m", "2", "--w0-rad", "3000", "--a", "1e-4", "-o", "ws.json",
     ]);
     run(&[
         "weight", "--kind", "wt", "--m", "2", "--w0", "20000", "--a", "1e-3", "-o", "wt.json",

@@ -134,8 +134,13 @@ pub fn main() -> ExitCode {
 
 /// `--ts -1` must reach the option's own validation (which names it), not
 /// read as an unknown flag `-1`.
+/// Every help text ends with the unit convention.
+const UNITS_NOTE: &str = "Units: frequencies in Hz unless an option says rad/s (e.g. --w0-rad), times in s, displacements in um, commands in V; discrete coefficients in ascending powers of z^-1.";
+
+/// Every (sub)command takes negative numbers as values and states the units.
 fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
     cmd.allow_negative_numbers(true)
+        .after_help(UNITS_NOTE)
         .mut_subcommands(allow_negative_numbers)
 }
 

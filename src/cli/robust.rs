@@ -136,18 +136,24 @@ pub struct WeightArgs {
     /// Peak sensitivity / gain M (ws, wt).
     #[arg(long)]
     m: Option<f64>,
-    /// Corner frequency w0 in rad/s (ws, wt).
-    #[arg(long)]
+    /// Corner frequency w0 in Hz (ws, wt).
+    #[arg(long, value_name = "HZ")]
     w0: Option<f64>,
+    /// Corner frequency w0 in rad/s, instead of --w0.
+    #[arg(long, value_name = "RAD_PER_S", conflicts_with = "w0")]
+    w0_rad: Option<f64>,
     /// Low/high-frequency gain parameter A (ws, wt).
     #[arg(long)]
     a: Option<f64>,
     /// makeweight: DC gain.
     #[arg(long)]
     dc: Option<f64>,
-    /// makeweight: frequency (rad/s) where the gain is --mag.
-    #[arg(long)]
+    /// makeweight: frequency in Hz where the gain is --mag.
+    #[arg(long, value_name = "HZ")]
     freq: Option<f64>,
+    /// makeweight: that frequency in rad/s, instead of --freq.
+    #[arg(long, value_name = "RAD_PER_S", conflicts_with = "freq")]
+    freq_rad: Option<f64>,
     /// makeweight: gain at --freq.
     #[arg(long)]
     mag: Option<f64>,
@@ -168,9 +174,11 @@ pub fn run_weight(args: WeightArgs) -> anyhow::Result<()> {
         shape: Some(args.kind.into()),
         m: args.m,
         w0: args.w0,
+        w0_rad: args.w0_rad,
         a: args.a,
         dc: args.dc,
         freq: args.freq,
+        freq_rad: args.freq_rad,
         mag: args.mag,
         hf: args.hf,
     };
@@ -322,6 +330,7 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
             "poles": complex_pairs(&poles), "stable": stable,
             "zeros": zeros.as_ref().map(complex_pairs),
             "h2_norm": h2, "hinf_norm": hinf.map(|h| h.0), "hinf_omega": hinf.map(|h| h.1),
+            "hinf_freq_hz": hinf.map(|h| h.1 / std::f64::consts::TAU),
         }))
     } else {
         say!(
@@ -333,8 +342,10 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
                 .map_or("continuous".to_string(), |t| format!("ts = {t} s")),
             poles_summary(&poles),
             hinf.map_or("infinite (unstable)".to_string(), |h| format!(
-                "{:.9} at {:.6} rad/s",
-                h.0, h.1
+                "{:.9} at {:.6} Hz ({:.6} rad/s)",
+                h.0,
+                h.1 / std::f64::consts::TAU,
+                h.1
             ))
         );
         Ok(())
