@@ -66,7 +66,10 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
     let filter = zpetc::design(&plant, &params).map_err(|e| match e {
         zpetc::ZpetcError::InvalidParams(m) => bad(m),
         e @ zpetc::ZpetcError::SeriesTooLong { .. } => bad(format!("{source}: {e}")),
-        zpetc::ZpetcError::ZeroAtDc => bad(format!("{source}: {e}")),
+        e @ (zpetc::ZpetcError::ZeroAtDc | zpetc::ZpetcError::UnstablePlant { .. }) => {
+            bad(format!("{source}: {e}"))
+        }
+        e @ zpetc::ZpetcError::CancelsNearUnitCircle { .. } => bad(format!("--rho: {e}")),
         other => anyhow::Error::new(other),
     })?;
     let check = filter.check(&plant, CHECK_POINTS)?;

@@ -23,7 +23,9 @@
 
 use super::arx::{ArxParams, Orders, arx};
 use super::iv::{IvParams, iv};
-use super::linear::{Criteria, IdentError, PolyModel, check_signals, filter_ab, stabilize};
+use super::linear::{
+    Criteria, IdentError, PolyModel, check_excited, check_signals, filter_ab, stabilize,
+};
 use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
 
 /// Where the iteration starts.
@@ -194,7 +196,9 @@ pub fn oe(
     observer: &mut dyn FnMut(&OeProgress),
 ) -> Result<OeEstimate, IdentError> {
     check_signals(u, y)?;
+    check_excited(u)?;
     let o = params.orders;
+    o.check()?;
     let n = y.len();
     let d = o.params();
     let nic = if params.estimate_initial {

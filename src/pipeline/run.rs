@@ -613,7 +613,12 @@ fn execute(
                 zpetc::ZpetcError::InvalidParams(m) => bad(format!(
                     "fields rho/min_damping/stable_inversion/series_tol: {m}"
                 )),
-                zpetc::ZpetcError::ZeroAtDc => bad(format!("{src}: {e}")),
+                e @ (zpetc::ZpetcError::ZeroAtDc | zpetc::ZpetcError::UnstablePlant { .. }) => {
+                    bad(format!("{src}: {e}"))
+                }
+                e @ zpetc::ZpetcError::CancelsNearUnitCircle { .. } => {
+                    bad(format!("field rho: {e}"))
+                }
                 other => PipelineError::Failure(format!("{src}: {other}")),
             })?;
             files.push((
