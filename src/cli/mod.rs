@@ -204,7 +204,7 @@ fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
         let id = common::output_identity(std::path::Path::new(&value));
         if let Some((first, _)) = seen.iter().find(|(_, p)| *p == id) {
             return Err(format!(
-                "{value}: {first} and {option} would write two results to the same file; name another file"
+                "{value}: two results of this run would be written to the same file ({first} and {option}); name another file"
             ));
         }
         seen.push((option, id));
@@ -306,7 +306,7 @@ mod tests {
     fn one_file_named_by_two_result_options_is_refused() {
         let e = reject_duplicate_outputs(&args(&["fts", "zpetc", "-o", "z.json", "--plot=z.json"]))
             .unwrap_err();
-        assert!(e.contains("-o and --plot"), "{e}");
+        assert!(e.contains("(-o and --plot)"), "{e}");
         assert!(
             reject_duplicate_outputs(&args(&["fts", "zpetc", "-o", "z.json", "--plot", "z.svg"]))
                 .is_ok()

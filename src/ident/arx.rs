@@ -139,7 +139,6 @@ pub(crate) fn singular_hint(u: &[f64], nb: usize) -> String {
 /// Estimates an ARX model of the given orders from input `u` and output `y`.
 pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, IdentError> {
     check_signals(u, y)?;
-    check_excited(u)?;
     let o = params.orders;
     o.check()?;
     if o.nb == 0 {
@@ -147,6 +146,7 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
             "nb must be at least 1 (a model without input)".into(),
         ));
     }
+    check_excited(u)?;
     let n = y.len();
     let d = o.params();
     let start = params.start.unwrap_or(0).max(o.memory());

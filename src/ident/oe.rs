@@ -196,9 +196,9 @@ pub fn oe(
     observer: &mut dyn FnMut(&OeProgress),
 ) -> Result<OeEstimate, IdentError> {
     check_signals(u, y)?;
-    check_excited(u)?;
     let o = params.orders;
     o.check()?;
+    check_excited(u)?;
     let n = y.len();
     let d = o.params();
     let nic = if params.estimate_initial {

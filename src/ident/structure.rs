@@ -147,7 +147,6 @@ pub fn arx_struct_observed(
     observer: &mut dyn FnMut(usize, usize),
 ) -> Result<StructSearch, IdentError> {
     check_signals(u, y)?;
-    check_excited(u)?;
     if let Some((uv, yv)) = val {
         check_signals(uv, yv)?;
     }
@@ -187,6 +186,7 @@ pub fn arx_struct_observed(
             }
         }
     }
+    check_excited(u)?;
     let mut done = 0;
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
