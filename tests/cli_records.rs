@@ -383,7 +383,11 @@ fn absurd_orders_are_refused_not_a_panic() {
                 .arg(&data)
                 .args(["--ts", "0.08"])
                 .args(orders),
-            &["dryer.dat: too few samples for the model orders"],
+            &[
+                "dryer.dat: invalid model structure",
+                max.as_str(),
+                "beyond the largest accepted",
+            ],
         );
     }
 }

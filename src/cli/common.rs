@@ -71,6 +71,11 @@ fn identity(path: &Path) -> PathBuf {
     }
 }
 
+/// The identity under which an output path is compared with others.
+pub fn output_identity(path: &Path) -> PathBuf {
+    identity(path)
+}
+
 fn note_input(path: &Path) {
     if let Ok(mut files) = RUN_FILES.lock() {
         files.inputs.push(identity(path));
@@ -148,6 +153,15 @@ pub fn parse_points(text: &str) -> Result<usize, String> {
     match text.trim().parse::<usize>() {
         Ok(n) if (2..=MAX_POINTS).contains(&n) => Ok(n),
         _ => Err(format!("expected a whole number from 2 to {MAX_POINTS}")),
+    }
+}
+
+/// A positive finite number (a frequency, a gain): clap names the option
+/// and the value given when it is not.
+pub fn parse_positive(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err("expected a positive finite number".into()),
     }
 }
 

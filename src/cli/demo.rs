@@ -43,6 +43,12 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
+    if args.out.exists() && !args.out.is_dir() {
+        return Err(super::common::bad(format!(
+            "--out: {} exists and is not a folder; name a folder for the demo's files",
+            args.out.display()
+        )));
+    }
     std::fs::create_dir_all(&args.out).map_err(|e| {
         anyhow::anyhow!(
             "{}: cannot create the output folder: {e}",

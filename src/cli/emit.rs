@@ -83,9 +83,21 @@ pub fn read_ss_block(
 ) -> anyhow::Result<StateSpaceBlock> {
     let (text, source) = hashed(path, "state_space", inputs)?;
     let sys = crate::io::ss_json::parse_system(&text, &source)?;
-    args.step(limits)
+    let block = args
+        .step(limits)
         .block(&sys, ts, &source)
-        .map_err(step_error)
+        .map_err(step_error)?;
+    let fast = SsController::poles_beyond_nyquist(&sys, ts);
+    if let Some((pole, hz)) = fast.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+        eprintln!(
+            "warning: {source}: {} continuous pole(s) beyond the Nyquist frequency {} Hz of ts = {ts} s, the fastest {}{:+}j rad/s ({hz:.4e} Hz); the discretised controller does not reproduce them: sample faster or reduce the controller",
+            fast.len(),
+            0.5 / ts,
+            pole.re,
+            pole.im
+        );
+    }
+    Ok(block)
 }
 
 impl SsArgs {

@@ -59,7 +59,7 @@ pub struct HysteresisArgs {
     #[arg(long, value_enum)]
     operator: Option<OperatorArg>,
     /// Number of play operators on the grid r_i = i/N max|u|.
-    #[arg(long, value_name = "N", default_value_t = 10)]
+    #[arg(long, value_name = "N", default_value_t = 10, value_parser = parse_operators)]
     operators: usize,
     /// Explicit play thresholds (comma-separated, strictly increasing); replaces --operators.
     #[arg(
@@ -70,7 +70,7 @@ pub struct HysteresisArgs {
     )]
     thresholds: Option<Vec<f64>>,
     /// Dead-zone operators of mpi-deadzone.
-    #[arg(long, value_name = "M", default_value_t = 4)]
+    #[arg(long, value_name = "M", default_value_t = 4, value_parser = parse_operators)]
     dead_zone_operators: usize,
     /// Solver.
     #[arg(long, value_enum, default_value_t = MethodArg::Ls)]
@@ -354,4 +354,13 @@ fn loop_plot(file: &ModelFile, u: &[f64], y: &[f64], y_model: &[f64]) -> anyhow:
         ),
     ])?;
     Ok(svg)
+}
+
+/// `--operators`, `--dead-zone-operators`: from 1 to the most a model file holds.
+fn parse_operators(text: &str) -> Result<usize, String> {
+    let max = crate::io::hysteresis_json::MAX_OPERATORS;
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!("expected a whole number from 1 to {max}")),
+    }
 }

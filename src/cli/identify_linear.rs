@@ -96,7 +96,7 @@ pub struct OutArgs {
     #[arg(long, value_name = "BODE.svg")]
     pub plot: Option<PathBuf>,
     /// Upper frequency of the plot in Hz (default Nyquist).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", value_parser = super::common::parse_positive)]
     pub plot_fmax: Option<f64>,
     /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
     #[arg(long, value_name = "COMPARE.svg")]
@@ -971,7 +971,11 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
     let s: StructSearch = search(&p, &sp)?;
     let nk_lo = *sp.nk.iter().min().unwrap_or(&0);
     let nk_hi = *sp.nk.iter().max().unwrap_or(&0);
-    let delay = delay_estimate(&p.est.u, &p.est.y, 2, 2, nk_lo..=nk_hi).ok();
+    // One ARX fit per delay from the lowest to the highest: only for a span
+    // as short as a LO:HI range may be.
+    let delay = (nk_hi - nk_lo <= 200)
+        .then(|| delay_estimate(&p.est.u, &p.est.y, 2, 2, nk_lo..=nk_hi).ok())
+        .flatten();
     let (best, rule) = pick(&s, a.rule)?;
     let mut ap = ArxParams::new(best);
     ap.ts = p.ts;

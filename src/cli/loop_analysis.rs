@@ -139,6 +139,20 @@ fn pid(args: &LoopArgs, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)>
     }
 }
 
+/// A library setting's message in terms of the options that set it.
+fn loop_setting_message(message: &str) -> String {
+    let named = [
+        ("f_min", "--fmin"),
+        ("f_max", "--fmax"),
+        ("points per decade", "--points-per-decade"),
+        ("frequency range", "--fmin/--fmax: the frequency range"),
+    ];
+    match named.iter().find(|(lib, _)| message.contains(lib)) {
+        Some((lib, flag)) => message.replacen(lib, flag, 1),
+        None => message.to_owned(),
+    }
+}
+
 /// `fts loop`.
 pub fn run(args: LoopArgs) -> anyhow::Result<()> {
     let g = read_loop_system(&args.plant)?;
@@ -157,9 +171,15 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         f_max_hz: args.fmax,
         ..LoopParams::default()
     };
+    let plant = args.plant.display().to_string();
     let report = analyze_loop(&g, &k, &params).map_err(|e| match e {
         // A failed eigenvalue iteration is a computation failure (exit 1).
         LoopError::Ss(SsError::NoConvergence) => anyhow::Error::new(e),
+        // Each message names its culprit: the file, or the option.
+        LoopError::NotSiso { which: "plant", .. } => bad(format!("{plant}: {e}")),
+        LoopError::NotSiso { .. } => bad(format!("{controller}: {e}")),
+        LoopError::SampleTimeMismatch { .. } => bad(format!("{plant} and {controller}: {e}")),
+        LoopError::BadParams(m) => bad(loop_setting_message(&m)),
         e => bad(e.to_string()),
     })?;
     if let Some(path) = &args.plot {

@@ -108,8 +108,13 @@ pub fn main() -> ExitCode {
         eprintln!("fts: error: {message}");
         return ExitCode::from(2);
     }
+    let args = join_negative_values(std::env::args_os().collect());
+    if let Err(message) = reject_duplicate_outputs(&args) {
+        eprintln!("fts: error: {message}");
+        return ExitCode::from(2);
+    }
     let parsed = allow_negative_numbers(Cli::command())
-        .try_get_matches()
+        .try_get_matches_from(args)
         .and_then(|m| Cli::from_arg_matches(&m));
     let cli = match parsed {
         Ok(cli) => cli,
@@ -142,6 +147,74 @@ fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
     cmd.allow_negative_numbers(true)
         .after_help(UNITS_NOTE)
         .mut_subcommands(allow_negative_numbers)
+}
+
+/// `--ts -1e-4` as `--ts=-1e-4`: clap takes only plain negative decimals
+/// (`-1`, `-0.5`) for values, and would read `-1e-4` or `-inf` as short
+/// flags, so the option's own check (which names it) would never see them.
+fn join_negative_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::with_capacity(args.len());
+    for arg in args {
+        let joined = match (out.last().and_then(|p| p.to_str()), arg.to_str()) {
+            (Some(prev), Some(value))
+                if prev.starts_with("--")
+                    && prev.len() > 2
+                    && !prev.contains('=')
+                    && value.starts_with('-')
+                    && value.parse::<f64>().is_ok() =>
+            {
+                Some(format!("{prev}={value}"))
+            }
+            _ => None,
+        };
+        match joined {
+            Some(j) => *out.last_mut().expect("a previous argument") = j.into(),
+            None => out.push(arg),
+        }
+    }
+    out
+}
+
+/// Options that name a result file.
+const OUTPUT_OPTIONS: [&str; 8] = [
+    "-o",
+    "--out",
+    "--plot",
+    "--plot-compare",
+    "--c-header",
+    "--csv",
+    "--bode",
+    "--augmented",
+];
+
+/// Two result options naming one file are refused before any work, so the
+/// first is not written when the second is then refused.
+fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
+    let mut seen: Vec<(&str, std::path::PathBuf)> = Vec::new();
+    let mut iter = args.iter().skip(1).filter_map(|a| a.to_str()).peekable();
+    while let Some(arg) = iter.next() {
+        if arg == "--" {
+            break;
+        }
+        let (name, value) = match arg.split_once('=') {
+            Some((n, v)) if n.starts_with("--") => (n, Some(v.to_owned())),
+            _ => (arg, None),
+        };
+        let Some(option) = OUTPUT_OPTIONS.iter().find(|o| **o == name) else {
+            continue;
+        };
+        let Some(value) = value.or_else(|| iter.next().map(str::to_owned)) else {
+            continue;
+        };
+        let id = common::output_identity(std::path::Path::new(&value));
+        if let Some((first, _)) = seen.iter().find(|(_, p)| *p == id) {
+            return Err(format!(
+                "{value}: two results of this run would be written to the same file ({first} and {option}); name another file"
+            ));
+        }
+        seen.push((option, id));
+    }
+    Ok(())
 }
 
 /// A clap usage error on one line: its message and tips, without the usage
@@ -202,5 +275,46 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Budget(args) => robust::run_budget(args),
         Command::Loop(args) => loop_analysis::run(args),
         Command::Ding22(args) => ding22::run(args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::ffi::OsString;
+
+    fn args(list: &[&str]) -> Vec<OsString> {
+        list.iter().map(OsString::from).collect()
+    }
+
+    #[test]
+    fn negative_values_reach_their_option() {
+        let joined = join_negative_values(args(&[
+            "fts", "excite", "--ts", "-1e-4", "--offset", "-inf", "-o", "-2", "--freq", "-x",
+        ]));
+        assert_eq!(
+            joined,
+            args(&[
+                "fts",
+                "excite",
+                "--ts=-1e-4",
+                "--offset=-inf",
+                "-o",
+                "-2",
+                "--freq",
+                "-x"
+            ])
+        );
+    }
+
+    #[test]
+    fn one_file_named_by_two_result_options_is_refused() {
+        let e = reject_duplicate_outputs(&args(&["fts", "zpetc", "-o", "z.json", "--plot=z.json"]))
+            .unwrap_err();
+        assert!(e.contains("(-o and --plot)"), "{e}");
+        assert!(
+            reject_duplicate_outputs(&args(&["fts", "zpetc", "-o", "z.json", "--plot", "z.svg"]))
+                .is_ok()
+        );
     }
 }

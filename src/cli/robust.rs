@@ -219,8 +219,47 @@ pub struct MixsynArgs {
     tol: f64,
     /// Reduce the controller to this many states by balanced truncation
     /// (the closed loop is re-checked with the reduced controller).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = parse_order)]
     order: Option<usize>,
+}
+
+/// `--order`: at least one state (a static gain is not a reduction of a
+/// mixed-sensitivity controller) and at most a system file's.
+fn parse_order(text: &str) -> Result<usize, String> {
+    let max = ss_json::MAX_STATES;
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!("expected a whole number of states from 1 to {max}")),
+    }
+}
+
+/// A mixed-sensitivity weight must be continuous, stable and square with
+/// the plant's channel count (`ny` for Ws and Wt, `nu` for Wu); refused
+/// here, naming its file and option, before the plant is blamed.
+fn check_weight(path: &Path, option: &str, w: &StateSpace, size: usize) -> anyhow::Result<()> {
+    let file = path.display();
+    if w.is_discrete() {
+        return Err(bad(format!(
+            "{file}: the {option} weight is discrete; mixsyn weights are continuous (\"ts\": null)"
+        )));
+    }
+    if w.ny() != size || w.nu() != size {
+        return Err(bad(format!(
+            "{file}: the {option} weight is {}x{} (outputs x inputs); the plant needs {size}x{size}",
+            w.ny(),
+            w.nu()
+        )));
+    }
+    let poles = w
+        .poles()
+        .map_err(|e| bad(format!("{file}: the {option} weight's poles: {e}")))?;
+    if let Some(p) = poles.iter().find(|p| p.re >= 0.0) {
+        return Err(bad(format!(
+            "{file}: the {option} weight is unstable (pole at s = {}{:+}j); mixsyn weights must be stable",
+            p.re, p.im
+        )));
+    }
+    Ok(())
 }
 
 /// `fts mixsyn`.
@@ -235,6 +274,13 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     let ws = read_system(&args.ws)?;
     let wu = args.wu.as_deref().map(read_system).transpose()?;
     let wt = args.wt.as_deref().map(read_system).transpose()?;
+    check_weight(&args.ws, "--ws", &ws, g.ny())?;
+    if let (Some(path), Some(w)) = (&args.wu, &wu) {
+        check_weight(path, "--wu", w, g.nu())?;
+    }
+    if let (Some(path), Some(w)) = (&args.wt, &wt) {
+        check_weight(path, "--wt", w, g.ny())?;
+    }
     let source = args.plant.display().to_string();
     let report = step
         .run(MixsynInputs {
@@ -414,7 +460,7 @@ pub fn run_budget(args: BudgetArgs) -> anyhow::Result<()> {
         (None, None) => 1e4,
     };
     if !(fmax.is_finite() && fmax > 0.0) || args.points < 2 {
-        return Err(bad("--fmax must be positive and --points at least 2"));
+        return Err(bad(format!("--fmax: must be positive, got {fmax}")));
     }
     let grid = crate::lti::linspace(0.0, fmax, args.points);
     let b = crate::synth::budget::error_budget(&sys, args.output_index, &grid)

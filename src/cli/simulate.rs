@@ -274,6 +274,11 @@ fn controller(
         }
         (FeedbackKind::Pid, None) => None,
     };
+    for (name, value) in [("--kp", args.kp), ("--ki", args.ki), ("--kd", args.kd)] {
+        if !value.is_finite() {
+            return Err(bad(format!("{name}: expected a finite gain, got {value}")));
+        }
+    }
     let pid = PidSpec {
         kp: args.kp,
         ki: args.ki,

@@ -23,7 +23,9 @@
 
 use super::arx::{ArxParams, Orders, arx};
 use super::iv::{IvParams, iv};
-use super::linear::{Criteria, IdentError, PolyModel, check_signals, filter_ab, stabilize};
+use super::linear::{
+    Criteria, IdentError, PolyModel, check_excited, check_signals, filter_ab, stabilize,
+};
 use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
 
 /// Where the iteration starts.
@@ -195,6 +197,8 @@ pub fn oe(
 ) -> Result<OeEstimate, IdentError> {
     check_signals(u, y)?;
     let o = params.orders;
+    o.check()?;
+    check_excited(u)?;
     let n = y.len();
     let d = o.params();
     let nic = if params.estimate_initial {

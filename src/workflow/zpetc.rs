@@ -145,8 +145,11 @@ impl DesignZpetc {
         let filter = zpetc::design(&plant, &self.params()).map_err(|e| match e {
             // Settings were validated; what is left is about the model.
             ZpetcError::InvalidParams(m) => StepError::input(m),
-            e @ (ZpetcError::ZeroAtDc | ZpetcError::SeriesTooLong { .. }) => {
-                StepError::input(format!("{source}: {e}"))
+            e @ (ZpetcError::ZeroAtDc
+            | ZpetcError::SeriesTooLong { .. }
+            | ZpetcError::UnstablePlant { .. }) => StepError::input(format!("{source}: {e}")),
+            e @ ZpetcError::CancelsNearUnitCircle { .. } => {
+                StepError::setting("rho", e.to_string())
             }
             e @ ZpetcError::Roots(_) => StepError::computation(format!("{source}: {e}")),
         })?;

@@ -458,7 +458,7 @@ where
         None => {
             if params.operators == 0 {
                 return Err(IdentifyError::InvalidParams(
-                    "at least one play operator is needed".into(),
+                    "operators: at least one play operator is needed, got 0".into(),
                 ));
             }
             Vec::new()
@@ -474,6 +474,16 @@ where
         return Err(IdentifyError::InvalidParams(
             "MPI-deadzone needs at least one dead-zone operator".into(),
         ));
+    }
+    // A model file holds at most this many (docs/formats.md bounds); the
+    // regression's memory grows with samples times operators.
+    let max = crate::io::hysteresis_json::MAX_OPERATORS;
+    for (name, n) in [("operators", n_ops), ("dead_zone_operators", dz_ops)] {
+        if n > max {
+            return Err(IdentifyError::InvalidParams(format!(
+                "{name}: {n} is beyond the largest accepted, {max}"
+            )));
+        }
     }
     let unknowns = params.offset as usize
         + (params.kind == ModelKind::MpiCbrt) as usize
