@@ -117,7 +117,7 @@ fn rebuilt_header_equals_the_commands_by_hand() {
         "weight", "--kind", "ws", "--m", "2", "--w0-rad", "3000", "--a", "1e-4", "-o", "ws.json",
     ]);
     run(&[
-        "weight", "--kind", "wt", "--m", "2", "--w0", "20000", "--a", "1e-3", "-o", "wt.json",
+        "weight", "--kind", "wt", "--m", "2", "--w0-rad", "20000", "--a", "1e-3", "-o", "wt.json",
     ]);
     run(&[
         "mixsyn",
