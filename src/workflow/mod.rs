@@ -157,3 +157,41 @@ pub(crate) fn positive(field: &'static str, x: f64) -> Result<f64, StepError> {
         ))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_in_messages_are_named_as_the_front_end_calls_them() {
+        let m = "data.csv: no time column; give `ts` SECONDS or `max_iterations`";
+        assert_eq!(
+            render_settings(m, |k| format!("--{}", k.replace('_', "-"))),
+            "data.csv: no time column; give --ts SECONDS or --max-iterations"
+        );
+        assert_eq!(
+            render_settings(m, |k| format!("'{k}'")),
+            "data.csv: no time column; give 'ts' SECONDS or 'max_iterations'"
+        );
+        // Not a key (spaces, capitals, unmatched): left as written.
+        for m in ["use `fts identify oe`", "`A` and `", "a ` b"] {
+            assert_eq!(render_settings(m, |_| "X".into()), m);
+        }
+    }
+
+    #[derive(Debug, serde::Deserialize)]
+    struct Count {
+        #[serde(deserialize_with = "whole_number")]
+        n: usize,
+    }
+
+    #[test]
+    fn counts_are_whole_numbers() {
+        let n: Count = toml::from_str("n = 7").unwrap();
+        assert_eq!(n.n, 7);
+        for bad in ["n = -1", "n = \"five\"", "n = 1.5"] {
+            let e = toml::from_str::<Count>(bad).unwrap_err().to_string();
+            assert!(e.contains("non-negative whole number"), "{bad}: {e}");
+        }
+    }
+}
