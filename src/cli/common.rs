@@ -191,13 +191,31 @@ pub fn step_error(e: crate::workflow::StepError) -> anyhow::Error {
         StepError::Input {
             field: Some(field),
             message,
-        } => bad(format!("--{}: {message}", field.replace('_', "-"))),
+        } => {
+            // A message that names its flag already reads as is.
+            let message = flags(&message);
+            if message.contains(&flag(field)) {
+                bad(message)
+            } else {
+                bad(format!("{}: {message}", flag(field)))
+            }
+        }
         StepError::Input {
             field: None,
             message,
-        } => bad(message),
-        StepError::Computation(message) => anyhow::anyhow!(message),
+        } => bad(flags(&message)),
+        StepError::Computation(message) => anyhow::anyhow!(flags(&message)),
     }
+}
+
+/// The flag of a step's setting: `max_iterations` is `--max-iterations`.
+fn flag(field: &str) -> String {
+    format!("--{}", field.replace('_', "-"))
+}
+
+/// A step's message with the settings it names written as flags.
+fn flags(message: &str) -> String {
+    crate::workflow::render_settings(message, flag)
 }
 
 /// Prints a step's report: serialised with `--json`, else its summary.

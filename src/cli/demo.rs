@@ -5,7 +5,7 @@
 
 use super::common::{fmt_complex, print_json, write_atomic};
 use crate::io::controller_file::{Provenance, sha256_hex, to_c_header};
-use crate::io::hysteresis_json::{FitRecord, ModelFile, SignalInfo, model_to_string};
+use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_string};
 use crate::io::timeseries::{time_column, write_csv};
 use crate::io::{plot, tf_json, zpetc_json};
 use crate::lti::{Bode, TransferFunction, logspace};
@@ -84,25 +84,19 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         write_csv(&["t", "u", "y"], &[&time_column(u.len(), ts), u, y]).as_bytes(),
     )?;
     let info = &m.inverse.info;
-    let inverse_file = ModelFile {
-        model: m.inverse.model.clone(),
-        input: SignalInfo {
+    // The inverse model maps displacement to command ([Li21]).
+    let inverse_file = ModelFile::identified(
+        &m.inverse,
+        &params.hysteresis,
+        SignalInfo {
             quantity: "displacement".into(),
             unit: "um".into(),
         },
-        output: SignalInfo {
+        SignalInfo {
             quantity: "voltage".into(),
             unit: "V".into(),
         },
-        fit: Some(FitRecord {
-            rms_percent: info.fit.rms_percent,
-            max_percent: info.fit.max_percent,
-            samples: info.fit.samples,
-            method: "ls".into(),
-            condition_number: info.condition_number,
-            iterations: info.iterations,
-        }),
-    };
+    );
     let inverse_text = model_to_string(&inverse_file);
     write(dir, "inverse-hysteresis.json", inverse_text.as_bytes())?;
     let inv_out = m.inverse.model.simulate(y);

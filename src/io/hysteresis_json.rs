@@ -11,7 +11,9 @@
 
 use super::InputError;
 use super::tf_json::{MAX_COEFF_MAGNITUDE, check_format, get_f64_array, get_str};
-use crate::ident::hysteresis::{DeadZoneStage, HysteresisModel, ModelKind, PlayOperator};
+use crate::ident::hysteresis::{
+    DeadZoneStage, HysteresisModel, Identified, IdentifyParams, ModelKind, PlayOperator,
+};
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -58,6 +60,30 @@ pub struct ModelFile {
 }
 
 impl ModelFile {
+    /// The file of an identified model, with its fit record: what
+    /// `fts identify hysteresis`, `fts demo` and a pipeline step write.
+    pub fn identified(
+        identified: &Identified,
+        params: &IdentifyParams,
+        input: SignalInfo,
+        output: SignalInfo,
+    ) -> ModelFile {
+        let info = &identified.info;
+        ModelFile {
+            model: identified.model.clone(),
+            input,
+            output,
+            fit: Some(FitRecord {
+                rms_percent: info.fit.rms_percent,
+                max_percent: info.fit.max_percent,
+                samples: info.fit.samples,
+                method: params.method_name().into(),
+                condition_number: info.condition_number,
+                iterations: info.iterations,
+            }),
+        }
+    }
+
     /// `input->output`, e.g. `voltage->displacement`.
     pub fn mapping(&self) -> String {
         format!("{}->{}", self.input.quantity, self.output.quantity)

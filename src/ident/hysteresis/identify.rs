@@ -79,6 +79,15 @@ impl Default for IdentifyParams {
 }
 
 impl IdentifyParams {
+    /// The solver as recorded in a model file: `ls`, `ls-invertible` or `gd`.
+    pub fn method_name(&self) -> &'static str {
+        match (self.method, self.invertible) {
+            (Method::Gd, _) => "gd",
+            (Method::Ls, true) => "ls-invertible",
+            (Method::Ls, false) => "ls",
+        }
+    }
+
     /// The operator form actually used.
     pub fn operator_form(&self) -> PlayOperator {
         self.operator.unwrap_or(match self.kind {
