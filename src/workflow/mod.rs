@@ -10,6 +10,8 @@
 //! deserialises into the same type, so a key means what the flag means.
 
 pub mod controller;
+pub mod convert;
+pub mod response;
 pub mod robust;
 
 pub use controller::{
