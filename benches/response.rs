@@ -5,9 +5,9 @@
 //! figures are in docs/benchmarks.md.
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use faer::Mat;
 use fts::lti::StateSpace;
 use fts::lti::response::{ResponseKind, TimeGrid, time_response};
-use faer::Mat;
 use std::hint::black_box;
 
 /// Ten lightly damped modes in parallel: block `[[s, w], [-w, s]]` with

@@ -6,9 +6,9 @@
 //! logm of the augmented ZOH matrix.
 
 use faer::Mat;
+use fts::lti::c2d::{C2dMethod, c2d};
 use fts::lti::convert::{self, Zpk};
 use fts::lti::{ContinuousTf, DiscreteTf, StateSpace, TransferFunction, c64};
-use fts::lti::c2d::{C2dMethod, c2d};
 use serde::Deserialize;
 
 #[derive(Deserialize, Clone)]
@@ -150,20 +150,29 @@ fn check_roots(name: &str, what: &str, got: &[c64], want: &[[f64; 2]]) {
         let w = c64::new(w[0], w[1]);
         // 1e-6: the MIMO cases have a double (defective) pole at -1.5,
         // which any root finder only resolves to about sqrt(eps).
-        assert!((g - w).norm() <= 1e-6 * w.norm().max(1.0), "{name}: {what} {g} vs {w}");
+        assert!(
+            (g - w).norm() <= 1e-6 * w.norm().max(1.0),
+            "{name}: {what} {g} vs {w}"
+        );
     }
 }
 
 fn check_zpk(name: &str, z: &Zpk, zeros: &[[f64; 2]], poles: &[[f64; 2]], gain: f64) {
     check_roots(name, "zeros", &z.zeros, zeros);
     check_roots(name, "poles", &z.poles, poles);
-    assert!((z.gain - gain).abs() <= 1e-9 * gain.abs(), "{name}: gain {} vs {gain}", z.gain);
+    assert!(
+        (z.gain - gain).abs() <= 1e-9 * gain.abs(),
+        "{name}: gain {} vs {gain}",
+        z.gain
+    );
 }
 
 /// python-control's descending coefficients as an fts transfer function.
 fn tf_of(c: &TfCase) -> TransferFunction {
     match c.ts {
-        None => TransferFunction::Continuous(ContinuousTf::new(c.num.clone(), c.den.clone()).unwrap()),
+        None => {
+            TransferFunction::Continuous(ContinuousTf::new(c.num.clone(), c.den.clone()).unwrap())
+        }
         Some(ts) => {
             // Descending powers of z over deg(den) = ascending powers of z^-1.
             let mut num = vec![0.0; c.den.len() - c.num.len()];
@@ -177,17 +186,35 @@ fn tf_of(c: &TfCase) -> TransferFunction {
 fn tf_to_ss_and_back_keep_the_frequency_response() {
     for c in &data().tf {
         let g = tf_of(c);
-        let ss = fts::lti::margins::LoopSystem::Tf(g.clone()).to_ss().unwrap();
+        let ss = fts::lti::margins::LoopSystem::Tf(g.clone())
+            .to_ss()
+            .unwrap();
         check_response(&c.name, &ss, &c.w, &c.response, 1e-9);
         let back = convert::siso_tf(&ss).unwrap();
         for (k, &w) in c.w.iter().enumerate() {
             let want = c64::new(c.response[0][0][k][0], c.response[0][0][k][1]);
             let got = tf_response(&back, w);
-            assert!((got - want).norm() <= 1e-9 * want.norm(), "{}: {got} vs {want}", c.name);
+            assert!(
+                (got - want).norm() <= 1e-9 * want.norm(),
+                "{}: {got} vs {want}",
+                c.name
+            );
         }
-        check_zpk(&c.name, &convert::zpk(&g).unwrap(), &c.zeros, &c.poles, c.gain);
+        check_zpk(
+            &c.name,
+            &convert::zpk(&g).unwrap(),
+            &c.zeros,
+            &c.poles,
+            c.gain,
+        );
         // The round trip keeps the zpk form too (no spurious zeros or poles).
-        check_zpk(&c.name, &convert::zpk(&back).unwrap(), &c.zeros, &c.poles, c.gain);
+        check_zpk(
+            &c.name,
+            &convert::zpk(&back).unwrap(),
+            &c.zeros,
+            &c.poles,
+            c.gain,
+        );
     }
 }
 
@@ -236,10 +263,20 @@ fn balred_matches_hankel_singular_values_and_bound() {
         assert_eq!(red.hsv.len(), c.hsv.len());
         for (g, w) in red.hsv.iter().zip(&c.hsv) {
             // Relative 1e-6, or 1e-9 of the largest for the tiny ones.
-            assert!((g - w).abs() <= 1e-6 * w + 1e-9 * c.hsv[0], "{}: hsv {g} vs {w}", c.name);
+            assert!(
+                (g - w).abs() <= 1e-6 * w + 1e-9 * c.hsv[0],
+                "{}: hsv {g} vs {w}",
+                c.name
+            );
         }
         let e = (red.bound - c.bound).abs();
-        assert!(e <= 1e-6 * c.bound + 1e-8 * c.hsv[0], "{}: bound {} vs {}", c.name, red.bound, c.bound);
+        assert!(
+            e <= 1e-6 * c.bound + 1e-8 * c.hsv[0],
+            "{}: bound {} vs {}",
+            c.name,
+            red.bound,
+            c.bound
+        );
         assert_eq!(red.sys.ts, sys.ts);
         match (&c.response, sys.ts) {
             (Some(resp), None) => check_response(&c.name, &red.sys, &c.w, resp, 1e-6),
@@ -262,7 +299,12 @@ fn balred_matches_hankel_singular_values_and_bound() {
             let w = 1e-3 * (top / 1e-3f64).powf(k as f64 / 1999.0);
             let p = point(w, sys.ts);
             let e = (sys.eval(p).unwrap()[(0, 0)] - red.sys.eval(p).unwrap()[(0, 0)]).norm();
-            assert!(e <= red.bound * (1.0 + 1e-9), "{}: error {e} > bound {}", c.name, red.bound);
+            assert!(
+                e <= red.bound * (1.0 + 1e-9),
+                "{}: error {e} > bound {}",
+                c.name,
+                red.bound
+            );
         }
     }
 }
@@ -278,7 +320,15 @@ fn d2c_equals_scipy_logm_and_inverts_c2d() {
         let err = (&cont.a - &a).norm_l2() + (&cont.b - &b).norm_l2();
         assert!(err <= 1e-9 * scale, "{}: |d2c - logm| = {err}", c.name);
         let again = c2d(&cont, d.ts.unwrap(), C2dMethod::Zoh).unwrap();
-        assert!((&again.a - &d.a).norm_l2() < 1e-12 * d.a.norm_l2().max(1.0), "{}", c.name);
-        assert!((&again.b - &d.b).norm_l2() < 1e-12 * d.b.norm_l2().max(1.0), "{}", c.name);
+        assert!(
+            (&again.a - &d.a).norm_l2() < 1e-12 * d.a.norm_l2().max(1.0),
+            "{}",
+            c.name
+        );
+        assert!(
+            (&again.b - &d.b).norm_l2() < 1e-12 * d.b.norm_l2().max(1.0),
+            "{}",
+            c.name
+        );
     }
 }

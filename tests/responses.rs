@@ -71,14 +71,7 @@ fn mat(rows: &[Vec<f64>], ncols: usize) -> Mat<f64> {
 fn system(s: &Ss) -> StateSpace {
     let n = s.a.len();
     let m = s.d[0].len();
-    StateSpace::new(
-        mat(&s.a, n),
-        mat(&s.b, m),
-        mat(&s.c, n),
-        mat(&s.d, m),
-        s.ts,
-    )
-    .unwrap()
+    StateSpace::new(mat(&s.a, n), mat(&s.b, m), mat(&s.c, n), mat(&s.d, m), s.ts).unwrap()
 }
 
 /// The system of a case: G, or the closed loop G K / (1 + G K) built by fts.
@@ -113,14 +106,26 @@ fn compare_info(name: &str, got: &StepInfo, want: &Info) {
     // so a figure one sample off fails); values relative to max(1, |value|).
     let t = 1.0;
     close(name, "rise_time", got.rise_time, want.rise_time, 0.0);
-    close(name, "settling_time", got.settling_time, want.settling_time, 0.0);
+    close(
+        name,
+        "settling_time",
+        got.settling_time,
+        want.settling_time,
+        0.0,
+    );
     close(name, "settling_min", got.settling_min, want.settling_min, t);
     close(name, "settling_max", got.settling_max, want.settling_max, t);
     close(name, "overshoot", Some(got.overshoot), want.overshoot, t);
     close(name, "undershoot", Some(got.undershoot), want.undershoot, t);
     close(name, "peak", Some(got.peak), want.peak, t);
     close(name, "peak_time", Some(got.peak_time), want.peak_time, 0.0);
-    close(name, "steady_state", Some(got.steady_state), want.steady_state, t);
+    close(
+        name,
+        "steady_state",
+        Some(got.steady_state),
+        want.steady_state,
+        t,
+    );
     let ss = want.steady_state.unwrap();
     assert!((got.steady_state_error - (1.0 - ss)).abs() < 1e-9);
 }
@@ -140,7 +145,9 @@ fn step_info_equals_python_control() {
                 for (i, row) in want.iter().enumerate() {
                     for (j, w) in row.iter().enumerate() {
                         let name = format!("{} [y{i} <- u{j}]", c.name);
-                        let got = infos[i][j].as_ref().unwrap_or_else(|e| panic!("{name}: {e}"));
+                        let got = infos[i][j]
+                            .as_ref()
+                            .unwrap_or_else(|e| panic!("{name}: {e}"));
                         compare_info(&name, got, w);
                         compared += 1;
                     }
@@ -210,7 +217,11 @@ fn closed_loops_have_python_controls_poles() {
         want.sort_by(|a, b| key(a).partial_cmp(&key(b)).unwrap());
         assert_eq!(got.len(), want.len(), "{}", c.name);
         for (g, w) in got.iter().zip(&want) {
-            assert!((g - w).norm() < 1e-6 * w.norm().max(1.0), "{}: {g} vs {w}", c.name);
+            assert!(
+                (g - w).norm() < 1e-6 * w.norm().max(1.0),
+                "{}: {g} vs {w}",
+                c.name
+            );
         }
     }
 }

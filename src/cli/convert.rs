@@ -99,8 +99,12 @@ pub struct D2cArgs {
 
 /// `OUT.y<i>u<j>.json` beside `OUT.json`.
 fn channel_path(out: &Path, i: usize, j: usize) -> PathBuf {
-    let stem = out.file_stem().map_or("out".into(), |s| s.to_string_lossy().to_string());
-    let ext = out.extension().map_or("json".into(), |s| s.to_string_lossy().to_string());
+    let stem = out
+        .file_stem()
+        .map_or("out".into(), |s| s.to_string_lossy().to_string());
+    let ext = out
+        .extension()
+        .map_or("json".into(), |s| s.to_string_lossy().to_string());
     out.with_file_name(format!("{stem}.y{i}u{j}.{ext}"))
 }
 
@@ -131,7 +135,11 @@ pub fn run_convert(args: ConvertArgs) -> anyhow::Result<()> {
                             }
                             continue;
                         };
-                        let path = if siso { out.clone() } else { channel_path(out, i + 1, j + 1) };
+                        let path = if siso {
+                            out.clone()
+                        } else {
+                            channel_path(out, i + 1, j + 1)
+                        };
                         write_atomic(&path, tf_json::tf_to_string(t).as_bytes())?;
                     }
                 }

@@ -8,8 +8,8 @@ use super::loop_analysis::{PidFlags, pid, read_loop_system};
 use crate::io::{plot, ss_json};
 use crate::lti::response::ResponseKind;
 use crate::lti::ss::StateSpace;
-use crate::workflow::response::{Response, ResponseInputs, ResponseReport};
 use crate::workflow::Validate;
+use crate::workflow::response::{Response, ResponseInputs, ResponseReport};
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 
@@ -99,7 +99,20 @@ pub fn run(args: ResponseArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.plot {
         write_plot(path, &report, &source)?;
     }
-    print_report(&report, args.json)
+    print_report(&report, args.json)?;
+    if !report.stable {
+        // The samples are written and shown; the figures are not, and the
+        // run is not a success (docs/responses.md §2).
+        return Err(anyhow::anyhow!(
+            "{source}: the {} is unstable: its response diverges and has no step figures",
+            if report.closed_loop {
+                "closed loop"
+            } else {
+                "system"
+            }
+        ));
+    }
+    Ok(())
 }
 
 /// Column name of a channel: `y` for SISO, `y{i}_u{j}` (1-based) otherwise.

@@ -498,7 +498,9 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     match &step {
         Some(Ok(s)) => {
             let i = &s.info;
-            let opt = |x: Option<f64>, none: &str| x.map_or(none.to_string(), |v| format!("{:.3} ms", v * 1e3));
+            let opt = |x: Option<f64>, none: &str| {
+                x.map_or(none.to_string(), |v| format!("{:.3} ms", v * 1e3))
+            };
             say!(
                 "step: rise (10-90 %) {}, settling (2 %) {}, overshoot {:.2} %, undershoot {:.2} %, steady-state error {:.4} um",
                 opt(i.rise_time, "not reached"),

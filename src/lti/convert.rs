@@ -17,11 +17,11 @@
 
 use super::balred::{Reduced, balred};
 use super::c2d::{C2dMethod, bilinear_to_discrete, c2d};
+use super::c64;
 use super::norms::bilinear_to_continuous;
 use super::roots::{RootsError, roots_descending};
 use super::ss::{SsError, StateSpace, block2, eigvals, inv, sub, tr};
 use super::tf::{ContinuousTf, DiscreteTf, TfError, TransferFunction};
-use super::c64;
 use faer::Mat;
 
 /// Why a conversion failed.
@@ -304,7 +304,9 @@ pub fn logm(m: &Mat<f64>) -> Option<Mat<f64>> {
 /// and checked by discretising the result again.
 pub fn d2c(sys: &StateSpace) -> Result<StateSpace, ConvertError> {
     let Some(ts) = sys.ts else {
-        return Err(ConvertError::Refused("the system is already continuous".into()));
+        return Err(ConvertError::Refused(
+            "the system is already continuous".into(),
+        ));
     };
     for p in eigvals(&sys.a)? {
         if p.norm() <= 1e-12 {
@@ -351,14 +353,18 @@ mod tests {
     fn ss_to_tf_round_trip_continuous() {
         let g = StateSpace::from_tf(&[2.0, 3.0], &[1.0, 4.0, 5.0, 6.0], None).unwrap();
         let t = siso_tf(&g).unwrap();
-        let TransferFunction::Continuous(c) = t else { panic!() };
+        let TransferFunction::Continuous(c) = t else {
+            panic!()
+        };
         assert_eq!(c.num().len(), 2, "{:?}", c.num());
         assert!((c.num()[0] - 2.0).abs() < 1e-12 && (c.num()[1] - 3.0).abs() < 1e-12);
     }
 
     #[test]
     fn logm_inverts_expm() {
-        let a = Mat::from_fn(3, 3, |i, j| [[-1.0, 2.0, 0.3], [-2.0, -1.0, 0.0], [0.5, 0.1, -3.0]][i][j]);
+        let a = Mat::from_fn(3, 3, |i, j| {
+            [[-1.0, 2.0, 0.3], [-2.0, -1.0, 0.0], [0.5, 0.1, -3.0]][i][j]
+        });
         let e = nalgebra::DMatrix::from_fn(3, 3, |i, j| a[(i, j)] * 0.2).exp();
         let ef = Mat::from_fn(3, 3, |i, j| e[(i, j)]);
         let l = logm(&ef).unwrap();

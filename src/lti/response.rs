@@ -195,7 +195,10 @@ pub fn time_response(
             grid.dt
         )));
     }
-    let values = grid.n.saturating_mul(sys.ny().max(1)).saturating_mul(sys.nu().max(1));
+    let values = grid
+        .n
+        .saturating_mul(sys.ny().max(1))
+        .saturating_mul(sys.nu().max(1));
     if values > MAX_RESPONSE_VALUES {
         return Err(ResponseError::BadGrid(format!(
             "{} samples x {} outputs x {} inputs is more than {MAX_RESPONSE_VALUES} values",
@@ -450,7 +453,11 @@ mod tests {
         let r = time_response(&g, ResponseKind::Step, &grid).unwrap();
         let info = step_info_of(&g, &r).unwrap()[0][0].clone().unwrap();
         let os = 100.0 * (-std::f64::consts::PI * zeta / (1.0 - zeta * zeta).sqrt()).exp();
-        assert!((info.overshoot - os).abs() < 1e-6, "{} {os}", info.overshoot);
+        assert!(
+            (info.overshoot - os).abs() < 1e-6,
+            "{} {os}",
+            info.overshoot
+        );
         let tp = std::f64::consts::PI / (wn * (1.0 - zeta * zeta).sqrt());
         assert!((info.peak_time - tp).abs() < 1e-4);
     }
@@ -461,10 +468,16 @@ mod tests {
         let grid = TimeGrid::continuous(1.0, 11).unwrap();
         let r = time_response(&g, ResponseKind::Step, &grid).unwrap();
         assert!((r.y[0][0][10] - (1f64.exp() - 1.0)).abs() < 1e-12);
-        assert_eq!(step_info_of(&g, &r).unwrap()[0][0], Err(NoStepInfo::Unstable));
+        assert_eq!(
+            step_info_of(&g, &r).unwrap()[0][0],
+            Err(NoStepInfo::Unstable)
+        );
         let h = StateSpace::from_tf(&[1.0, 0.0], &[1.0, 1.0], None).unwrap();
         let r = time_response(&h, ResponseKind::Step, &grid).unwrap();
-        assert_eq!(step_info_of(&h, &r).unwrap()[0][0], Err(NoStepInfo::ZeroDcGain));
+        assert_eq!(
+            step_info_of(&h, &r).unwrap()[0][0],
+            Err(NoStepInfo::ZeroDcGain)
+        );
     }
 
     #[test]

@@ -237,7 +237,10 @@ pub fn step(
 ) -> Result<Reference, ExciteError> {
     let bad = |field, message: String| Err(ExciteError { field, message });
     if !(amplitude.is_finite() && amplitude != 0.0) {
-        return bad("amplitude", format!("a step needs a non-zero amplitude, got {amplitude}"));
+        return bad(
+            "amplitude",
+            format!("a step needs a non-zero amplitude, got {amplitude}"),
+        );
     }
     if !offset.is_finite() {
         return bad("offset", format!("expected a finite number, got {offset}"));
@@ -269,7 +272,8 @@ pub struct StepTracking {
     /// The step figures of `(y - offset)/amplitude` from the step on, towards
     /// the measured final value (mean of the last 10 % of the evaluated part).
     pub info: crate::lti::response::StepInfo,
-    /// The measured final value minus the target, in the reference's units.
+    /// The target minus the measured final value, in the reference's units
+    /// (the error `r - y` left once the step has settled).
     pub steady_state_error: f64,
 }
 
@@ -296,7 +300,7 @@ pub fn step_tracking(
     info.steady_state_error = 1.0 - y_final;
     Ok(StepTracking {
         info,
-        steady_state_error: amplitude * (y_final - 1.0),
+        steady_state_error: amplitude * (1.0 - y_final),
     })
 }
 
@@ -316,7 +320,9 @@ mod tests {
         assert!(step(0.0, 7.0, 0.01, 0.05, &timing).is_err());
         assert!(step(1.0, 7.0, 0.06, 0.05, &timing).is_err());
         // A first-order lag 1 - 0.9^k towards 1: final 1, no overshoot.
-        let y: Vec<f64> = (0..500).map(|k| 7.0 + 2.0 * (1.0 - 0.9f64.powi(k))).collect();
+        let y: Vec<f64> = (0..500)
+            .map(|k| 7.0 + 2.0 * (1.0 - 0.9f64.powi(k)))
+            .collect();
         let m = step_tracking(&y, 1e-4, 0, 500, 7.0, 2.0).unwrap();
         assert!(m.steady_state_error.abs() < 1e-9);
         assert_eq!(m.info.overshoot, 0.0);

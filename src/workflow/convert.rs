@@ -128,15 +128,20 @@ impl fmt::Display for ConvertReport {
                 sys.nx(),
                 sys.nu(),
                 sys.ny(),
-                sys.ts.map_or("continuous".into(), |t| format!("ts = {t} s"))
+                sys.ts
+                    .map_or("continuous".into(), |t| format!("ts = {t} s"))
             ),
             ConvertReport::Tf(tfs) => {
                 for (i, row) in tfs.iter().enumerate() {
                     for (j, t) in row.iter().enumerate() {
                         match t {
-                            Some(t) => {
-                                writeln!(f, "output {} <- input {}: {}", i + 1, j + 1, describe_tf(t))?
-                            }
+                            Some(t) => writeln!(
+                                f,
+                                "output {} <- input {}: {}",
+                                i + 1,
+                                j + 1,
+                                describe_tf(t)
+                            )?,
                             None => writeln!(f, "output {} <- input {}: 0", i + 1, j + 1)?,
                         }
                     }
@@ -202,7 +207,10 @@ fn list(v: &[c64]) -> String {
     if v.is_empty() {
         "none".into()
     } else {
-        v.iter().map(|z| fmt_complex(*z)).collect::<Vec<_>>().join(", ")
+        v.iter()
+            .map(|z| fmt_complex(*z))
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 }
 
@@ -361,6 +369,11 @@ impl Balred {
                 format!("{source} has {} states, cannot keep {order}", sys.nx()),
             ));
         }
+        if !sys.is_stable().map_err(ss_err(source))? {
+            return Err(StepError::input(format!(
+                "{source}: the system is unstable; balanced truncation needs a stable one (split off the unstable part first)"
+            )));
+        }
         let red = convert::balred_any(&sys, order).map_err(ss_err(source))?;
         Ok(BalredReport {
             system: red.sys,
@@ -390,7 +403,11 @@ impl fmt::Display for BalredReport {
         )?;
         writeln!(f, "Hankel singular values:")?;
         for (k, s) in self.hsv.iter().enumerate() {
-            let mark = if k < self.system.nx() { "kept" } else { "discarded" };
+            let mark = if k < self.system.nx() {
+                "kept"
+            } else {
+                "discarded"
+            };
             writeln!(f, "  {:>3}  {s:.6e}  {mark}", k + 1)?;
         }
         writeln!(
@@ -424,7 +441,9 @@ impl D2c {
     pub fn run(&self, model: &Model, source: &str) -> Result<D2cReport, StepError> {
         let sys = realise(model, source)?;
         let Some(ts) = sys.ts else {
-            return Err(StepError::input(format!("{source}: the system is already continuous")));
+            return Err(StepError::input(format!(
+                "{source}: the system is already continuous"
+            )));
         };
         let system = convert::d2c(&sys).map_err(conv_err(source))?;
         let poles = system.poles().map_err(ss_err(source))?;

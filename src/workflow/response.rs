@@ -76,7 +76,11 @@ impl Response {
     }
 
     /// Computes the response of `inputs` (`source` names them in messages).
-    pub fn run(&self, inputs: ResponseInputs<'_>, source: &str) -> Result<ResponseReport, StepError> {
+    pub fn run(
+        &self,
+        inputs: ResponseInputs<'_>,
+        source: &str,
+    ) -> Result<ResponseReport, StepError> {
         self.validate()?;
         let sys = match inputs.controller {
             None => inputs.system.clone(),
@@ -135,6 +139,10 @@ pub struct ResponseReport {
     pub response: TimeResponse,
 }
 
+/// Fewer samples than this within the rise of a continuous response make
+/// its figures grid-bound: the report says so.
+pub const MIN_RISE_SAMPLES: f64 = 10.0;
+
 #[derive(Serialize)]
 struct ChannelJson<'a> {
     output: usize,
@@ -144,6 +152,8 @@ struct ChannelJson<'a> {
     step_info: Option<&'a StepInfo>,
     #[serde(skip_serializing_if = "Option::is_none")]
     no_step_info: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    warning: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -174,6 +184,20 @@ impl ResponseReport {
     fn ts(&self) -> Option<f64> {
         self.ts
     }
+
+    /// A continuous response whose rise spans fewer than
+    /// [`MIN_RISE_SAMPLES`] grid steps: its figures are set by the grid.
+    pub fn coarse_grid(&self, i: usize, j: usize) -> Option<String> {
+        let info = self.info.as_ref()?[i][j].as_ref().ok()?;
+        let rise = info.rise_time?;
+        let dt = self.response.grid.dt;
+        (self.ts.is_none() && rise < MIN_RISE_SAMPLES * dt).then(|| {
+            format!(
+                "the rise spans {:.0} grid steps of {dt:.3e} s: the figures are only as fine as the grid; shorten the duration or add points",
+                rise / dt
+            )
+        })
+    }
 }
 
 impl Serialize for ResponseReport {
@@ -190,6 +214,7 @@ impl Serialize for ResponseReport {
                     final_sample: *self.response.y[i][j].last().unwrap_or(&f64::NAN),
                     step_info: info.and_then(|r| r.as_ref().ok()),
                     no_step_info: info.and_then(|r| r.as_ref().err()).map(|e| e.to_string()),
+                    warning: self.coarse_grid(i, j),
                 }
             })
             .collect();
@@ -263,7 +288,11 @@ impl fmt::Display for ResponseReport {
             match info {
                 Err(e) => writeln!(f, "  no step figures: {e}")?,
                 Ok(s) => {
-                    writeln!(f, "  rise time (10-90 %)  {}", opt(s.rise_time, "s", "not reached"))?;
+                    writeln!(
+                        f,
+                        "  rise time (10-90 %)  {}",
+                        opt(s.rise_time, "s", "not reached")
+                    )?;
                     writeln!(
                         f,
                         "  settling time (2 %)  {}",
@@ -271,9 +300,16 @@ impl fmt::Display for ResponseReport {
                     )?;
                     writeln!(f, "  overshoot            {:.6} %", s.overshoot)?;
                     writeln!(f, "  undershoot           {:.6} %", s.undershoot)?;
-                    writeln!(f, "  peak                 {:.6} at {:.6} s", s.peak, s.peak_time)?;
+                    writeln!(
+                        f,
+                        "  peak                 {:.6} at {:.6} s",
+                        s.peak, s.peak_time
+                    )?;
                     writeln!(f, "  final value (DC)     {:.6}", s.steady_state)?;
                     writeln!(f, "  steady-state error   {:.6}", s.steady_state_error)?;
+                    if let Some(w) = self.coarse_grid(i, j) {
+                        writeln!(f, "  warning: {w}")?;
+                    }
                 }
             }
         }
