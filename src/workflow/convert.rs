@@ -64,7 +64,7 @@ impl Validate for Convert {
 #[derive(Debug, Clone)]
 pub enum ConvertReport {
     /// A state-space realisation (controllable canonical form of a tf).
-    Ss(StateSpace),
+    Ss(Box<StateSpace>),
     /// `tfs[i][j]` from input `j` to output `i`; `None` for a zero channel.
     Tf(Vec<Vec<Option<TransferFunction>>>),
 }
@@ -73,7 +73,7 @@ impl Convert {
     /// Converts `model`.
     pub fn run(&self, model: &Model, source: &str) -> Result<ConvertReport, StepError> {
         Ok(match (self.to, model) {
-            (Form::Ss, m) => ConvertReport::Ss(realise(m, source)?),
+            (Form::Ss, m) => ConvertReport::Ss(Box::new(realise(m, source)?)),
             (Form::Tf, LoopSystem::Tf(t)) => ConvertReport::Tf(vec![vec![Some(t.clone())]]),
             (Form::Tf, LoopSystem::Ss(s)) => {
                 ConvertReport::Tf(convert::ss_to_tfs(s).map_err(conv_err(source))?)
