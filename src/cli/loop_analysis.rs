@@ -13,6 +13,31 @@ use clap::Args;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
+/// A PID controller given by its gains, for the plant's time domain.
+#[derive(Debug, Args)]
+pub struct PidFlags {
+    /// PID proportional gain. Continuous plant: C(s) = kp + ki/s + kd N s/(s+N);
+    /// discrete plant: the [Li21] per-sample form kp + ki/(1 - z^-1) + kd (1 - z^-1).
+    #[arg(long, allow_hyphen_values = true)]
+    pub kp: Option<f64>,
+    /// PID integral gain (1/s for a continuous plant, per sample for a discrete one).
+    #[arg(long, allow_hyphen_values = true)]
+    pub ki: Option<f64>,
+    /// PID derivative gain (s for a continuous plant, per sample for a discrete one).
+    #[arg(long, allow_hyphen_values = true)]
+    pub kd: Option<f64>,
+    /// Derivative filter pole N in rad/s (continuous plants; needed with --kd).
+    #[arg(long, value_name = "N")]
+    pub tf_derivative: Option<f64>,
+}
+
+impl PidFlags {
+    /// Whether any gain was given.
+    pub fn given(&self) -> bool {
+        self.kp.is_some() || self.ki.is_some() || self.kd.is_some()
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct LoopArgs {
     /// The plant G (`fts.tf/1` or `fts.ss/1`, continuous or discrete, SISO).
@@ -21,19 +46,8 @@ pub struct LoopArgs {
     /// The controller K (`fts.tf/1` or `fts.ss/1`, same sample time as G).
     #[arg(long, value_name = "K.json", conflicts_with_all = ["kp", "ki", "kd", "tf_derivative"])]
     controller: Option<PathBuf>,
-    /// PID proportional gain. Continuous plant: C(s) = kp + ki/s + kd N s/(s+N);
-    /// discrete plant: the [Li21] per-sample form kp + ki/(1 - z^-1) + kd (1 - z^-1).
-    #[arg(long, allow_hyphen_values = true)]
-    kp: Option<f64>,
-    /// PID integral gain (1/s for a continuous plant, per sample for a discrete one).
-    #[arg(long, allow_hyphen_values = true)]
-    ki: Option<f64>,
-    /// PID derivative gain (s for a continuous plant, per sample for a discrete one).
-    #[arg(long, allow_hyphen_values = true)]
-    kd: Option<f64>,
-    /// Derivative filter pole N in rad/s (continuous plants; needed with --kd).
-    #[arg(long, value_name = "N")]
-    tf_derivative: Option<f64>,
+    #[command(flatten)]
+    pid: PidFlags,
     /// Grid density used to bracket crossovers and peaks.
     #[arg(long, default_value_t = LoopParams::default().points_per_decade)]
     points_per_decade: usize,
@@ -52,7 +66,7 @@ pub struct LoopArgs {
 }
 
 /// Reads an `fts.tf/1` file as a transfer function, anything else as `fts.ss/1`.
-fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
+pub fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
     let text = read_input(path)?;
     let source = path.display().to_string();
     let is_tf = serde_json::from_str::<Value>(&text)
@@ -67,7 +81,7 @@ fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
 }
 
 /// The PID controller for the plant's time domain, and a description.
-fn pid(args: &LoopArgs, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)> {
+pub fn pid(args: &PidFlags, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)> {
     let (kp, ki, kd) = (
         args.kp.unwrap_or(0.0),
         args.ki.unwrap_or(0.0),
@@ -158,7 +172,7 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
     let g = read_loop_system(&args.plant)?;
     let (k, controller) = match &args.controller {
         Some(path) => (read_loop_system(path)?, path.display().to_string()),
-        None if args.kp.is_some() || args.ki.is_some() || args.kd.is_some() => pid(&args, g.ts())?,
+        None if args.pid.given() => pid(&args.pid, g.ts())?,
         None => {
             return Err(bad(
                 "give the controller: --controller K.json, or PID gains --kp/--ki/--kd",

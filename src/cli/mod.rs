@@ -30,6 +30,7 @@ mod bode;
 mod build;
 mod columns;
 mod common;
+mod convert;
 mod demo;
 mod ding22;
 mod emit;
@@ -39,6 +40,7 @@ mod identify;
 mod identify_hysteresis;
 mod identify_linear;
 mod loop_analysis;
+mod response;
 mod robust;
 mod simulate;
 mod tf;
@@ -98,6 +100,18 @@ enum Command {
     Budget(robust::BudgetArgs),
     /// Margins (gain, phase, delay, modulus), |S| |T| |KS| |GS| peaks, bandwidth and closed-loop poles of L = G K.
     Loop(loop_analysis::LoopArgs),
+    /// Step or impulse response of a system or closed loop, with rise/settling time, overshoot and steady-state error.
+    Response(response::ResponseArgs),
+    /// Convert a model: state space to transfer functions (one per channel) or back.
+    Convert(convert::ConvertArgs),
+    /// Zeros, poles and gain (MATLAB zpk) of every channel of a model.
+    Zpk(convert::ZpkArgs),
+    /// Minimal realisation: remove uncontrollable and unobservable states (pole-zero cancellations).
+    Minreal(convert::MinrealArgs),
+    /// Balanced truncation of a stable model, with its Hankel singular values and error bound.
+    Balred(convert::BalredArgs),
+    /// The continuous model whose zero-order-hold discretisation is the given discrete one.
+    D2c(convert::D2cArgs),
     /// Ding22 workflow: two-mass FTS, H2 design vs PID, error budget, structural sweep.
     Ding22(ding22::Ding22Args),
 }
@@ -274,6 +288,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::SsInfo(args) => robust::run_ss_info(args),
         Command::Budget(args) => robust::run_budget(args),
         Command::Loop(args) => loop_analysis::run(args),
+        Command::Response(args) => response::run(args),
+        Command::Convert(args) => convert::run_convert(args),
+        Command::Zpk(args) => convert::run_zpk(args),
+        Command::Minreal(args) => convert::run_minreal(args),
+        Command::Balred(args) => convert::run_balred(args),
+        Command::D2c(args) => convert::run_d2c(args),
         Command::Ding22(args) => ding22::run(args),
     }
 }

@@ -10,8 +10,10 @@
 //! deserialises into the same type, so a key means what the flag means.
 
 pub mod controller;
+pub mod convert;
 pub mod identify;
 mod identify_hysteresis;
+pub mod response;
 pub mod robust;
 pub mod zpetc;
 
