@@ -65,7 +65,16 @@ fn emit_then_simulate_from_the_coefficient_file() {
     let header = dir.path().join("controller.h");
     for (format, out) in [("json", &json), ("c-header", &header)] {
         fts()
-            .args(["emit", "--hysteresis"])
+            .args([
+                "emit",
+                "--pid-form",
+                "li21",
+                "--kp",
+                "0.02",
+                "--ki",
+                "0.15",
+                "--hysteresis",
+            ])
             .arg(fixture("li21-inverse-mpi.json"))
             .arg("--closed-loop")
             .arg(fixture("li21-closed-loop.json"))
@@ -82,7 +91,16 @@ fn emit_then_simulate_from_the_coefficient_file() {
     // Byte-identical regeneration.
     let again = dir.path().join("again.json");
     fts()
-        .args(["emit", "--hysteresis"])
+        .args([
+            "emit",
+            "--pid-form",
+            "li21",
+            "--kp",
+            "0.02",
+            "--ki",
+            "0.15",
+            "--hysteresis",
+        ])
         .arg(fixture("li21-inverse-mpi.json"))
         .arg("--closed-loop")
         .arg(fixture("li21-closed-loop.json"))
@@ -109,7 +127,16 @@ fn bad_coefficient_files_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let good = dir.path().join("good.json");
     fts()
-        .args(["emit", "--hysteresis"])
+        .args([
+            "emit",
+            "--pid-form",
+            "li21",
+            "--kp",
+            "0.02",
+            "--ki",
+            "0.15",
+            "--hysteresis",
+        ])
         .arg(fixture("li21-inverse-mpi.json"))
         .arg("--closed-loop")
         .arg(fixture("li21-closed-loop.json"))

@@ -229,7 +229,8 @@ pub fn build_controller(
 ) -> Result<ControllerFile, String> {
     let feedback = feedback.into();
     let kind = match feedback {
-        Feedback::Pid(_) => FeedbackKind::Pid,
+        Feedback::None => FeedbackKind::None,
+        Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
         Feedback::StateSpace(_) => FeedbackKind::StateSpace,
     };
     if kind != stages.feedback {
@@ -237,8 +238,9 @@ pub fn build_controller(
             "{} needs {}",
             stages.name(),
             match stages.feedback {
-                FeedbackKind::Pid => "PID gains, not a state-space controller",
+                FeedbackKind::Pid => "PID gains",
                 FeedbackKind::StateSpace => "a state-space controller (--ss K.json)",
+                FeedbackKind::None => "no feedback controller",
             }
         ));
     }
