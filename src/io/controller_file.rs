@@ -1461,7 +1461,7 @@ fn c_loader(file: &ControllerFile) -> String {
         )
     };
     let no_pid = "    spec.pid.kp = 0.0;\n    spec.pid.ki = 0.0;\n    spec.pid.kd = 0.0;\n    spec.pid.derivative_pole = 0.0;\n    spec.pid.output_min = 0.0;\n    spec.pid.output_max = 0.0;\n";
-    let no_ss = "    spec.ss.n = 0;\n    spec.ss.a = NULL;\n    spec.ss.b = NULL;\n    spec.ss.c = NULL;\n    spec.ss.d = 0.0;\n    spec.ss.output_min = -HUGE_VAL;\n    spec.ss.output_max = HUGE_VAL;\n    spec.ss.conditional_update = 0;\n";
+    let no_ss = "    spec.ss.n = 0;\n    spec.ss.a = NULL;\n    spec.ss.b = NULL;\n    spec.ss.c = NULL;\n    spec.ss.d = 0.0;\n    spec.ss.output_min = -fts_infinity();\n    spec.ss.output_max = fts_infinity();\n    spec.ss.conditional_update = 0;\n";
     match &file.feedback {
         Feedback::None => {
             body.push_str("    spec.feedback = FTS_FEEDBACK_NONE;\n");
@@ -1489,18 +1489,18 @@ fn c_loader(file: &ControllerFile) -> String {
                 if k.output_min.is_some() {
                     "FTS_SS_OUTPUT_MIN"
                 } else {
-                    "-HUGE_VAL"
+                    "-fts_infinity()"
                 },
                 if k.output_max.is_some() {
                     "FTS_SS_OUTPUT_MAX"
                 } else {
-                    "HUGE_VAL"
+                    "fts_infinity()"
                 },
             );
         }
     }
     format!(
-        "\n/* The step: fts_runtime.h / fts_runtime.c (compile with -ffp-contract=off). */\n#include <math.h>\n#include <stddef.h>\n#include \"fts_runtime.h\"\n\n/* Loads the coefficients above into *ctl, at rest. FTS_OK, or the reason with\n * *field (when field is not NULL) naming the offending list. */\nstatic inline fts_status fts_controller_init(fts_controller *ctl, const char **field)\n{{\n{decl}{body}    return fts_init(ctl, &spec, field);\n}}\n"
+        "\n/* The step: fts_runtime.h / fts_runtime.c (compile with -ffp-contract=off). */\n#include <stddef.h>\n#include \"fts_runtime.h\"\n\n/* Loads the coefficients above into *ctl, at rest. FTS_OK, or the reason with\n * *field (when field is not NULL) naming the offending list. */\nstatic inline fts_status fts_controller_init(fts_controller *ctl, const char **field)\n{{\n{decl}{body}    return fts_init(ctl, &spec, field);\n}}\n"
     )
 }
 

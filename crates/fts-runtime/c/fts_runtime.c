@@ -6,9 +6,45 @@
  * two in step: tests/c_runtime.rs compares them over 1e5-sample traces. */
 #include "fts_runtime.h"
 
-#include <math.h>
 #include <stdint.h>
-#include <string.h>
+
+/* Only freestanding headers (no math.h, no string.h): the runtime builds
+ * for bare-metal targets without a C library. Bit patterns go through a
+ * union, which C99 defines (6.5.2.3) and C++ compilers support. */
+typedef union {
+    double f;
+    uint64_t i;
+} fts_bits;
+
+static uint64_t bits_of(double x)
+{
+    fts_bits b;
+    b.f = x;
+    return b.i;
+}
+
+static double from_bits(uint64_t i)
+{
+    fts_bits b;
+    b.i = i;
+    return b.f;
+}
+
+/* Exponent all ones: infinity or NaN. */
+static int is_finite(double x)
+{
+    return ((bits_of(x) >> 52) & 0x7ffu) != 0x7ffu;
+}
+
+static int is_nan(double x)
+{
+    return !is_finite(x) && (bits_of(x) & 0xfffffffffffffull) != 0;
+}
+
+double fts_infinity(void)
+{
+    return from_bits((uint64_t)0x7ff0000000000000ull);
+}
 
 /* The cube root, the Rust crate's `cbrt` (FreeBSD s_cbrt.c as in musl,
  * error < 0.667 ulp), operation for operation: the C library's cbrt differs
@@ -26,14 +62,14 @@ static double fts_cbrt(double x)
     uint64_t ui;
     uint32_t hx;
     double t, r, s, w;
-    memcpy(&ui, &x, sizeof ui);
+    ui = bits_of(x);
     hx = (uint32_t)(ui >> 32) & 0x7fffffffu;
     if (hx >= 0x7ff00000u) {
         return x + x; /* NaN, infinities */
     }
     if (hx < 0x00100000u) {
         t = x * two54; /* subnormals */
-        memcpy(&ui, &t, sizeof ui);
+        ui = bits_of(t);
         hx = (uint32_t)(ui >> 32) & 0x7fffffffu;
         if (hx == 0) {
             return x; /* +-0 */
@@ -44,12 +80,11 @@ static double fts_cbrt(double x)
     }
     ui &= (uint64_t)1 << 63;
     ui |= (uint64_t)hx << 32;
-    memcpy(&t, &ui, sizeof t);
+    t = from_bits(ui);
     r = (t * t) * (t / x);
     t = t * ((P0 + r * (P1 + r * P2)) + ((r * r) * r) * (P3 + r * P4));
-    memcpy(&ui, &t, sizeof ui);
-    ui = (ui + 0x80000000u) & (uint64_t)0xffffffffc0000000ull;
-    memcpy(&t, &ui, sizeof t);
+    ui = (bits_of(t) + 0x80000000u) & (uint64_t)0xffffffffc0000000ull;
+    t = from_bits(ui);
     s = t * t;
     r = x / s;
     w = t + t;
@@ -65,7 +100,7 @@ static fts_status copy_into(const double *src, size_t len, double *dst, size_t c
         return FTS_ERR_BAD_LENGTH;
     }
     for (i = 0; i < len; ++i) {
-        if (!isfinite(src[i])) {
+        if (!is_finite(src[i])) {
             return FTS_ERR_NON_FINITE;
         }
     }
@@ -100,7 +135,7 @@ static void zero(double *v, size_t len)
 
 static fts_status finite_or(double v)
 {
-    return isfinite(v) ? FTS_OK : FTS_ERR_NON_FINITE;
+    return is_finite(v) ? FTS_OK : FTS_ERR_NON_FINITE;
 }
 
 static fts_status init_zpetc(fts_controller *c, const fts_zpetc_spec *z, const char **field)
@@ -193,7 +228,7 @@ static fts_status all_finite(const double *v, size_t len)
 {
     size_t i;
     for (i = 0; i < len; ++i) {
-        if (!isfinite(v[i])) {
+        if (!is_finite(v[i])) {
             return FTS_ERR_NON_FINITE;
         }
     }
@@ -214,10 +249,10 @@ static fts_status init_ss(fts_controller *c, const fts_ss_spec *k, const char **
     FTS_CHECK(all_finite(k->c, n), "state_space.c");
     FTS_CHECK(finite_or(k->d), "state_space.d");
     /* Infinite limits mean "no limit"; NaN is refused. */
-    if (isnan(k->output_min) || (isinf(k->output_min) && k->output_min > 0.0)) {
+    if (is_nan(k->output_min) || (!is_finite(k->output_min) && k->output_min > 0.0)) {
         FTS_FAIL(FTS_ERR_NON_FINITE, "state_space.output_min");
     }
-    if (isnan(k->output_max) || (isinf(k->output_max) && k->output_max < 0.0)) {
+    if (is_nan(k->output_max) || (!is_finite(k->output_max) && k->output_max < 0.0)) {
         FTS_FAIL(FTS_ERR_NON_FINITE, "state_space.output_max");
     }
     if (k->output_min >= k->output_max) {

@@ -13,7 +13,7 @@
  * compile without floating-point contraction (-ffp-contract=off; never
  * -ffast-math) and the commands are bit-identical to fts simulate's on any
  * IEEE-754 double target (the cube root is the runtime's own, not the C
- * library's).
+ * library's). Only freestanding headers are used: no C library is needed.
  */
 #ifndef FTS_RUNTIME_H
 #define FTS_RUNTIME_H
@@ -102,7 +102,7 @@ typedef struct fts_pid_spec {
 } fts_pid_spec;
 
 /* State-space controller, SISO, e in, v out: a is n x n row-major, b n x 1,
- * c 1 x n. Limits may be -HUGE_VAL / HUGE_VAL (no limit). */
+ * c 1 x n. Limits may be -fts_infinity() / fts_infinity() (no limit). */
 typedef struct fts_ss_spec {
     size_t n;
     const double *a;
@@ -181,6 +181,9 @@ double fts_step(fts_controller *ctl, double reference_ahead, double measurement)
 /* The same, with the intermediate signals r_f and u_ff (either pointer may be NULL). */
 double fts_step_traced(fts_controller *ctl, double reference_ahead, double measurement,
                        double *filtered, double *feedforward);
+
+/* +infinity, for state-space limits that are absent (-fts_infinity() below). */
+double fts_infinity(void);
 
 /* A short English name of a status, e.g. "non-finite coefficient". */
 const char *fts_status_text(fts_status status);
