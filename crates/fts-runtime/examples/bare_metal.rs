@@ -10,7 +10,9 @@
 //! controller (the coefficients of `benches/runtime.rs`) into caller-owned
 //! storage, `fts_rs_step` runs one sample.
 
-#![no_std]
+// no_std on the bare-metal target; on the host (where `cargo test` builds
+// every example) it links std like any static library.
+#![cfg_attr(target_os = "none", no_std)]
 
 use core::mem::MaybeUninit;
 use fts_runtime::{
@@ -76,6 +78,7 @@ pub unsafe extern "C" fn fts_rs_step(
     unsafe { (*controller).step(reference_ahead, measurement) }
 }
 
+#[cfg(target_os = "none")]
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
     loop {}
