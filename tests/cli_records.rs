@@ -558,7 +558,7 @@ fn emit_names_a_bad_gain_or_limit() {
         (vec!["--kp", "NaN"], "--kp: expected a finite gain, got NaN"),
         (vec!["--kd", "inf"], "--kd: expected a finite gain, got inf"),
         (
-            vec!["--output-min", "5", "--output-max", "1"],
+            vec!["--kp", "0.02", "--output-min", "5", "--output-max", "1"],
             "min < max, got 5 and 1",
         ),
     ] {
@@ -567,6 +567,7 @@ fn emit_names_a_bad_gain_or_limit() {
                 .arg("emit")
                 .arg("--zpetc")
                 .arg(&zpetc)
+                .args(["--pid-form", "li21"])
                 .args(&flags)
                 .arg("-o")
                 .arg(&out),

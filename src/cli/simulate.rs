@@ -250,7 +250,7 @@ fn controller(
         .map_err(|e| bad(format!("--controller: {e}")))?;
     let mut inputs = Vec::new();
     let feedback = match (stages.feedback, &args.ss.ss) {
-        (FeedbackKind::Pid, Some(_)) => {
+        (FeedbackKind::Pid | FeedbackKind::None, Some(_)) => {
             return Err(bad(format!(
                 "--controller {}: --ss gives a state-space controller; use --controller ss[+hc][+zpec]",
                 stages.name()
@@ -284,6 +284,15 @@ fn controller(
                 limits,
                 &mut inputs,
             )?)
+        }
+        (FeedbackKind::None, None) => {
+            if stages.zpetc && args.zpetc.is_none() && args.closed_loop.is_none() {
+                return Err(bad(format!(
+                    "--controller {}: give the ZPETC of the loop it feeds (--zpetc or --closed-loop); the one fts identifies is for its PID loop",
+                    stages.name()
+                )));
+            }
+            None
         }
         (FeedbackKind::Pid, None) => None,
     };
@@ -346,9 +355,10 @@ fn controller(
     let file = experiment::build_controller(
         stages,
         ts,
-        match feedback {
-            Some(k) => Feedback::StateSpace(k),
-            None => Feedback::Pid(pid),
+        match (feedback, stages.feedback) {
+            (Some(k), _) => Feedback::StateSpace(k),
+            (None, FeedbackKind::None) => Feedback::None,
+            (None, _) => Feedback::Pid(pid),
         },
         inverse.as_ref(),
         zpetc.as_ref(),

@@ -229,7 +229,8 @@ pub fn build_controller(
 ) -> Result<ControllerFile, String> {
     let feedback = feedback.into();
     let kind = match feedback {
-        Feedback::Pid(_) => FeedbackKind::Pid,
+        Feedback::None => FeedbackKind::None,
+        Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
         Feedback::StateSpace(_) => FeedbackKind::StateSpace,
     };
     if kind != stages.feedback {
@@ -239,6 +240,7 @@ pub fn build_controller(
             match stages.feedback {
                 FeedbackKind::Pid => "PID gains, not a state-space controller",
                 FeedbackKind::StateSpace => "a state-space controller",
+                FeedbackKind::None => "no feedback controller",
             }
         ));
     }
