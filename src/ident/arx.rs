@@ -42,13 +42,18 @@ impl Orders {
         self.na.saturating_add(self.nb)
     }
 
-    /// Refuses orders whose model could not be written as an `fts.tf/1`
+    /// Refuses orders without input (`nb = 0`) or whose model could not be written as an `fts.tf/1`
     /// file (at most [`crate::io::tf_json::MAX_COEFFS`] coefficients per
     /// polynomial, a delay of at most [`crate::io::tf_json::MAX_DELAY`]):
     /// checked before any work, since the regression's memory grows with
     /// `(na + nb)^2`.
     pub fn check(&self) -> Result<(), IdentError> {
         use crate::io::tf_json::{MAX_COEFFS, MAX_DELAY};
+        if self.nb == 0 {
+            return Err(IdentError::BadStructure(
+                "nb must be at least 1 (a model without input)".into(),
+            ));
+        }
         let too_big = [
             ("na", self.na, MAX_COEFFS - 1),
             ("nb", self.nb, MAX_COEFFS),
@@ -141,11 +146,6 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
     check_signals(u, y)?;
     let o = params.orders;
     o.check()?;
-    if o.nb == 0 {
-        return Err(IdentError::BadStructure(
-            "nb must be at least 1 (a model without input)".into(),
-        ));
-    }
     check_excited(u)?;
     let n = y.len();
     let d = o.params();

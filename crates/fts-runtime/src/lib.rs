@@ -138,7 +138,7 @@ impl core::fmt::Display for RuntimeError {
             RuntimeError::OrderTooHigh { field, order, max } => {
                 write!(
                     f,
-                    "{field}: {order} states, the runtime takes at most {max} (MAX_SS_ORDER); reduce the controller (fts mixsyn --order N)"
+                    "{field}: {order} states, the runtime takes at most {max} (MAX_SS_ORDER); reduce the controller first (balanced truncation)"
                 )
             }
             RuntimeError::LengthMismatch { field } => {
