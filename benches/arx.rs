@@ -1,6 +1,6 @@
 //! ARX 5/5/5 on 1e6 samples (target <= 70 ms; and on 1e5 to show linear
 //! scaling) and OE 5/5/5 on 1e5 samples
-//! (target < 1 s), on the [Li21] Eq. 11 closed loop with white input and
+//! (target < 1 s), on the \[Li21\] Eq. 11 closed loop with white input and
 //! white measurement noise.
 
 mod common;

@@ -1,4 +1,4 @@
-//! Where the PID + HC + ZPEC tracking error of the [Li21] experiment comes
+//! Where the PID + HC + ZPEC tracking error of the \[Li21\] experiment comes
 //! from (docs/li21-experiment.md): 5 um sines through the identified loop,
 //! their error split into the fundamental and the 2nd/3rd harmonics, and the
 //! 0-1000 Hz sweep with and without the virtual FTS's hysteresis.

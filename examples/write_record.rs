@@ -1,6 +1,6 @@
 //! Writes a synthetic measured record for timing whole-process reads:
 //! `cargo run --release --example write_record -- record.csv 1000000`.
-//! Columns `t,u,y`: white input, the [Li21] Eq. 11 closed loop's output with
+//! Columns `t,u,y`: white input, the \[Li21\] Eq. 11 closed loop's output with
 //! white measurement noise, at 10 kHz, every float in full precision.
 
 use fts::ident::linear::filter_ab;

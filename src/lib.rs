@@ -1,23 +1,51 @@
 //! # fts — identification and control of piezo-driven fast tool servos
 //!
-//! The library is the product; the `fts` binary is a thin shell over [`cli`].
-//! Modules follow the engineer's pipeline:
+//! Every workflow of the `fts` command is a typed step in [`workflow`]:
+//! settings that deserialise from a manifest (`fts.toml`) with documented
+//! defaults, `validate()`, and `run(inputs) -> Result<Report, StepError>`
+//! whose report serialises (the `--json` output) and displays (the summary).
+//! A Rust user calls the same steps the command line and `fts build` call:
 //!
-//! * [`lti`] — polynomials in `z^-1`, discrete and continuous transfer functions,
-//!   polynomial roots, filtering.
-//! * [`ident`] — identification from measured data (fit metrics, least squares, models).
-//! * [`synth`] — controller and feedforward synthesis (ZPETC, ...).
-//! * [`io`] — the file contracts of `docs/formats.md` (CSV time series,
-//!   `fts.tf/1`, ...), parsed from text so that callers decide where bytes come from.
-//! * [`pipeline`] — pipeline manifests (`fts.toml`) and `fts build`: steps in
-//!   dependency order, rebuilt when the content hash of an input or setting
-//!   changes, atomic writes, the lock file.
-//! * [`cli`] — the command line: the only module that knows about paths,
-//!   exit codes and `anyhow`.
+//! ```
+//! use fts::{DesignZpetc, DiscreteTf};
+//! // \[Li21\] Eq. 11, the closed loop of PID + hysteresis compensation.
+//! let closed_loop = DiscreteTf::new(
+//!     vec![4.154, -9.631, 10.23, -5.511, 1.154],
+//!     vec![1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447],
+//!     5,
+//!     1e-4,
+//! )?;
+//! let report = DesignZpetc::default().design(&closed_loop, "Li21 Eq. 11")?;
+//! assert!(report.check.max_phase_error_rad < 1e-9);
+//! println!("{report}"); // zero map, preview, coefficients, self-check
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 //!
-//! Conventions: discrete polynomials are stored in ascending powers of `z^-1`
-//! and a pure delay is always a separate integer field.
+//! The steps, by stage of the engineer's pipeline:
+//!
+//! | stage | steps |
+//! |---|---|
+//! | hysteresis | [`IdentifyHysteresis`] (PI, MPI cube-root and dead-zone; least squares or gradient descent; the inverse) |
+//! | linear models | [`IdentifyArx`], [`IdentifyOe`], [`IdentifyIv`], [`ArxStruct`] (records prepared, fit %, delay and order selection) |
+//! | feedforward | [`DesignZpetc`] |
+//! | feedback | [`Weight`], [`Mixsyn`], [`Hinf`], [`H2`], [`C2d`], [`SsController`]; margins and sensitivities in [`lti::margins`] |
+//! | judging a design | [`workflow::response::Response`] (step/impulse, `stepinfo`), [`workflow::convert`] (tf/ss/zpk, minreal, balred, d2c) |
+//! | simulation | [`sim::closed_loop`] (any plant, the runtime's controller), [`sim::virtual_fts`] (the embedded virtual FTS), [`sim::experiment`] (the \[Li21\] study) |
+//! | deployment | [`io::controller_file::ControllerFile`] (the `fts.controller/1` file and C header), [`runtime`] (the allocation-free step, `no_std`) |
+//!
+//! Underneath: [`lti`] (polynomials in `z^-1`, transfer functions, state
+//! space, Riccati and Lyapunov solvers, norms), [`ident`] (the estimators),
+//! [`synth`] (the synthesis algorithms), [`io`] (the file contracts of
+//! `docs/formats.md`, parsed from text) and [`pipeline`] (`fts build`:
+//! manifests, content hashes, the lock file).
+//!
+//! Conventions: discrete polynomials are stored in ascending powers of
+//! `z^-1` and a pure delay is always a separate integer field; frequencies
+//! are in Hz unless a name says rad/s.
 
+/// The command line (`fts ...`): flags into steps, reports rendered, exit
+/// codes. Not part of the library's API.
+#[doc(hidden)]
 pub mod cli;
 pub mod ident;
 pub mod io;
@@ -29,3 +57,12 @@ pub use fts_runtime as runtime;
 pub mod sim;
 pub mod synth;
 pub mod workflow;
+
+pub use io::InputError;
+pub use io::controller_file::ControllerFile;
+pub use lti::{ContinuousTf, DiscreteTf, Poly, StateSpace, TransferFunction};
+pub use runtime::RuntimeController;
+pub use workflow::{
+    ArxStruct, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyIv, IdentifyOe,
+    Mixsyn, SsController, StepError, Validate, Weight,
+};

@@ -1,5 +1,5 @@
 //! `fts identify arx|oe|iv|arx-struct` and `fts bode` end to end: the DaISy
-//! records, the [Li21] closed loop, and every bad input exiting with code 2,
+//! records, the \[Li21\] closed loop, and every bad input exiting with code 2,
 //! naming the problem and leaving no output file.
 
 use assert_cmd::Command;
@@ -51,7 +51,7 @@ fn assert_only(dir: &Path, expected: &[&str]) {
     assert_eq!(names, expected);
 }
 
-/// `t,u,y` CSV of the [Li21] closed loop driven by a 0-1 kHz sweep, with
+/// `t,u,y` CSV of the \[Li21\] closed loop driven by a 0-1 kHz sweep, with
 /// white measurement noise of standard deviation `noise` on `y`.
 fn li21_csv(n: usize, noise: f64) -> String {
     let ts = 1e-4;

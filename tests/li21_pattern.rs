@@ -1,4 +1,4 @@
-//! The [Li21] pattern on the virtual FTS with models identified honestly from
+//! The \[Li21\] pattern on the virtual FTS with models identified honestly from
 //! simulated measurements (math.md 4): at 500 Hz PID+HC+ZPEC is far better
 //! than PID+HC; at 10 Hz hysteresis compensation does most of the work; the
 //! five-leaved trajectory stays within the paper's 0.3 um.

@@ -1,4 +1,4 @@
-//! [Li21] Eq. 11/12 against the published values of docs/reference-values.md.
+//! \[Li21\] Eq. 11/12 against the published values of docs/reference-values.md.
 
 use fts::lti::{DiscreteTf, c64};
 use fts::synth::zpetc::{self, ZpetcParams};

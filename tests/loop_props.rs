@@ -1,6 +1,6 @@
 //! Properties of the loop analysis on random loops (third-order plant with a
 //! resonance, PI controller; continuous, and ZOH-discretised with the
-//! [Li21] per-sample PI): what each margin claims holds when checked
+//! \[Li21\] per-sample PI): what each margin claims holds when checked
 //! through the state-space realisation, and scaling the controller by the
 //! reported gain margin puts a closed-loop pole on the stability boundary.
 

@@ -63,7 +63,7 @@ out = "models/inverse.json"
 "#;
 
 /// A project folder: the manifest, a measured-like triangle record (one
-/// 10 V triangle on the virtual FTS) and the [Li21] closed-loop model.
+/// 10 V triangle on the virtual FTS) and the \[Li21\] closed-loop model.
 fn project(dir: &Path) {
     std::fs::create_dir_all(dir.join("data")).unwrap();
     let params = ExperimentParams {

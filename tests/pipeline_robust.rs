@@ -295,7 +295,7 @@ const PC_PLANT: &str =
     r#"{"format":"fts.ss/1","ts":null,"a":[[-1]],"b":[[1,1]],"c":[[1],[1]],"d":[[0,1],[1,0]]}"#;
 
 /// A folder with the example's committed files (plant, weights, K, P),
-/// [`PC_PLANT`] as `pc.json` and the [Li21] closed loop as `cl.json`.
+/// [`PC_PLANT`] as `pc.json` and the \[Li21\] closed loop as `cl.json`.
 fn example_inputs() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("pc.json"), PC_PLANT).unwrap();

@@ -226,7 +226,7 @@ fn closed_loops_have_python_controls_poles() {
     }
 }
 
-/// The [Li21] Eq. 11 closed loop read from its fts.tf/1 fixture (delay
+/// The \[Li21\] Eq. 11 closed loop read from its fts.tf/1 fixture (delay
 /// as states) gives python-control's figures too.
 #[test]
 fn li21_fixture_read_as_tf_matches() {

@@ -34,7 +34,7 @@ pub struct ConvertArgs {
     /// Target form.
     #[arg(long, value_enum)]
     to: To,
-    /// Write the result here (a MIMO system to tf: one file per channel, OUT.y<i>u<j>.json).
+    /// Write the result here (a MIMO system to tf: one file per channel, `OUT.y<i>u<j>.json`).
     #[arg(short = 'o', long = "out", value_name = "OUT.json")]
     output: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.

@@ -1,4 +1,4 @@
-//! `fts demo [--out DIR] [--seed N] [--json]`: the [Li21] experiment on the
+//! `fts demo [--out DIR] [--seed N] [--json]`: the \[Li21\] experiment on the
 //! embedded virtual FTS, end to end (identification -> compensation -> ZPETC
 //! -> verification), with every intermediate file and plot written to DIR and
 //! the tracking table printed beside the paper's.
@@ -29,7 +29,7 @@ pub struct DemoArgs {
     json: bool,
 }
 
-/// [Li21] max tracking errors (um) for 5 um sines: (frequency, PID, PID+HC, PID+HC+ZPEC).
+/// \[Li21\] max tracking errors (um) for 5 um sines: (frequency, PID, PID+HC, PID+HC+ZPEC).
 // 0.3926 um is the paper's measurement, not an approximation of pi/8.
 #[allow(clippy::approx_constant)]
 const LI21_TABLE: [(f64, f64, f64, f64); 3] = [

@@ -1,4 +1,4 @@
-//! `fts ding22`: the [Ding22] workflow (docs/math.md §5) on the lumped two-mass
+//! `fts ding22`: the \[Ding22\] workflow (docs/math.md §5) on the lumped two-mass
 //! FTS: H2 design, PID baseline tuned for the same cost, error budget
 //! (printed, `--csv`, `--plot`), and `--sweep k2=LO:HI:N,c2=LO:HI:N`.
 

@@ -6,7 +6,7 @@
 //! C runtime beside it) that a real-time loop consumes, with the SHA-256 of
 //! every input file. The feedback controller is the one asked for and no
 //! other: the PID (continuous parallel gains, discretised, or per-sample
-//! [Li21] gains), a state-space controller (`fts.ss/1`, e.g. from
+//! \[Li21\] gains), a state-space controller (`fts.ss/1`, e.g. from
 //! `fts mixsyn`, discretised at the loop's sample time when continuous), or
 //! none (feedforward only).
 
@@ -40,7 +40,7 @@ enum PidForm {
     /// `pid(Kp, Ki, Kd, 1/N)`), discretised by backward Euler at the loop's
     /// sample time; the file records both.
     Parallel,
-    /// [Li21] Eq. 5 gains per sample, used as given.
+    /// \[Li21\] Eq. 5 gains per sample, used as given.
     Li21,
 }
 

@@ -25,17 +25,17 @@ use std::path::PathBuf;
 enum ModelArg {
     /// Classical Prandtl–Ishlinskii.
     Pi,
-    /// PI plus a cube-root term ([Li21] Eq. 4).
+    /// PI plus a cube-root term (\[Li21\] Eq. 4).
     MpiCbrt,
-    /// PI followed by one-sided dead-zone operators ([Tang17] Eq. 40-43).
+    /// PI followed by one-sided dead-zone operators (\[Tang17\] Eq. 40-43).
     MpiDeadzone,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum OperatorArg {
-    /// One-sided play, output in [u - r, u] ([Li21]).
+    /// One-sided play, output in [u - r, u] (\[Li21\]).
     PlayLower,
-    /// Symmetric play, output in [u - r, u + r] ([Tang17]).
+    /// Symmetric play, output in [u - r, u + r] (\[Tang17\]).
     PlaySymmetric,
 }
 
@@ -83,7 +83,7 @@ pub struct HysteresisArgs {
     /// Do not identify a constant output offset (manifest: `offset = false`).
     #[arg(long)]
     no_offset: bool,
-    /// Identify the inverse model directly: the recorded output is the model input ([Li21]).
+    /// Identify the inverse model directly: the recorded output is the model input (\[Li21\]).
     #[arg(long)]
     inverse: bool,
     /// Iteration cap of each gradient solve (--method gd).

@@ -464,7 +464,10 @@ fn compare_plot_svg(r: &LinearReport) -> anyhow::Result<String> {
     let p = &r.prepared;
     let rec = p.val.as_ref().unwrap_or(&p.est);
     let sim = r.model.simulate_fit_ic(&rec.u, &rec.y);
-    let t: Vec<f64> = (0..rec.y.len()).map(|k| k as f64 * p.ts).collect();
+    // The record's own time axis: a validation part continues the estimation part.
+    let t: Vec<f64> = (0..rec.y.len())
+        .map(|k| (rec.first_sample + k) as f64 * p.ts)
+        .collect();
     let err: Vec<f64> = rec.y.iter().zip(&sim).map(|(a, b)| a - b).collect();
     let fit = crate::ident::metrics::nrmse_fit_percent(&rec.y, &sim);
     let title = format!(
@@ -477,7 +480,7 @@ fn compare_plot_svg(r: &LinearReport) -> anyhow::Result<String> {
         (
             title.as_str(),
             "time (s)",
-            "output",
+            "output (record units)",
             vec![
                 Series {
                     label: "measured",
@@ -485,7 +488,7 @@ fn compare_plot_svg(r: &LinearReport) -> anyhow::Result<String> {
                     y: &rec.y,
                 },
                 Series {
-                    label: "simulated (initial conditions estimated)",
+                    label: "simulated (initial state fitted)",
                     x: &t,
                     y: &sim,
                 },
@@ -494,7 +497,7 @@ fn compare_plot_svg(r: &LinearReport) -> anyhow::Result<String> {
         (
             "",
             "time (s)",
-            "measured - simulated",
+            "measured - simulated (record units)",
             vec![Series {
                 label: "simulation error",
                 x: &t,
@@ -508,69 +511,160 @@ fn welch_for_plot(u: &[f64], y: &[f64], ts: f64) -> Result<FreqResponse, FreqErr
     welch(u, y, ts, &WelchParams::default())
 }
 
-/// Model vs empirical Bode (magnitude, phase) and coherence, stacked.
+/// Coherence below which an empirical point is drawn faint: there the
+/// output is mostly not the linear response to the input (noise, leakage,
+/// nonlinearity), and the estimate's variance is large.
+const TRUSTED_COHERENCE: f64 = 0.8;
+
+/// The empirical response split for drawing: trusted points (coherence at
+/// least [`TRUSTED_COHERENCE`], or no coherence known) and the rest, each
+/// NaN where the other has a point so that lines break at the gaps. The
+/// phase is unwrapped along the trusted points only; an untrusted point's
+/// phase is put on the branch nearest the last trusted one.
+struct EmpiricalCurves {
+    freq: Vec<f64>,
+    mag_trusted: Vec<f64>,
+    mag_faint: Vec<f64>,
+    phase_trusted: Vec<f64>,
+    phase_faint: Vec<f64>,
+    coherence: Vec<f64>,
+}
+
+impl EmpiricalCurves {
+    fn new(emp: &FreqResponse, fmax: f64) -> Self {
+        let mut c = EmpiricalCurves {
+            freq: Vec::new(),
+            mag_trusted: Vec::new(),
+            mag_faint: Vec::new(),
+            phase_trusted: Vec::new(),
+            phase_faint: Vec::new(),
+            coherence: Vec::new(),
+        };
+        let mut last_phase: Option<f64> = None;
+        for (i, (&f, h)) in emp.freq_hz.iter().zip(&emp.response).enumerate() {
+            // 0 Hz has no place on a log axis; NaN bins had no input power.
+            if f <= 0.0 || f > fmax || !h.re.is_finite() {
+                continue;
+            }
+            let coh = emp.coherence.as_ref().map(|c| c[i]);
+            let trusted = coh.is_none_or(|g| g >= TRUSTED_COHERENCE);
+            let mag = 20.0 * h.norm().log10();
+            let raw = h.arg().to_degrees();
+            let phase = match last_phase {
+                Some(p) => raw + 360.0 * ((p - raw) / 360.0).round(),
+                None => raw,
+            };
+            if trusted {
+                last_phase = Some(phase);
+            }
+            let (keep, drop) = (
+                if trusted {
+                    (mag, phase)
+                } else {
+                    (f64::NAN, f64::NAN)
+                },
+                if trusted {
+                    (f64::NAN, f64::NAN)
+                } else {
+                    (mag, phase)
+                },
+            );
+            c.freq.push(f);
+            c.mag_trusted.push(keep.0);
+            c.phase_trusted.push(keep.1);
+            c.mag_faint.push(drop.0);
+            c.phase_faint.push(drop.1);
+            c.coherence.push(coh.unwrap_or(f64::NAN));
+        }
+        c
+    }
+}
+
+/// Model vs empirical Bode (magnitude, phase) and coherence, stacked, on a
+/// logarithmic frequency axis; points of low coherence drawn faint.
 fn bode_plot_svg(
     title: &str,
     model: Option<&crate::lti::DiscreteTf>,
     emp: &FreqResponse,
     fmax: f64,
 ) -> anyhow::Result<String> {
-    let keep: Vec<usize> = (0..emp.freq_hz.len())
-        .filter(|&i| emp.freq_hz[i] <= fmax && emp.response[i].re.is_finite())
-        .collect();
-    let ef: Vec<f64> = keep.iter().map(|&i| emp.freq_hz[i]).collect();
-    let all_phase = emp.phase_deg_unwrapped();
-    let ephase: Vec<f64> = keep.iter().map(|&i| all_phase[i]).collect();
-    let emag: Vec<f64> = keep
-        .iter()
-        .map(|&i| 20.0 * emp.response[i].norm().log10())
-        .collect();
-    let coh: Vec<f64> = match &emp.coherence {
-        Some(c) => keep.iter().map(|&i| c[i]).collect(),
-        None => Vec::new(),
-    };
-    let grid = crate::lti::linspace(0.0, fmax, 1001);
+    use crate::io::plot::{Panel, Style, panels_svg};
+    let e = EmpiricalCurves::new(emp, fmax);
+    let lowest = e
+        .freq
+        .first()
+        .copied()
+        .unwrap_or(fmax / 1e3)
+        .max(fmax * 1e-5);
+    let grid = crate::lti::logspace(lowest, fmax, 1001);
     let mb = model.map(|g| Bode::from_fn(&grid, |f| g.response_at_hz(f)));
     let mmag = mb.as_ref().map(|b| b.magnitude_db());
-    let mut mag = vec![Series {
-        label: "empirical (Welch H1)",
-        x: &ef,
-        y: &emag,
-    }];
-    let mut phase = vec![Series {
-        label: "empirical (Welch H1)",
-        x: &ef,
-        y: &ephase,
-    }];
-    if let (Some(b), Some(m)) = (&mb, &mmag) {
-        mag.push(Series {
-            label: "model",
-            x: &b.freq_hz,
-            y: m,
-        });
-        phase.push(Series {
-            label: "model",
-            x: &b.freq_hz,
-            y: &b.phase_deg,
-        });
-    }
+    let faint_label = format!("empirical, coherence < {TRUSTED_COHERENCE}");
+    let series = |mag: bool| {
+        let (trusted, faint) = if mag {
+            (&e.mag_trusted, &e.mag_faint)
+        } else {
+            (&e.phase_trusted, &e.phase_faint)
+        };
+        let mut v = vec![
+            (
+                Series {
+                    label: "empirical (Welch H1)",
+                    x: &e.freq,
+                    y: trusted,
+                },
+                Style::Line,
+            ),
+            (
+                Series {
+                    label: &faint_label,
+                    x: &e.freq,
+                    y: faint,
+                },
+                Style::Faint,
+            ),
+        ];
+        if let (Some(b), Some(m)) = (&mb, &mmag) {
+            let y = if mag { m } else { &b.phase_deg };
+            v.push((
+                Series {
+                    label: "model",
+                    x: &b.freq_hz,
+                    y,
+                },
+                Style::Line,
+            ));
+        }
+        v
+    };
     let mut panels = vec![
-        (title, "frequency (Hz)", "magnitude (dB)", mag),
-        ("", "frequency (Hz)", "phase (deg)", phase),
+        Panel {
+            series: series(true),
+            log_x: true,
+            ..Panel::lines(title, "frequency (Hz)", "magnitude (dB)", vec![])
+        },
+        Panel {
+            series: series(false),
+            log_x: true,
+            ..Panel::lines("", "frequency (Hz)", "phase (deg)", vec![])
+        },
     ];
-    if !coh.is_empty() {
-        panels.push((
-            "",
-            "frequency (Hz)",
-            "coherence",
-            vec![Series {
-                label: "coherence |P_yu|^2/(P_uu P_yy)",
-                x: &ef,
-                y: &coh,
-            }],
-        ));
+    if emp.coherence.is_some() {
+        panels.push(Panel {
+            log_x: true,
+            ..Panel::lines(
+                "",
+                "frequency (Hz)",
+                "coherence (1)",
+                vec![Series {
+                    label: "coherence |P_yu|^2/(P_uu P_yy)",
+                    x: &e.freq,
+                    y: &e.coherence,
+                }],
+            )
+        });
     }
-    Ok(stacked_charts_svg(&panels)?)
+    Ok(panels_svg(&panels)?)
 }
 
 /// Used by `fts bode`: the empirical response of a prepared record.

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Args)]
 pub struct PidFlags {
     /// PID proportional gain. Continuous plant: C(s) = kp + ki/s + kd N s/(s+N);
-    /// discrete plant: the [Li21] per-sample form kp + ki/(1 - z^-1) + kd (1 - z^-1).
+    /// discrete plant: the \[Li21\] per-sample form kp + ki/(1 - z^-1) + kd (1 - z^-1).
     #[arg(long, allow_hyphen_values = true)]
     pub kp: Option<f64>,
     /// PID integral gain (1/s for a continuous plant, per sample for a discrete one).

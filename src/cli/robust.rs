@@ -416,7 +416,7 @@ pub struct BudgetArgs {
     /// Number of grid points (uniform from 0 to fmax).
     #[arg(long, default_value_t = 20001, value_parser = super::common::parse_points)]
     points: usize,
-    /// Write freq_hz, psd_<i>..., psd_total, cas to this CSV.
+    /// Write `freq_hz, psd_<i>..., psd_total, cas` to this CSV.
     #[arg(long, value_name = "OUT.csv")]
     csv: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.

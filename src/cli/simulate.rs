@@ -571,34 +571,47 @@ fn write_plot(
     file: &ControllerFile,
 ) -> anyhow::Result<()> {
     let title = format!("{} tracking {}", file.stages_name(), reference.label);
-    let svg = plot::stacked_charts_svg(&[
-        (
-            title.as_str(),
-            "t (s)",
-            "displacement (um)",
-            vec![
-                plot::Series {
-                    label: "reference r",
+    // The evaluated window, shaded: the metrics come from there only.
+    let ts = trace.ts;
+    let window = Some((
+        reference.evaluate_from as f64 * ts,
+        reference.evaluate_to.saturating_sub(1) as f64 * ts,
+        "evaluated window (metrics)",
+    ));
+    let svg = plot::panels_svg(&[
+        plot::Panel {
+            shade: window,
+            ..plot::Panel::lines(
+                &title,
+                "t (s)",
+                "displacement (um)",
+                vec![
+                    plot::Series {
+                        label: "reference r",
+                        x: t,
+                        y: &trace.reference,
+                    },
+                    plot::Series {
+                        label: "measurement y",
+                        x: t,
+                        y: &trace.measurement,
+                    },
+                ],
+            )
+        },
+        plot::Panel {
+            shade: window,
+            ..plot::Panel::lines(
+                "tracking error",
+                "t (s)",
+                "e = r - y (um)",
+                vec![plot::Series {
+                    label: "e",
                     x: t,
-                    y: &trace.reference,
-                },
-                plot::Series {
-                    label: "measurement y",
-                    x: t,
-                    y: &trace.measurement,
-                },
-            ],
-        ),
-        (
-            "tracking error",
-            "t (s)",
-            "e = r - y (um)",
-            vec![plot::Series {
-                label: "e",
-                x: t,
-                y: error,
-            }],
-        ),
+                    y: error,
+                }],
+            )
+        },
     ])?;
     write_atomic(path, svg.as_bytes())
 }

@@ -27,7 +27,7 @@ pub struct ZpetcArgs {
     min_damping: f64,
     /// Invert zeros with |z| >= RADIUS exactly by an anticausal series (stable
     /// inversion) instead of cancelling only their phase; the preview grows by
-    /// the series length. Without it: classical ZPETC (Tomizuka, [Li21]).
+    /// the series length. Without it: classical ZPETC (Tomizuka, \[Li21\]).
     #[arg(long, value_name = "RADIUS", num_args = 0..=1, default_missing_value = "1.25")]
     stable_inversion: Option<f64>,
     /// Truncation tolerance of the stable-inversion series (relative).

@@ -1,7 +1,7 @@
 //! Excitation signals for identification experiments (docs/math.md §1.5, §2):
-//! triangle waves of several amplitudes for hysteresis [Li21], sine sweeps
-//! 0-1000 Hz [Li21], Schroeder-phased multisines [Karagoz18], single sines,
-//! and the five-leaved trajectory [Li21] Eq. 13.
+//! triangle waves of several amplitudes for hysteresis \[Li21\], sine sweeps
+//! 0-1000 Hz \[Li21\], Schroeder-phased multisines \[Karagoz18\], single sines,
+//! and the five-leaved trajectory \[Li21\] Eq. 13.
 //!
 //! Every generator returns samples `u(k)` at `t = k * ts`, `k = 0..n`.
 
@@ -78,7 +78,7 @@ fn samples(duration: f64, ts: f64) -> Result<usize, ExciteError> {
     Ok((n as usize).max(1))
 }
 
-/// Triangle waves of several amplitudes ([Li21] hysteresis identification):
+/// Triangle waves of several amplitudes (\[Li21\] hysteresis identification):
 /// each amplitude `A` runs `cycles` periods of `offset -> offset + A -> offset`
 /// (unipolar, for a 0-10 V amplifier) or, with `bipolar`, `0 -> A -> -A -> 0`.
 #[derive(Debug, Clone, PartialEq)]
@@ -217,7 +217,7 @@ pub enum SweepSpacing {
     Logarithmic,
 }
 
-/// A sine sweep (chirp) from `f0` to `f1` Hz over `duration` s ([Li21]: 0-1000 Hz).
+/// A sine sweep (chirp) from `f0` to `f1` Hz over `duration` s (\[Li21\]: 0-1000 Hz).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SweepParams {
     /// Start frequency, Hz.
@@ -282,7 +282,7 @@ pub fn sweep(p: &SweepParams) -> Result<Vec<f64>, ExciteError> {
         .collect())
 }
 
-/// A periodic multisine with Schroeder phases ([Karagoz18]; Schroeder 1970):
+/// A periodic multisine with Schroeder phases (\[Karagoz18\]; Schroeder 1970):
 /// `sum_k a sin(2 pi f_k t + phi_k)`, `phi_k = -pi k (k - 1) / K`, scaled so
 /// the peak of the whole record equals `amplitude`. Frequencies are rounded to
 /// multiples of `1 / period` so that every period is identical (no leakage in
@@ -369,7 +369,7 @@ pub fn multisine(p: &MultisineParams) -> Result<(Vec<f64>, Vec<f64>), ExciteErro
     Ok((out, lines.iter().map(|&l| l as f64 * df).collect()))
 }
 
-/// The "five-leaved" trajectory of [Li21] Eq. 13, `z(t) = (50 - 10 t) sin(200 pi t)`
+/// The "five-leaved" trajectory of \[Li21\] Eq. 13, `z(t) = (50 - 10 t) sin(200 pi t)`
 /// (um), times `scale`, plus `offset`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FiveLeafParams {

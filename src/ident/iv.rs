@@ -3,7 +3,7 @@
 //!
 //! Why: with measurement noise on `y`, the ARX regressor `-y(k-i)` is
 //! correlated with the equation error `A v`, so least squares is biased (on
-//! the [Li21] closed loop, white noise of 1e-3 on `y` moves `a1` from -0.785
+//! the \[Li21\] closed loop, white noise of 1e-3 on `y` moves `a1` from -0.785
 //! to about -0.47). IV replaces `-y(k-i)` in the *instrument* by `-x(k-i)`,
 //! the noise-free simulated output of the previous estimate: the instruments
 //! are correlated with the regressors but not with the noise, so

@@ -231,7 +231,7 @@ impl ParallelPid {
     }
 
     /// The loop's coefficients at sample time `ts` by backward Euler,
-    /// `s = (1 - z^-1)/Ts`: `ki Ts` per sample; without a filter the [Li21]
+    /// `s = (1 - z^-1)/Ts`: `ki Ts` per sample; without a filter the \[Li21\]
     /// form with `kd = Kd/Ts`; with one, `pole = 1/(1 + N Ts)` and
     /// `kd = Kd N pole` (docs/formats.md "PID forms").
     pub fn discretise(&self, ts: f64) -> FeedbackSpec<'static> {
@@ -264,7 +264,7 @@ pub enum Feedback {
     /// None: a feedforward-only controller (`no_feedback` block); the
     /// command is the last block's output.
     None,
-    /// The [Li21] PID, gains per sample.
+    /// The \[Li21\] PID, gains per sample.
     Pid(PidSpec),
     /// A PID given in continuous parallel form, discretised.
     ParallelPid(ParallelPid),
@@ -443,7 +443,7 @@ impl ControllerFile {
         self.runtime_spec().feedback.limits()
     }
 
-    /// The per-sample [Li21] PID, when the feedback controller is one.
+    /// The per-sample \[Li21\] PID, when the feedback controller is one.
     pub fn pid(&self) -> Option<&PidSpec> {
         match &self.feedback {
             Feedback::Pid(p) => Some(p),

@@ -63,7 +63,8 @@ fn tick_label(v: f64) -> String {
         text.replace(".0e", "e")
     } else {
         let rounded = (v * 1e3).round() / 1e3;
-        format!("{rounded}")
+        // `-0` is a rounding artefact, not a value.
+        format!("{}", if rounded == 0.0 { 0.0 } else { rounded })
     }
 }
 
@@ -116,7 +117,7 @@ impl<'a> Panel<'a> {
 }
 
 /// Width of the legend column right of every chart: legends never cover data.
-const LEGEND_WIDTH: u32 = 210;
+const LEGEND_WIDTH: u32 = 270;
 const SHADE: RGBColor = RGBColor(255, 200, 80);
 
 fn legend<DB: DrawingBackend>(
@@ -146,7 +147,7 @@ fn legend<DB: DrawingBackend>(
                 .map_err(perr)
             })?,
             Style::Faint => entry(s.label, &|y| {
-                area.draw(&Circle::new((17, y), 2, color.mix(0.35).filled()))
+                area.draw(&Circle::new((17, y), 2, color.mix(0.45).filled()))
                     .map_err(perr)
             })?,
             Style::Marker => entry(s.label, &|y| {
@@ -175,7 +176,15 @@ fn draw_panel<DB: DrawingBackend>(
     legend(&legend_area, panel)?;
     let all: Vec<Series<'_>> = panel.series.iter().map(|(s, _)| s.clone()).collect();
     let (x0, x1) = bounds(&all, |s| s.x);
-    let (y0, y1) = bounds(&all, |s| s.y);
+    // Faint (untrusted) data does not set the scale: noise must not squash
+    // the curves that matter; faint points beyond it are left out.
+    let solid: Vec<Series<'_>> = panel
+        .series
+        .iter()
+        .filter(|(s, style)| *style != Style::Faint && s.y.iter().any(|v| v.is_finite()))
+        .map(|(s, _)| s.clone())
+        .collect();
+    let (y0, y1) = bounds(if solid.is_empty() { &all } else { &solid }, |s| s.y);
     let log_x = panel.log_x;
     let mut builder = ChartBuilder::on(&plot_area);
     builder
@@ -189,6 +198,7 @@ fn draw_panel<DB: DrawingBackend>(
             chart
                 .configure_mesh()
                 .x_label_formatter(&|v| tick_label(*v))
+                .y_label_formatter(&|v| tick_label(*v))
                 .x_desc(panel.x_label)
                 .y_desc(panel.y_label)
                 .draw()
@@ -230,7 +240,9 @@ fn draw_panel<DB: DrawingBackend>(
                     Style::Faint => {
                         chart
                             .draw_series(
-                                points.map(|p| Circle::new(p, 1, color.mix(0.35).filled())),
+                                points
+                                    .filter(|(_, y)| (y0..=y1).contains(y))
+                                    .map(|p| Circle::new(p, 2, color.mix(0.45).filled())),
                             )
                             .map_err(perr)?;
                     }

@@ -105,7 +105,7 @@ impl Poly {
     }
 
     /// Coefficients reversed: `x^n B(1/x)`. For `x = z^-1` this maps each
-    /// zero `z_i` to `1/z_i` ([Li21] Eq. 9, `B^*`).
+    /// zero `z_i` to `1/z_i` (\[Li21\] Eq. 9, `B^*`).
     pub fn reversed(&self) -> Poly {
         Poly {
             coeffs: self.coeffs.iter().rev().copied().collect(),

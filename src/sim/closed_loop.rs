@@ -1,5 +1,5 @@
 //! Closed-loop runs of a [`RuntimeController`] on a [`Plant`], and the
-//! tracking metrics of [Li21] (max and RMS error, error in % of amplitude).
+//! tracking metrics of \[Li21\] (max and RMS error, error in % of amplitude).
 
 use super::Plant;
 use crate::runtime::RuntimeController;

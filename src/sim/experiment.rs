@@ -1,8 +1,8 @@
-//! The [Li21] experiment on the virtual FTS, end to end, identified only from
+//! The \[Li21\] experiment on the virtual FTS, end to end, identified only from
 //! simulated measurements (virtual-fts.md rules):
 //!
 //! 1. open-loop triangle waves of several amplitudes; the inverse MPI-cbrt
-//!    model is identified directly (displacement in, command out, [Li21]);
+//!    model is identified directly (displacement in, command out, \[Li21\]);
 //! 2. PID + HC closed loop swept 0-1000 Hz; ARX fitted to (r_f, y), refined
 //!    by output error when that improves the simulation fit;
 //! 3. ZPETC of the closed-loop model;
@@ -27,8 +27,8 @@ use crate::runtime::{PidSpec, RuntimeController};
 use crate::synth::composite::{FeedbackKind, Stages};
 use crate::synth::zpetc::{self, StableInversion, Zpetc, ZpetcParams};
 
-/// The PID of the [Li21] loop on the embedded plant: `kp 0.02` V/um, `ki 0.15`
-/// V/um per sample, `kd 0`, command 0-10 V. [Li21] does not print its gains;
+/// The PID of the \[Li21\] loop on the embedded plant: `kp 0.02` V/um, `ki 0.15`
+/// V/um per sample, `kd 0`, command 0-10 V. \[Li21\] does not print its gains;
 /// these minimise the PID + HC + ZPEC sweep error over `kp` 0-0.05 and `ki`
 /// 0.1-0.3 (docs/li21-experiment.md): higher gains reject the residual
 /// hysteresis better at low frequency but raise the loop's sensitivity peak
@@ -41,14 +41,14 @@ pub const DEFAULT_PID: PidSpec = PidSpec {
     output_max: 10.0,
 };
 
-/// Settings of the experiment. Defaults reproduce [Li21] on the embedded plant.
+/// Settings of the experiment. Defaults reproduce \[Li21\] on the embedded plant.
 #[derive(Debug, Clone)]
 pub struct ExperimentParams {
     /// The plant.
     pub plant: VirtualFtsParams,
     /// Noise seed (each run derives its own from it).
     pub seed: u64,
-    /// Feedback PID ([Li21] Eq. 5). Default [`DEFAULT_PID`].
+    /// Feedback PID (\[Li21\] Eq. 5). Default [`DEFAULT_PID`].
     pub pid: PidSpec,
     /// Open-loop triangle amplitudes, V. Default 10, 8, 6, 4, 2.
     pub triangle_amplitudes_v: Vec<f64>,
@@ -84,9 +84,9 @@ pub struct ExperimentParams {
     pub zpetc: ZpetcParams,
     /// Sine frequencies of the tracking table, Hz. Default 10, 100, 500.
     pub sine_freqs_hz: Vec<f64>,
-    /// Sine amplitude, um. Default 5 ([Li21]).
+    /// Sine amplitude, um. Default 5 (\[Li21\]).
     pub sine_amplitude: f64,
-    /// Scale of the five-leaved trajectory. Default 0.1: [Li21] Eq. 13 as
+    /// Scale of the five-leaved trajectory. Default 0.1: \[Li21\] Eq. 13 as
     /// printed spans +-50 um, beyond a 10 um stroke; a tenth of it is the
     /// 5 um, 100 Hz pattern the paper's 0.3 um result fits.
     pub five_leaf_scale: f64,

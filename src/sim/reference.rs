@@ -1,4 +1,4 @@
-//! Reference trajectories for tracking runs ([Li21] Sec. 5): sines, the
+//! Reference trajectories for tracking runs (\[Li21\] Sec. 5): sines, the
 //! 0-1000 Hz sweep and the five-leaved trajectory, each preceded by a smooth
 //! lead-in from rest so that the start-up transient is not counted as
 //! tracking error, and followed by a short tail that continues the waveform
@@ -187,7 +187,7 @@ pub fn sweep(
     ))
 }
 
-/// The five-leaved trajectory of [Li21] Eq. 13 times `scale`, plus `offset`.
+/// The five-leaved trajectory of \[Li21\] Eq. 13 times `scale`, plus `offset`.
 pub fn five_leaf(
     scale: f64,
     offset: f64,

@@ -11,7 +11,7 @@
 //!    `x_free = d v + q v^2 - h`, `dh = alpha d dv - beta |dv| h - gamma dv |h|`
 //!    (Heun's method per substep). This is deliberately *not* a play-operator
 //!    model, so identifying PI/MPI models from it is honest;
-//! 4. flexure: stiffness loss `k_p/(k_p + k)` ([Li21] Eq. 1) and the first
+//! 4. flexure: stiffness loss `k_p/(k_p + k)` (\[Li21\] Eq. 1) and the first
 //!    mode, `x'' = w_n^2 (kappa x_free - x) - 2 zeta w_n x'` (exact ZOH
 //!    discretisation of the mode by the matrix exponential);
 //! 5. capacitive sensor: `y = x + n`, `n` white Gaussian with the given RMS,
@@ -67,7 +67,7 @@ pub struct FlexureParams {
     pub piezo_stiffness_n_per_um: f64,
     /// Flexure stiffness `k`, N/um.
     pub flexure_stiffness_n_per_um: f64,
-    /// First mode, Hz ([Li21]: 2504.8 Hz by FEA).
+    /// First mode, Hz (\[Li21\]: 2504.8 Hz by FEA).
     pub mode_hz: f64,
     /// Damping ratio of the mode.
     pub damping_ratio: f64,
@@ -186,7 +186,7 @@ impl VirtualFtsParams {
         Ok(())
     }
 
-    /// The stiffness ratio `k_p/(k_p + k)` ([Li21] Eq. 1).
+    /// The stiffness ratio `k_p/(k_p + k)` (\[Li21\] Eq. 1).
     pub fn stiffness_ratio(&self) -> f64 {
         let f = &self.flexure;
         f.piezo_stiffness_n_per_um / (f.piezo_stiffness_n_per_um + f.flexure_stiffness_n_per_um)

@@ -1,4 +1,4 @@
-//! The composite controller of [Li21] Fig. 5 and its stage grammar:
+//! The composite controller of \[Li21\] Fig. 5 and its stage grammar:
 //! a feedback stage (`pid`, or `ss` for a discrete state-space controller
 //! such as an H2 / H-infinity / mixsyn design), optionally followed by
 //! hysteresis compensation feedforward (`hc`) and the ZPETC reference
@@ -9,7 +9,7 @@
 /// The feedback controller of a composite controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FeedbackKind {
-    /// The [Li21] Eq. 5 PID.
+    /// The \[Li21\] Eq. 5 PID.
     Pid,
     /// A discrete state-space controller (`state_space` block).
     StateSpace,

@@ -1,4 +1,4 @@
-//! The [Ding22] workflow (docs/math.md §5): a lumped two-mass fast tool servo,
+//! The \[Ding22\] workflow (docs/math.md §5): a lumped two-mass fast tool servo,
 //! white-noise disturbances shaped by `W1..W3` inside a generalised plant,
 //! the H2-optimal controller, a PID baseline tuned for the same cost, the
 //! error budget, and the structural sweep over the flexure `(k2, c2)`.
@@ -36,7 +36,7 @@
 //!   `w = 2 pi 7748`, a force added to `u`.
 //! * `W3 = 2.83e-9 (s - 2000 pi)/(s + d)` base displacement (m).
 //!
-//! The integrators `1/s` of [Ding22] are shifted to `1/(s + d)`,
+//! The integrators `1/s` of \[Ding22\] are shifted to `1/(s + d)`,
 //! `d = 2 pi 0.1 rad/s` by default (otherwise the disturbances have infinite
 //! power and the H2 problem is ill posed).
 //! * `W_e = (s/M_s + w_b)/(s + w_b eps)`, `M_s = 1.2721`, `eps = 1e-7`,
@@ -84,7 +84,7 @@ fn num<E: std::fmt::Display>(e: E) -> Ding22Error {
     Ding22Error::Numerical(e.to_string())
 }
 
-/// Lumped mechanics of [Ding22] Table 1 (SI units).
+/// Lumped mechanics of \[Ding22\] Table 1 (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TwoMassParams {
     /// `m1 + m2` (kg), the moving body driven by the actuator.
@@ -102,7 +102,7 @@ pub struct TwoMassParams {
 }
 
 impl Default for TwoMassParams {
-    /// [Ding22] Table 1: `m12 = 0.074`, `k2 = 21965`, `c2 = 2.28`,
+    /// \[Ding22\] Table 1: `m12 = 0.074`, `k2 = 21965`, `c2 = 2.28`,
     /// `m4 = 0.008`, `k4 = 56285`, `c4 = 6.18`.
     fn default() -> Self {
         Self {
@@ -305,12 +305,12 @@ impl Ding22Weights {
         )
     }
 
-    /// `W_e` ([Ding22] Eq. 3, docs/math.md §5).
+    /// `W_e` (\[Ding22\] Eq. 3, docs/math.md §5).
     pub fn we(&self) -> Result<StateSpace, Ding22Error> {
         tf1(&[1.0 / self.ms, self.wb], &[1.0, self.wb * self.eps])
     }
 
-    /// `W_u` ([Ding22] Eq. 4, docs/math.md §5), proper since `eps_1 > 0`.
+    /// `W_u` (\[Ding22\] Eq. 4, docs/math.md §5), proper since `eps_1 > 0`.
     pub fn wu(&self) -> Result<StateSpace, Ding22Error> {
         tf1(&[1.0, self.wbu / self.mu], &[self.eps1, self.wbu])
     }

@@ -1,16 +1,16 @@
 //! PID controllers.
 //!
-//! * [`Li21Pid`]: the positional form of [Li21] Eq. 5 with derivative on the
+//! * [`Li21Pid`]: the positional form of \[Li21\] Eq. 5 with derivative on the
 //!   measurement, `u(k) = u_ff(k) + Kp e(k) + Ki sum_{i<=k} e(i) - Kd (x(k) - x(k-1))`,
 //!   output limits and anti-windup by conditional integration (the integral
 //!   is frozen while the output is saturated and the error pushes further
 //!   into saturation), so that a long saturation does not store charge.
-//! * [`ParallelPid`]: `C(s) = P + I/s + D N s/(s + N)` ([Karagoz18] Table 2),
+//! * [`ParallelPid`]: `C(s) = P + I/s + D N s/(s + N)` (\[Karagoz18\] Table 2),
 //!   discretised by Tustin or backward Euler into a `DiscreteTf`.
 
 use crate::lti::DiscreteTf;
 
-/// Gains of the [Li21] discrete PID (per sample: `Ki` multiplies the plain
+/// Gains of the \[Li21\] discrete PID (per sample: `Ki` multiplies the plain
 /// sum of errors, `Kd` the plain difference of measurements).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidGains {
@@ -61,7 +61,7 @@ impl OutputLimits {
     }
 }
 
-/// The [Li21] Eq. 5 PID with its state.
+/// The \[Li21\] Eq. 5 PID with its state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Li21Pid {
     gains: PidGains,
@@ -135,7 +135,7 @@ pub enum Discretization {
     BackwardEuler,
 }
 
-/// `C(s) = P + I/s + D N s/(s + N)` ([Karagoz18] Table 2).
+/// `C(s) = P + I/s + D N s/(s + N)` (\[Karagoz18\] Table 2).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParallelPid {
     /// Proportional gain.

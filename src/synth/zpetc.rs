@@ -1,10 +1,10 @@
-//! Zero phase error tracking control (Tomizuka 1987; [Li21] Eq. 6-10; docs/math.md §3).
+//! Zero phase error tracking control (Tomizuka 1987; \[Li21\] Eq. 6-10; docs/math.md §3).
 //!
 //! For a closed loop `G_c = z^-d B_c / A_c`, the zeros of `B_c` are split into
 //! those a feedforward filter may cancel (`B_a`: inside radius `rho` and well
 //! damped) and the `s` others (`B_u`). The filter
 //!
-//! `G_z = z^(d+s) A_c B_u^* / (B_a B_u(1)^2)`   ([Li21] Eq. 8)
+//! `G_z = z^(d+s) A_c B_u^* / (B_a B_u(1)^2)`   (\[Li21\] Eq. 8)
 //!
 //! makes `G_z G_c = B_u(z^-1) B_u(z) / B_u(1)^2`: real and non-negative on the
 //! unit circle (zero phase) with unit DC gain. The advance `z^(d+s)` is a
@@ -45,7 +45,7 @@ pub struct ZpetcParams {
     pub min_damping: f64,
     /// Invert zeros far outside the unit circle exactly by an anticausal
     /// series instead of cancelling only their phase. Default `None`: the
-    /// classical ZPETC of Tomizuka and [Li21].
+    /// classical ZPETC of Tomizuka and \[Li21\].
     pub stable_inversion: Option<StableInversion>,
 }
 
@@ -305,7 +305,7 @@ pub fn classify_zeros(
         .collect())
 }
 
-/// Designs the ZPETC of the closed loop `g` ([Li21] Eq. 8, or Eq. 10 when
+/// Designs the ZPETC of the closed loop `g` (\[Li21\] Eq. 8, or Eq. 10 when
 /// every zero is cancellable).
 pub fn design(g: &DiscreteTf, params: &ZpetcParams) -> Result<Zpetc, ZpetcError> {
     if !(params.rho > 0.0 && params.rho <= 1.0) {

@@ -40,6 +40,9 @@ pub struct Record {
     pub y: Vec<f64>,
     /// What it is, for people (`dryer.dat samples 1..500`).
     pub label: String,
+    /// Index of its first sample in the file it came from: a validation
+    /// part of a split record starts where the estimation part ends.
+    pub first_sample: usize,
 }
 
 /// Estimation and (optional) validation records, detrended, with `ts`.
@@ -139,7 +142,12 @@ impl RecordSettings {
         } = inputs;
         let timing = io.timing.clone();
         let ts = self.sample_time(timing.as_ref(), &source)?;
-        let record = |u: Vec<f64>, y: Vec<f64>, label: String| Record { u, y, label };
+        let record = |u: Vec<f64>, y: Vec<f64>, label: String, first_sample: usize| Record {
+            u,
+            y,
+            label,
+            first_sample,
+        };
         let (mut est, mut val) = match (validation, self.split) {
             (Some((v, vsource)), _) => {
                 if let Some(vt) = &v.timing
@@ -150,8 +158,8 @@ impl RecordSettings {
                         vt.ts
                     )));
                 }
-                let est = record(io.input, io.output, source.clone());
-                (est, Some(record(v.input, v.output, vsource)))
+                let est = record(io.input, io.output, source.clone(), 0);
+                (est, Some(record(v.input, v.output, vsource, 0)))
             }
             (None, Some(f)) => {
                 let n = io.input.len();
@@ -168,15 +176,21 @@ impl RecordSettings {
                 let (ue, uv) = io.input.split_at(k);
                 let (ye, yv) = io.output.split_at(k);
                 (
-                    record(ue.to_vec(), ye.to_vec(), format!("{source} samples 1..{k}")),
+                    record(
+                        ue.to_vec(),
+                        ye.to_vec(),
+                        format!("{source} samples 1..{k}"),
+                        0,
+                    ),
                     Some(record(
                         uv.to_vec(),
                         yv.to_vec(),
                         format!("{source} samples {}..{n}", k + 1),
+                        k,
                     )),
                 )
             }
-            (None, None) => (record(io.input, io.output, source.clone()), None),
+            (None, None) => (record(io.input, io.output, source.clone(), 0), None),
         };
         for r in std::iter::once(&mut est).chain(val.as_mut()) {
             detrend(&mut r.u, self.detrend);

@@ -1,6 +1,6 @@
 //! The hysteresis identification step: `fts identify hysteresis` and the
 //! pipeline's `hysteresis` kind (docs/math.md §1.5; the inverse identified
-//! directly as in [Li21], §1.6).
+//! directly as in \[Li21\], §1.6).
 
 use super::{StepError, Validate, whole_number};
 use crate::ident::hysteresis::gd::{GdState, Silent};
@@ -19,10 +19,10 @@ use std::fmt;
 pub enum HysteresisModelKind {
     /// Classical Prandtl-Ishlinskii.
     Pi,
-    /// PI plus a cube-root term ([Li21] Eq. 4).
+    /// PI plus a cube-root term (\[Li21\] Eq. 4).
     #[default]
     MpiCbrt,
-    /// PI followed by one-sided dead-zone operators ([Tang17] Eq. 40-43).
+    /// PI followed by one-sided dead-zone operators (\[Tang17\] Eq. 40-43).
     MpiDeadzone,
 }
 
@@ -30,9 +30,9 @@ pub enum HysteresisModelKind {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PlayOperatorChoice {
-    /// One-sided play, output in [u - r, u] ([Li21]).
+    /// One-sided play, output in [u - r, u] (\[Li21\]).
     PlayLower,
-    /// Symmetric play, output in [u - r, u + r] ([Tang17]).
+    /// Symmetric play, output in [u - r, u + r] (\[Tang17\]).
     PlaySymmetric,
 }
 

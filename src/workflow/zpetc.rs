@@ -25,7 +25,7 @@ pub struct DesignZpetc {
     /// cancelled; in `[0, 1]`, default 0.1.
     pub min_damping: f64,
     /// Invert zeros with `|z| >=` this radius exactly by an anticausal
-    /// series; default none (classical ZPETC, [Li21] Eq. 8).
+    /// series; default none (classical ZPETC, \[Li21\] Eq. 8).
     pub stable_inversion: Option<f64>,
     /// Relative truncation tolerance of that series; default 1e-4.
     pub series_tol: f64,

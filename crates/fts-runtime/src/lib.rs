@@ -12,13 +12,13 @@
 //! loop compiled without contraction (`-ffp-contract=off`) gives the same
 //! bits as this step on any IEEE-754 double target.
 //!
-//! Signal order ([Li21] Fig. 5), per sample `k`:
+//! Signal order (\[Li21\] Fig. 5), per sample `k`:
 //! 1. ZPETC pre-filter: `r_f(k) = (num/den)[r](k + preview)`; the caller
 //!    passes the reference `preview` samples ahead;
-//! 2. inverse-hysteresis feedforward: `u_ff(k) = Y^-1(r_f(k))` ([Li21] Eq. 5);
+//! 2. inverse-hysteresis feedforward: `u_ff(k) = Y^-1(r_f(k))` (\[Li21\] Eq. 5);
 //! 3. the feedback controller on `e = r_f - x`, added to `u_ff` and clamped:
 //!    the PID (derivative on the measurement, conditional-integration
-//!    anti-windup, [Li21] Eq. 5; optionally with a first-order derivative
+//!    anti-windup, \[Li21\] Eq. 5; optionally with a first-order derivative
 //!    filter), or a discrete state-space controller
 //!    `v = C x + D e; x <- A x + B e` (an H2 / H-infinity / mixsyn design,
 //!    negative feedback `u = u_ff + K e` as for the PID), or none.
@@ -155,9 +155,9 @@ impl core::error::Error for RuntimeError {}
 /// Play operator form.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlayForm {
-    /// `F(k) = max(u - r, min(u, F(k-1)))` ([Li21] Eq. 3).
+    /// `F(k) = max(u - r, min(u, F(k-1)))` (\[Li21\] Eq. 3).
     Lower,
-    /// `F(k) = max(u - r, min(u + r, F(k-1)))` ([Tang17] Eq. 37-39).
+    /// `F(k) = max(u - r, min(u + r, F(k-1)))` (\[Tang17\] Eq. 37-39).
     Symmetric,
 }
 
@@ -194,7 +194,7 @@ pub struct HysteresisSpec<'a> {
     pub dead_zone_weights: &'a [f64],
 }
 
-/// PID block coefficients ([Li21] Eq. 5).
+/// PID block coefficients (\[Li21\] Eq. 5).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidSpec {
     /// Proportional gain.
@@ -275,7 +275,7 @@ pub enum FeedbackSpec<'a> {
     /// No feedback controller: a feedforward-only controller, whose command
     /// is the last block's output, unclamped.
     None,
-    /// The [Li21] Eq. 5 PID.
+    /// The \[Li21\] Eq. 5 PID.
     Pid(PidSpec),
     /// The PID with a filtered derivative (continuous parallel form,
     /// discretised).
@@ -834,7 +834,7 @@ fn play(upper: f64, lower: f64, previous: f64) -> f64 {
     if lower > clipped { lower } else { clipped }
 }
 
-/// `S_d[v] = max(v - d, 0)` for `d != 0`, `S_0[v] = v` ([Tang17] Eq. 41);
+/// `S_d[v] = max(v - d, 0)` for `d != 0`, `S_0[v] = v` (\[Tang17\] Eq. 41);
 /// `ident::hysteresis::dead_zone` is this function. A plain comparison
 /// rather than `f64::max`, whose result for `max(-0.0, 0.0)` is not
 /// specified: here it is `+0.0`, as in the C runtime.
@@ -879,7 +879,7 @@ fn pid_filtered_step(
     command
 }
 
-/// The [Li21] Eq. 5 PID step with conditional-integration anti-windup.
+/// The \[Li21\] Eq. 5 PID step with conditional-integration anti-windup.
 /// `synth::pid::Li21Pid` calls this same function.
 #[inline]
 pub fn pid_step(

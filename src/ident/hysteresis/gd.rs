@@ -1,4 +1,4 @@
-//! Gradient-based identification ([Li21] used gradient descent): L-BFGS with a
+//! Gradient-based identification (\[Li21\] used gradient descent): L-BFGS with a
 //! More–Thuente line search (argmin) on the least-squares cost of docs/math.md §1.5,
 //! `J(w) = 1/(2N) ||Phi w - y||^2`.
 //!

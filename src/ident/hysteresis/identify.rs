@@ -22,11 +22,11 @@ pub enum Method {
     /// Least squares by QR (optionally with the invertibility constraint).
     #[default]
     Ls,
-    /// L-BFGS gradient descent on the same cost ([Li21]).
+    /// L-BFGS gradient descent on the same cost (\[Li21\]).
     Gd,
 }
 
-/// Settings of [`identify`]. Defaults: MPI-cbrt ([Li21] Eq. 4), 10 play
+/// Settings of [`identify`]. Defaults: MPI-cbrt (\[Li21\] Eq. 4), 10 play
 /// operators on the uniform grid, offset term on, least squares, no
 /// invertibility constraint.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,7 +34,7 @@ pub struct IdentifyParams {
     /// Model structure.
     pub kind: ModelKind,
     /// Play operator form; `None` picks the paper's: lower play for PI and
-    /// MPI-cbrt ([Li21]), symmetric play for MPI-deadzone ([Tang17]).
+    /// MPI-cbrt (\[Li21\]), symmetric play for MPI-deadzone (\[Tang17\]).
     pub operator: Option<PlayOperator>,
     /// Number of play operators when `thresholds` is `None`. Default 10.
     pub operators: usize,
@@ -235,7 +235,7 @@ pub fn min_samples(unknowns: usize) -> usize {
 pub struct Regressor {
     /// Column of ones for the output offset.
     pub offset: bool,
-    /// Column `cbrt(u)` ([Li21] Eq. 4).
+    /// Column `cbrt(u)` (\[Li21\] Eq. 4).
     pub cbrt: bool,
     /// Play operator form.
     pub operator: PlayOperator,
@@ -341,7 +341,7 @@ fn plays_avx2(
 
 /// Play operator columns, eight operators at a time: each operator is a chain
 /// of dependent min/max, and running independent chains side by side (in
-/// SIMD lanes) hides their latency. [Li21] Eq. 3 / [Tang17] Eq. 38 with the
+/// SIMD lanes) hides their latency. \[Li21\] Eq. 3 / \[Tang17\] Eq. 38 with the
 /// band's upper offset hoisted out of the loop.
 #[inline(always)]
 fn plays_kernel(
@@ -437,7 +437,7 @@ pub fn identify(
 }
 
 /// Identifies the model of `params` mapping `u` to `y`. For the inverse model
-/// ([Li21], docs/math.md §1.6) swap the signals. `observer` sees every gradient
+/// (\[Li21\], docs/math.md §1.6) swap the signals. `observer` sees every gradient
 /// iteration (it is cloned for each gradient solve).
 pub fn identify_observed<O>(
     u: &[f64],
@@ -657,10 +657,10 @@ struct Candidate {
     offset: f64,
 }
 
-/// MPI-deadzone ([Tang17] Eq. 40-43) by alternating least squares.
+/// MPI-deadzone (\[Tang17\] Eq. 40-43) by alternating least squares.
 ///
 /// * g-step: with the PI stage `v = Phi w` fixed, `y = off + sum_j g_j S_{d_j}[v]`
-///   is linear in `(off, g)` ([Tang17] Eq. 43, solved by QR here, not by
+///   is linear in `(off, g)` (\[Tang17\] Eq. 43, solved by QR here, not by
 ///   `(S^T S)^-1`).
 /// * w-step: with `g` fixed and the dead-zone pattern of the current `v`
 ///   frozen, `y(k) = off + a(k) v(k) - b(k)` with `a(k) = sum of active g_j`

@@ -6,11 +6,11 @@ use super::operators::{PlayOperator, ThresholdError, check_thresholds, dead_zone
 /// Which model structure (docs/math.md §1.2-1.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ModelKind {
-    /// Classical PI: `y = sum_i w_i F_{r_i}[u]` ([Li21] Eq. 3).
+    /// Classical PI: `y = sum_i w_i F_{r_i}[u]` (\[Li21\] Eq. 3).
     Pi,
-    /// PI plus a cube-root term `c cbrt(u)` ([Li21] Eq. 4).
+    /// PI plus a cube-root term `c cbrt(u)` (\[Li21\] Eq. 4).
     MpiCbrt,
-    /// PI stage followed by one-sided dead-zone output operators ([Tang17] Eq. 40-43).
+    /// PI stage followed by one-sided dead-zone output operators (\[Tang17\] Eq. 40-43).
     MpiDeadzone,
 }
 
@@ -35,7 +35,7 @@ impl ModelKind {
     }
 }
 
-/// The output stage of MPI-deadzone: `y = sum_j g_j S_{d_j}[v]` ([Tang17] Eq. 41).
+/// The output stage of MPI-deadzone: `y = sum_j g_j S_{d_j}[v]` (\[Tang17\] Eq. 41).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeadZoneStage {
     /// Dead-zone thresholds `d_j`, strictly increasing, `d_0 = 0` normally.

@@ -8,9 +8,9 @@
 /// was identified with; the two are never mixed inside one model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlayOperator {
-    /// One-sided play, output in `[u - r, u]` ([Li21] Eq. 3).
+    /// One-sided play, output in `[u - r, u]` (\[Li21\] Eq. 3).
     Lower,
-    /// Symmetric play, output in `[u - r, u + r]` ([Tang17] Eq. 37-39).
+    /// Symmetric play, output in `[u - r, u + r]` (\[Tang17\] Eq. 37-39).
     Symmetric,
 }
 
@@ -44,8 +44,8 @@ impl PlayOperator {
 
     /// One step of the play operator:
     /// `F(k) = max(u(k) - r, min(u(k) + r_up, F(k-1)))` with `r_up = 0` for the
-    /// lower play ([Li21] Eq. 3) and `r_up = r` for the symmetric play
-    /// ([Tang17] Eq. 38).
+    /// lower play (\[Li21\] Eq. 3) and `r_up = r` for the symmetric play
+    /// (\[Tang17\] Eq. 38).
     ///
     /// Written with plain comparisons rather than `f64::max/min`: those handle
     /// NaN specially and cost extra instructions on this critical recursion
@@ -69,7 +69,7 @@ impl PlayOperator {
     }
 }
 
-/// One-sided dead-zone operator of [Tang17] Eq. 41: `S_d[v] = max(v - d, 0)`
+/// One-sided dead-zone operator of \[Tang17\] Eq. 41: `S_d[v] = max(v - d, 0)`
 /// for `d > 0` and the identity `S_0[v] = v`: the runtime's own function,
 /// so that identification, simulation and the real-time loop agree bit for bit.
 #[inline(always)]
@@ -78,7 +78,7 @@ pub fn dead_zone(d: f64, v: f64) -> f64 {
 }
 
 /// The uniform threshold grid `r_i = i/n * max_abs`, `i = 0..n-1` (docs/math.md §1.1;
-/// [Li21], and [Tang17]'s `(i-1)/n`, `i = 1..n`, is the same grid).
+/// \[Li21\], and \[Tang17\]'s `(i-1)/n`, `i = 1..n`, is the same grid).
 pub fn uniform_thresholds(n: usize, max_abs: f64) -> Vec<f64> {
     (0..n).map(|i| i as f64 / n as f64 * max_abs).collect()
 }
