@@ -43,48 +43,98 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
-    if args.out.exists() && !args.out.is_dir() {
-        return Err(super::common::bad(format!(
-            "--out: {} exists and is not a folder; name a folder for the demo's files",
-            args.out.display()
-        )));
-    }
-    std::fs::create_dir_all(&args.out).map_err(|e| {
-        anyhow::anyhow!(
-            "{}: cannot create the output folder: {e}",
-            args.out.display()
-        )
-    })?;
+    prepare_out(&args.out)?;
     let params = ExperimentParams {
         seed: args.seed,
         ..ExperimentParams::default()
     };
+    let start = std::time::Instant::now();
+    let result = run_experiment(&params)?;
+    let elapsed = start.elapsed().as_secs_f64();
+    // Every file is made before the first is written.
+    let mut files = model_files(&params, &result.models)?;
+    files.push(("tracking.csv", table_csv(&result).into_bytes()));
+    for (name, bytes) in &files {
+        write(&args.out, name, bytes)?;
+    }
+    let check = result
+        .models
+        .zpetc
+        .check(&result.models.closed_loop.tf, 2001)?;
+    if args.json {
+        return print_json(&json_summary(&result, &check, elapsed, &args.out));
+    }
+    print_models(&args, &params, &result.models, &check, elapsed)?;
+    print_table(&params, &result)?;
+    say!(
+        "wrote {}: triangle.csv, inverse-hysteresis.json, hysteresis-loop.svg, sweep.csv, closed-loop.json, closed-loop-bode.svg, zpetc.json, controller.json, controller.h, tracking.csv",
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn prepare_out(out: &Path) -> anyhow::Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(super::common::bad(format!(
+            "--out: {} exists and is not a folder; name a folder for the demo's files",
+            out.display()
+        )));
+    }
+    std::fs::create_dir_all(out)
+        .map_err(|e| anyhow::anyhow!("{}: cannot create the output folder: {e}", out.display()))
+}
+
+/// The experiment, its progress on a spinner (stderr).
+fn run_experiment(params: &ExperimentParams) -> anyhow::Result<experiment::ExperimentResult> {
     let bar = ProgressBar::new(0);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed}] {msg}").expect("valid template"),
     );
-    let start = std::time::Instant::now();
-    let result = experiment::run(&params, &mut |p| match p {
+    let result = experiment::run(params, &mut |p| match p {
         Progress::Step(s) => bar.set_message(s),
         Progress::Tracking { done, total } => {
             bar.set_message(format!("tracking runs {done}/{total}"))
         }
     })?;
     bar.finish_and_clear();
-    let elapsed = start.elapsed();
-    let m = &result.models;
-    let ts = params.plant.ts;
-    let dir = &args.out;
+    Ok(result)
+}
 
-    // 1. Open-loop record and the inverse model.
+type DemoFile = (&'static str, Vec<u8>);
+
+/// The records, models, plots and coefficient files, in the order written.
+fn model_files(
+    params: &ExperimentParams,
+    m: &experiment::IdentifiedModels,
+) -> anyhow::Result<Vec<DemoFile>> {
+    let ts = params.plant.ts;
+    let mut files = hysteresis_files(params, m)?;
+    let (r, ys) = &m.sweep;
+    files.push((
+        "sweep.csv",
+        write_csv(&["t", "u", "y"], &[&time_column(r.len(), ts), r, ys]).into_bytes(),
+    ));
+    files.extend(closed_loop_files(m, ts)?);
+    let zpetc_text = zpetc_json::zpetc_to_string(&m.zpetc);
+    let inverse_text = &files[1].1;
+    let controller = demo_controller(params, m, inverse_text, zpetc_text.as_bytes())?;
+    files.push(("zpetc.json", zpetc_text.into_bytes()));
+    files.push(("controller.json", controller.to_json_string().into_bytes()));
+    files.push(("controller.h", to_c_header(&controller).into_bytes()));
+    Ok(files)
+}
+
+/// 1. Open-loop record, the inverse model ([Li21]: displacement to command)
+/// and its loop plot.
+fn hysteresis_files(
+    params: &ExperimentParams,
+    m: &experiment::IdentifiedModels,
+) -> anyhow::Result<Vec<DemoFile>> {
     let (u, y) = &m.triangle;
-    write(
-        dir,
-        "triangle.csv",
-        write_csv(&["t", "u", "y"], &[&time_column(u.len(), ts), u, y]).as_bytes(),
-    )?;
-    let info = &m.inverse.info;
-    // The inverse model maps displacement to command ([Li21]).
+    let triangle = write_csv(
+        &["t", "u", "y"],
+        &[&time_column(u.len(), params.plant.ts), u, y],
+    );
     let inverse_file = ModelFile::identified(
         &m.inverse,
         &params.hysteresis,
@@ -97,8 +147,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             unit: "V".into(),
         },
     );
-    let inverse_text = model_to_string(&inverse_file);
-    write(dir, "inverse-hysteresis.json", inverse_text.as_bytes())?;
     let inv_out = m.inverse.model.simulate(y);
     let loop_svg = plot::line_chart_svg(
         "open-loop triangles: command vs displacement, and the inverse model",
@@ -117,18 +165,20 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             },
         ],
     )?;
-    write(dir, "hysteresis-loop.svg", loop_svg.as_bytes())?;
+    Ok(vec![
+        ("triangle.csv", triangle.into_bytes()),
+        (
+            "inverse-hysteresis.json",
+            model_to_string(&inverse_file).into_bytes(),
+        ),
+        ("hysteresis-loop.svg", loop_svg.into_bytes()),
+    ])
+}
 
-    // 2. Sweep record and the closed-loop model.
-    let (r, ys) = &m.sweep;
-    write(
-        dir,
-        "sweep.csv",
-        write_csv(&["t", "u", "y"], &[&time_column(r.len(), ts), r, ys]).as_bytes(),
-    )?;
+/// 2. The identified closed loop and its Bode plot beside [Li21] Eq. 11.
+fn closed_loop_files(m: &experiment::IdentifiedModels, ts: f64) -> anyhow::Result<Vec<DemoFile>> {
     let cl = &m.closed_loop;
     let cl_text = tf_json::tf_to_string(&TransferFunction::Discrete(cl.tf.clone()));
-    write(dir, "closed-loop.json", cl_text.as_bytes())?;
     let grid = logspace(1.0, 0.5 / ts, 1000);
     let model_bode = Bode::from_fn(&grid, |f| cl.tf.response_at_hz(f));
     let paper = crate::lti::DiscreteTf::new(
@@ -145,45 +195,47 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             ("[Li21] Eq. 11", &paper_bode),
         ],
     )?;
-    write(dir, "closed-loop-bode.svg", bode_svg.as_bytes())?;
+    Ok(vec![
+        ("closed-loop.json", cl_text.into_bytes()),
+        ("closed-loop-bode.svg", bode_svg.into_bytes()),
+    ])
+}
 
-    // 3. ZPETC.
-    let zpetc_text = zpetc_json::zpetc_to_string(&m.zpetc);
-    write(dir, "zpetc.json", zpetc_text.as_bytes())?;
-    let check = m.zpetc.check(&cl.tf, 2001)?;
-
-    // 4. Coefficient files, with the hashes of the files they were made from.
-    let controller = build_controller(
+/// 4. The coefficient file, with the hashes of the files it was made from.
+fn demo_controller(
+    params: &ExperimentParams,
+    m: &experiment::IdentifiedModels,
+    inverse_text: &[u8],
+    zpetc_text: &[u8],
+) -> anyhow::Result<crate::io::controller_file::ControllerFile> {
+    let hash = |role: &str, file: &str, bytes: &[u8]| crate::io::controller_file::InputHash {
+        role: role.into(),
+        file: file.into(),
+        sha256: sha256_hex(bytes),
+    };
+    build_controller(
         Stages::parse("pid+hc+zpec").expect("valid"),
-        ts,
+        params.plant.ts,
         params.pid,
         Some(&m.inverse.model),
         Some(&m.zpetc),
         Provenance {
             fts_version: env!("CARGO_PKG_VERSION").into(),
             inputs: vec![
-                crate::io::controller_file::InputHash {
-                    role: "hysteresis_inverse".into(),
-                    file: "inverse-hysteresis.json".into(),
-                    sha256: sha256_hex(inverse_text.as_bytes()),
-                },
-                crate::io::controller_file::InputHash {
-                    role: "zpetc".into(),
-                    file: "zpetc.json".into(),
-                    sha256: sha256_hex(zpetc_text.as_bytes()),
-                },
+                hash(
+                    "hysteresis_inverse",
+                    "inverse-hysteresis.json",
+                    inverse_text,
+                ),
+                hash("zpetc", "zpetc.json", zpetc_text),
             ],
         },
     )
-    .map_err(|e| anyhow::anyhow!("controller: {e}"))?;
-    write(
-        dir,
-        "controller.json",
-        controller.to_json_string().as_bytes(),
-    )?;
-    write(dir, "controller.h", to_c_header(&controller).as_bytes())?;
+    .map_err(|e| anyhow::anyhow!("controller: {e}"))
+}
 
-    // 5. The table.
+/// 5. The tracking table as CSV.
+fn table_csv(result: &experiment::ExperimentResult) -> String {
     let mut table_csv = String::from(
         "reference,controller,max_abs_error_um,rms_error_um,max_error_percent,saturated_samples\n",
     );
@@ -198,54 +250,64 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             row.metrics.saturated_samples
         ));
     }
-    write(dir, "tracking.csv", table_csv.as_bytes())?;
+    table_csv
+}
 
-    let find = |reference: &str, controller: &str| {
-        result
-            .table
-            .iter()
-            .find(|r| r.reference == reference && r.controller == controller)
-            .map(|r| r.metrics)
-    };
-    if args.json {
-        return print_json(&json!({
-            "seconds": elapsed.as_secs_f64(),
-            "inverse_fit": {"rms_percent": info.fit.rms_percent, "max_percent": info.fit.max_percent},
-            "closed_loop": {
-                "method": cl.method,
-                "num": cl.tf.num().coeffs(),
-                "den": cl.tf.den().coeffs(),
-                "delay": cl.tf.delay(),
-                "simulation_fit_percent": cl.arx_fit.simulation_percent,
-                "oe_simulation_fit_percent": cl.oe_fit.as_ref().map(|f| f.simulation_percent),
-                "reason": cl.reason,
-                "removed_pole_zero_pairs": cl.removed_pairs.iter().map(|(z, p)| json!({"zero": [z.re, z.im], "pole": [p.re, p.im]})).collect::<Vec<_>>(),
-            },
-            "zpetc": {
-                "preview": m.zpetc.preview,
-                "cancelled_zeros": m.zpetc.cancelled_zeros().count(),
-                "series_inverted_zeros": m.zpetc.series_inverted_zeros().count(),
-                "uncancelled_zeros": m.zpetc.uncancelled_zeros().count(),
-                "series_terms": m.zpetc.series_terms,
-                "max_phase_error_rad": check.max_phase_error_rad,
-                "dc_gain": check.dc_gain,
-            },
-            "table": result.table.iter().map(|r| json!({
-                "reference": r.reference,
-                "controller": r.controller,
-                "max_abs_error": r.metrics.max_abs_error,
-                "rms_error": r.metrics.rms_error,
-                "max_error_percent": r.metrics.max_error_percent,
-                "saturated_samples": r.metrics.saturated_samples,
-            })).collect::<Vec<_>>(),
-            "out": dir.display().to_string(),
-        }));
-    }
+fn json_summary(
+    result: &experiment::ExperimentResult,
+    check: &crate::synth::zpetc::ZpetcCheck,
+    elapsed: f64,
+    dir: &Path,
+) -> serde_json::Value {
+    let m = &result.models;
+    let (info, cl) = (&m.inverse.info, &m.closed_loop);
+    json!({
+        "seconds": elapsed,
+        "inverse_fit": {"rms_percent": info.fit.rms_percent, "max_percent": info.fit.max_percent},
+        "closed_loop": {
+            "method": cl.method,
+            "num": cl.tf.num().coeffs(),
+            "den": cl.tf.den().coeffs(),
+            "delay": cl.tf.delay(),
+            "simulation_fit_percent": cl.arx_fit.simulation_percent,
+            "oe_simulation_fit_percent": cl.oe_fit.as_ref().map(|f| f.simulation_percent),
+            "reason": cl.reason,
+            "removed_pole_zero_pairs": cl.removed_pairs.iter().map(|(z, p)| json!({"zero": [z.re, z.im], "pole": [p.re, p.im]})).collect::<Vec<_>>(),
+        },
+        "zpetc": {
+            "preview": m.zpetc.preview,
+            "cancelled_zeros": m.zpetc.cancelled_zeros().count(),
+            "series_inverted_zeros": m.zpetc.series_inverted_zeros().count(),
+            "uncancelled_zeros": m.zpetc.uncancelled_zeros().count(),
+            "series_terms": m.zpetc.series_terms,
+            "max_phase_error_rad": check.max_phase_error_rad,
+            "dc_gain": check.dc_gain,
+        },
+        "table": result.table.iter().map(|r| json!({
+            "reference": r.reference,
+            "controller": r.controller,
+            "max_abs_error": r.metrics.max_abs_error,
+            "rms_error": r.metrics.rms_error,
+            "max_error_percent": r.metrics.max_error_percent,
+            "saturated_samples": r.metrics.saturated_samples,
+        })).collect::<Vec<_>>(),
+        "out": dir.display().to_string(),
 
+    })
+}
+
+fn print_models(
+    args: &DemoArgs,
+    params: &ExperimentParams,
+    m: &experiment::IdentifiedModels,
+    check: &crate::synth::zpetc::ZpetcCheck,
+    elapsed: f64,
+) -> anyhow::Result<()> {
+    let (info, cl) = (&m.inverse.info, &m.closed_loop);
     say!(
         "Li21 experiment on the embedded virtual FTS (seed {}), {:.2} s",
         args.seed,
-        elapsed.as_secs_f64()
+        elapsed
     );
     say!(
         "1. inverse MPI-cbrt ({} lower plays) identified from open-loop triangles: fit rms {:.2} %, max {:.2} % (Li21: 2.3 %), condition number {:.3e}",
@@ -294,6 +356,20 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         check.max_phase_error_rad,
         check.dc_gain
     );
+    Ok(())
+}
+
+fn print_table(
+    params: &ExperimentParams,
+    result: &experiment::ExperimentResult,
+) -> anyhow::Result<()> {
+    let find = |reference: &str, controller: &str| {
+        result
+            .table
+            .iter()
+            .find(|r| r.reference == reference && r.controller == controller)
+            .map(|r| r.metrics)
+    };
     say!("4. max tracking error (um), 5 um sines; fts (virtual FTS) | Li21 (paper):");
     say!(
         "   {:>8} | {:>8} {:>8} {:>11} | {:>8} {:>8} {:>11}",
@@ -343,10 +419,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     say!(
         "   (Li21: 0-1000 Hz sweep below 10 % over the band; five-leaved trajectory below 0.3 um)"
-    );
-    say!(
-        "wrote {}: triangle.csv, inverse-hysteresis.json, hysteresis-loop.svg, sweep.csv, closed-loop.json, closed-loop-bode.svg, zpetc.json, controller.json, controller.h, tracking.csv",
-        dir.display()
     );
     Ok(())
 }

@@ -468,6 +468,21 @@ impl Loop<'_> {
     }
 }
 
+/// The frequency below `f0` (where `drop(f0) = v0 < 0`) at which `drop`
+/// changes sign, searched a decade at a time down to `1e-12 f0`.
+fn bandwidth_below(drop: &dyn Fn(f64) -> f64, f0: f64, v0: f64) -> Option<f64> {
+    let (mut hi, mut v_hi) = (f0, v0);
+    for _ in 0..12 {
+        let lo = hi / 10.0;
+        let v_lo = drop(lo);
+        if v_lo >= 0.0 {
+            return Some(brent_root(drop, lo, hi, v_lo, v_hi));
+        }
+        (hi, v_hi) = (lo, v_lo);
+    }
+    None
+}
+
 /// Analyses the negative-feedback loop of plant `g` and controller `k`.
 pub fn analyze_loop(
     g: &LoopSystem,
@@ -737,7 +752,19 @@ pub fn analyze_loop(
                 ));
                 None
             }
-            Some(0) => Some(grid[0]),
+            // Already 3 dB down at the lowest analysed frequency: the
+            // crossing lies below the range, so look for it there, a decade
+            // at a time, rather than report the range's edge.
+            Some(0) => {
+                let crossing = bandwidth_below(&drop, grid[0], tv[0]);
+                if crossing.is_none() {
+                    notes.push(format!(
+                        "|T| is 3 dB below its DC value already at {:.6e} Hz and no crossing was found down to 1e-12 of it: no bandwidth",
+                        grid[0]
+                    ));
+                }
+                crossing
+            }
             Some(i) => Some(brent_root(&drop, grid[i - 1], grid[i], tv[i - 1], tv[i])),
         }
     } else {
@@ -988,6 +1015,24 @@ mod tests {
         assert!(r.gain_margin.is_none());
         assert!(r.closed_loop_stable);
         assert_eq!(r.diagnostics.open_loop_boundary_poles, 1);
+    }
+
+    #[test]
+    fn a_bandwidth_below_the_analysed_range_is_found_not_clamped() {
+        // T = 1/(s + 2): |T| = 0.5 / 10^(3/20) at w = 2 sqrt(10^0.3 - 1).
+        let g = ct(&[1.0], &[1.0, 1.0]);
+        let k = ct(&[1.0], &[1.0]);
+        let expected = 2.0 * (10f64.powf(0.3) - 1.0).sqrt() / (2.0 * PI);
+        for f_min in [None, Some(10.0)] {
+            let params = LoopParams {
+                f_min_hz: f_min,
+                f_max_hz: Some(1e3),
+                ..LoopParams::default()
+            };
+            let r = analyze_loop(&g, &k, &params).unwrap();
+            let b = r.bandwidth_hz.unwrap();
+            assert!((b - expected).abs() < 1e-9 * expected, "{f_min:?}: {b}");
+        }
     }
 
     #[test]
