@@ -124,7 +124,7 @@ fn model_files(
     Ok(files)
 }
 
-/// 1. Open-loop record, the inverse model ([Li21]: displacement to command)
+/// Open-loop record, the inverse model (\[Li21\]: displacement to command)
 /// and its loop plot.
 fn hysteresis_files(
     params: &ExperimentParams,
@@ -175,7 +175,7 @@ fn hysteresis_files(
     ])
 }
 
-/// 2. The identified closed loop and its Bode plot beside [Li21] Eq. 11.
+/// The identified closed loop and its Bode plot beside \[Li21\] Eq. 11.
 fn closed_loop_files(m: &experiment::IdentifiedModels, ts: f64) -> anyhow::Result<Vec<DemoFile>> {
     let cl = &m.closed_loop;
     let cl_text = tf_json::tf_to_string(&TransferFunction::Discrete(cl.tf.clone()));
@@ -201,7 +201,7 @@ fn closed_loop_files(m: &experiment::IdentifiedModels, ts: f64) -> anyhow::Resul
     ])
 }
 
-/// 4. The coefficient file, with the hashes of the files it was made from.
+/// The coefficient file, with the hashes of the files it was made from.
 fn demo_controller(
     params: &ExperimentParams,
     m: &experiment::IdentifiedModels,
@@ -234,7 +234,7 @@ fn demo_controller(
     .map_err(|e| anyhow::anyhow!("controller: {e}"))
 }
 
-/// 5. The tracking table as CSV.
+/// The tracking table as CSV.
 fn table_csv(result: &experiment::ExperimentResult) -> String {
     let mut table_csv = String::from(
         "reference,controller,max_abs_error_um,rms_error_um,max_error_percent,saturated_samples\n",
