@@ -17,7 +17,7 @@ use super::accurate::Dd;
 use super::c64;
 use super::lyapunov::{MatEqError, dlyap, lyap};
 use super::schur::{SchurError, gen_schur, ordered_real_schur, quasi_triangular_eigenvalues};
-use super::ss::{block2, eigvals, fro, inv, tr};
+use super::ss::{balancing_scales, block2, eigvals, fro, inv, tr};
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use thiserror::Error;
@@ -214,7 +214,15 @@ fn care_g_scaled(
             residual_floor: 0.0,
         });
     }
-    let h = block2(a, &(-g), &(-q), &(-tr(a)));
+    // The Hamiltonian, balanced by an exact diagonal similarity `D^-1 H D`
+    // (Parlett & Reinsch): badly scaled problems (cheap control, `G` ~ 1e16
+    // beside `A` ~ 1) otherwise lose their slow eigenvalues to the rounding
+    // errors of the large entries. Its stable subspace is `D` times the
+    // balanced one.
+    let h0 = block2(a, &(-g), &(-q), &(-tr(a)));
+    let empty = Mat::<f64>::zeros(2 * n, 0);
+    let scales = balancing_scales(&h0, &empty, &tr(&empty));
+    let h = Mat::from_fn(2 * n, 2 * n, |i, j| h0[(i, j)] * scales[j] / scales[i]);
     let hn = fro(&h);
     // Ordered real Schur form of the Hamiltonian, stable eigenvalues first.
     let os = ordered_real_schur(&h, |l| l.re < 0.0).map_err(|e| match e {
@@ -235,7 +243,8 @@ fn care_g_scaled(
             "the Hamiltonian matrix has eigenvalues on the imaginary axis".into(),
         ));
     }
-    let mut x = subspace_solution_real(&os.q, n)?;
+    let z = Mat::from_fn(2 * n, 2 * n, |i, j| os.q[(i, j)] * scales[i]);
+    let mut x = subspace_solution_real(&z, n)?;
     let (mut res, mut rel, mut den) = care_residual(a, g, q, &x, scale);
     // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0,
     // continued while the (accurately evaluated) residual decreases, until it
