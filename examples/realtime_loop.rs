@@ -1,17 +1,21 @@
 //! A minimal external real-time loop driven by an fts coefficient file.
 //!
 //! The loop owns the timing and the I/O; fts only supplies the numbers
-//! (`fts.controller/1`) and the allocation-free step. Here a simulated
-//! virtual FTS stands in for the DAC/ADC: replace `plant.measure()` and
-//! `plant.advance(u)` with your hardware calls.
+//! (`fts.controller/1`) and the allocation-free step of the `fts-runtime`
+//! crate, which is all a firmware depends on (no_std, no dependencies; the
+//! file is parsed here on the host with `fts`, and on a target the
+//! coefficients come in as slices). Here a simulated virtual FTS stands in
+//! for the DAC/ADC: replace `plant.measure()` and `plant.advance(u)` with
+//! your hardware calls. The C twin of this loop is `examples/c/fts_loop.c`.
 //!
 //!     fts emit --hysteresis fixtures/li21-inverse-mpi.json \
-//!         --closed-loop fixtures/li21-closed-loop.json -o controller.json
+//!         --closed-loop fixtures/li21-closed-loop.json \
+//!         --pid-form li21 --kp 0.02 --ki 0.15 -o controller.json
 //!     cargo run --release --example realtime_loop -- controller.json
 
 use fts::io::controller_file::parse_controller;
-use fts::runtime::RuntimeController;
 use fts::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
+use fts_runtime::RuntimeController;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args()

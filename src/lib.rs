@@ -23,7 +23,9 @@ pub mod ident;
 pub mod io;
 pub mod lti;
 pub mod pipeline;
-pub mod runtime;
+/// The controller step: the `fts-runtime` crate (`crates/fts-runtime`),
+/// re-exported so that `fts::runtime::...` paths keep working.
+pub use fts_runtime as runtime;
 pub mod sim;
 pub mod synth;
 pub mod workflow;

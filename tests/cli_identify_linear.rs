@@ -344,7 +344,6 @@ fn bad_inputs_exit_2_and_leave_nothing() {
     }
     let constant = write(d, "constant.csv", &text);
     bad_run(d, &constant, &orders, "input is constant");
-    bad_run(d, &constant, &orders, "singular regression");
     let nan = write(d, "nan.csv", "t,u,y\n0,1,2\n1,NaN,3\n2,3,1\n");
     bad_run(d, &nan, &orders, "nan.csv line 3, field 'u'");
     let missing = write(d, "missing.csv", "t,u,z\n0,1,2\n1,2,3\n");
@@ -409,9 +408,31 @@ fn bad_inputs_exit_2_and_leave_nothing() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains("--na"));
+    // A constant input is refused before any rule is applied; a varying
+    // one reaches the rule's own check.
     fts()
         .args(["identify", "arx-struct"])
         .arg(&constant)
+        .args(["--na", "1", "--nb", "1", "--nk", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("input is constant"));
+    let varying = write(
+        d,
+        "varying.csv",
+        &(0..50)
+            .map(|k| {
+                format!(
+                    "{k},{},{}\n",
+                    (k * 7919 % 13) as f64,
+                    (k as f64 * 0.3).sin()
+                )
+            })
+            .fold(String::from("t,u,y\n"), |acc, row| acc + &row),
+    );
+    fts()
+        .args(["identify", "arx-struct"])
+        .arg(&varying)
         .args(["--na", "1", "--nb", "1", "--nk", "1", "--rule", "fit"])
         .assert()
         .code(2)
@@ -426,6 +447,7 @@ fn bad_inputs_exit_2_and_leave_nothing() {
             "jitter.csv",
             "plain.dat",
             "other_ts.csv",
+            "varying.csv",
         ],
     );
 }

@@ -64,7 +64,7 @@ fn weight_mixsyn_c2d_pipeline() {
     let ws = dir.path().join("ws.json");
     fts()
         .args([
-            "weight", "--kind", "ws", "--m", "1.5", "--w0", "10", "--a", "1e-4", "-o",
+            "weight", "--kind", "ws", "--m", "1.5", "--w0-rad", "10", "--a", "1e-4", "-o",
         ])
         .arg(&ws)
         .assert()
@@ -160,7 +160,7 @@ fn weight_mixsyn_c2d_pipeline() {
             "makeweight",
             "--dc",
             "100",
-            "--freq",
+            "--freq-rad",
             "10",
             "--mag",
             "1",
@@ -265,7 +265,7 @@ fn bad_inputs_exit_2_with_a_clear_message() {
             "makeweight",
             "--dc",
             "1",
-            "--freq",
+            "--freq-rad",
             "1",
             "--mag",
             "5",

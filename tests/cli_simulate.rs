@@ -65,7 +65,16 @@ fn emit_then_simulate_from_the_coefficient_file() {
     let header = dir.path().join("controller.h");
     for (format, out) in [("json", &json), ("c-header", &header)] {
         fts()
-            .args(["emit", "--hysteresis"])
+            .args([
+                "emit",
+                "--pid-form",
+                "li21",
+                "--kp",
+                "0.02",
+                "--ki",
+                "0.15",
+                "--hysteresis",
+            ])
             .arg(fixture("li21-inverse-mpi.json"))
             .arg("--closed-loop")
             .arg(fixture("li21-closed-loop.json"))
@@ -82,7 +91,16 @@ fn emit_then_simulate_from_the_coefficient_file() {
     // Byte-identical regeneration.
     let again = dir.path().join("again.json");
     fts()
-        .args(["emit", "--hysteresis"])
+        .args([
+            "emit",
+            "--pid-form",
+            "li21",
+            "--kp",
+            "0.02",
+            "--ki",
+            "0.15",
+            "--hysteresis",
+        ])
         .arg(fixture("li21-inverse-mpi.json"))
         .arg("--closed-loop")
         .arg(fixture("li21-closed-loop.json"))
@@ -109,7 +127,16 @@ fn bad_coefficient_files_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let good = dir.path().join("good.json");
     fts()
-        .args(["emit", "--hysteresis"])
+        .args([
+            "emit",
+            "--pid-form",
+            "li21",
+            "--kp",
+            "0.02",
+            "--ki",
+            "0.15",
+            "--hysteresis",
+        ])
         .arg(fixture("li21-inverse-mpi.json"))
         .arg("--closed-loop")
         .arg(fixture("li21-closed-loop.json"))
@@ -247,4 +274,84 @@ fn a_diverging_loop_is_reported_with_its_time_and_cause() {
     assert!(err.contains("the closed loop diverged at t = "), "{err}");
     assert!(err.contains("unstable.json is unstable"), "{err}");
     assert!(!trace.exists());
+}
+
+/// `fts emit` adds no feedback controller the user did not ask for: without
+/// one it exits 2 listing the choices, and PID gains need their form.
+#[test]
+fn emit_adds_no_unrequested_feedback_controller() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.json");
+    let base = |extra: &[&str]| {
+        let mut c = fts();
+        c.arg("emit")
+            .arg("--closed-loop")
+            .arg(fixture("li21-closed-loop.json"))
+            .args(extra)
+            .arg("-o")
+            .arg(&out);
+        c
+    };
+    base(&[])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--feedback none"));
+    base(&["--kp", "0.02", "--ki", "1500"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--pid-form"));
+    base(&["--pid-form", "li21", "--pid-n", "100", "--kp", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--pid-n"));
+    assert!(!out.exists());
+    // Continuous gains become per-sample ones by backward Euler: Ki Ts, Kd/Ts.
+    base(&[
+        "--pid-form",
+        "parallel",
+        "--kp",
+        "0.02",
+        "--ki",
+        "1500",
+        "--kd",
+        "2e-6",
+    ])
+    .assert()
+    .success();
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let pid = &v["blocks"][1];
+    assert_eq!(pid["form"], "parallel");
+    assert!((pid["ki"].as_f64().unwrap() - 1500.0 * 1e-4).abs() < 1e-15);
+    assert!((pid["kd"].as_f64().unwrap() - 2e-6 / 1e-4).abs() < 1e-15);
+    assert_eq!(pid["continuous"]["ki"], 1500.0);
+}
+
+/// A feedforward-only ZPETC file run on the closed loop it inverts tracks
+/// exactly: the ZPETC cancels all of this closed loop's zeros and poles
+/// (none outside the unit circle), so r_f through G is r delayed by nothing.
+#[test]
+fn feedforward_only_zpetc_on_its_closed_loop_tracks_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ff.json");
+    fts()
+        .arg("emit")
+        .arg("--closed-loop")
+        .arg(fixture("li21-closed-loop.json"))
+        .args(["--feedback", "none", "-o"])
+        .arg(&out)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("\"type\": \"no_feedback\""), "{text}");
+    let v = json_of(
+        fts()
+            .args(["simulate", "--json", "--freq", "100", "--controller-file"])
+            .arg(&out)
+            .arg("--plant-tf")
+            .arg(fixture("li21-closed-loop.json")),
+    );
+    assert_eq!(v["controller"], "zpec");
+    let max = v["max_abs_error"].as_f64().unwrap_or(f64::NAN);
+    assert!(max < 1e-9, "{v}");
 }

@@ -31,7 +31,7 @@ fn design(dir: &Path) -> PathBuf {
     );
     fts()
         .args([
-            "weight", "--kind", "ws", "--m", "2", "--w0", "1500", "--a", "1e-4", "-o",
+            "weight", "--kind", "ws", "--m", "2", "--w0-rad", "1500", "--a", "1e-4", "-o",
         ])
         .arg(&ws)
         .assert()
@@ -43,7 +43,7 @@ fn design(dir: &Path) -> PathBuf {
             "makeweight",
             "--dc",
             "0.05",
-            "--freq",
+            "--freq-rad",
             "20000",
             "--mag",
             "1",

@@ -137,7 +137,9 @@ fn zpetc_stable_inversion_of_an_outside_zero() {
         .arg(&plant)
         .assert()
         .code(2)
-        .stderr(predicate::str::contains("radius must exceed 1"));
+        .stderr(predicate::str::contains(
+            "--stable-inversion: expected a radius above 1",
+        ));
 }
 
 #[test]

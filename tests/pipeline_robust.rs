@@ -76,7 +76,11 @@ fn check_names_the_outputs_a_weight_edit_makes_stale() {
     build(dir.path(), "fts.toml");
     let manifest = dir.path().join("fts.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();
-    std::fs::write(&manifest, text.replace("w0 = 2000.0", "w0 = 3000.0")).unwrap();
+    std::fs::write(
+        &manifest,
+        text.replace("w0_rad = 2000.0", "w0_rad = 3000.0"),
+    )
+    .unwrap();
     let out = fts()
         .current_dir(dir.path())
         .args(["build", "--check"])
@@ -97,7 +101,11 @@ fn rebuilt_header_equals_the_commands_by_hand() {
     let dir = fresh_example();
     let manifest = dir.path().join("fts.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();
-    std::fs::write(&manifest, text.replace("w0 = 2000.0", "w0 = 3000.0")).unwrap();
+    std::fs::write(
+        &manifest,
+        text.replace("w0_rad = 2000.0", "w0_rad = 3000.0"),
+    )
+    .unwrap();
     build(dir.path(), "fts.toml");
     let hand = tempfile::tempdir().unwrap();
     let h = hand.path();
@@ -106,10 +114,10 @@ fn rebuilt_header_equals_the_commands_by_hand() {
         fts().current_dir(h).args(args).assert().success();
     };
     run(&[
-        "weight", "--kind", "ws", "--m", "2", "--w0", "3000", "--a", "1e-4", "-o", "ws.json",
+        "weight", "--kind", "ws", "--m", "2", "--w0-rad", "3000", "--a", "1e-4", "-o", "ws.json",
     ]);
     run(&[
-        "weight", "--kind", "wt", "--m", "2", "--w0", "20000", "--a", "1e-3", "-o", "wt.json",
+        "weight", "--kind", "wt", "--m", "2", "--w0-rad", "20000", "--a", "1e-3", "-o", "wt.json",
     ]);
     run(&[
         "mixsyn",
@@ -259,17 +267,43 @@ const CASES: &[Case] = &[
         ],
         compare: &[("step.json", "cli.json"), ("step.h", "cli.h")],
     },
+    Case {
+        table: "kind = \"zpetc\"\ntf = \"cl.json\"\nrho = 0.9\nmin_damping = 0.2\nstable_inversion = 1.05\nseries_tol = 1e-6\nminreal = 1e-6\nout = \"step.json\"",
+        command: &[
+            "zpetc",
+            "--tf",
+            "cl.json",
+            "--rho",
+            "0.9",
+            "--min-damping",
+            "0.2",
+            "--stable-inversion",
+            "1.05",
+            "--series-tol",
+            "1e-6",
+            "--minreal",
+            "1e-6",
+            "-o",
+            "cli.json",
+        ],
+        compare: &[("step.json", "cli.json")],
+    },
 ];
 
 /// A generalised plant with D11 = 0 (H2 needs it): z = x + u, y = x + w2.
 const PC_PLANT: &str =
     r#"{"format":"fts.ss/1","ts":null,"a":[[-1]],"b":[[1,1]],"c":[[1],[1]],"d":[[0,1],[1,0]]}"#;
 
-/// A folder with the example's committed files (plant, weights, K, P) and
-/// [`PC_PLANT`] as `pc.json`.
+/// A folder with the example's committed files (plant, weights, K, P),
+/// [`PC_PLANT`] as `pc.json` and the [Li21] closed loop as `cl.json`.
 fn example_inputs() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("pc.json"), PC_PLANT).unwrap();
+    std::fs::copy(
+        repo("fixtures/li21-closed-loop.json"),
+        dir.path().join("cl.json"),
+    )
+    .unwrap();
     for f in ["plant.json", "ws.json", "wt.json", "K.json", "P.json"] {
         std::fs::copy(repo("examples/mixsyn").join(f), dir.path().join(f)).unwrap();
     }
@@ -386,4 +420,36 @@ fn manifest_errors_name_the_line_and_field() {
         let msg = String::from_utf8_lossy(&out);
         assert!(msg.contains(place) && msg.contains(what), "{body:?}: {msg}");
     }
+}
+
+/// A ZPETC whose series inverse would be too long is the model's and the
+/// settings' fault: exit 2 from `fts zpetc` and from `fts build` alike.
+#[test]
+fn a_too_long_zpetc_series_exits_2_from_the_command_and_from_the_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // One zero at z = 1.001: ~9 000 series terms for 1e-4, beyond 1000.
+    std::fs::write(
+        d.join("g.json"),
+        r#"{"format":"fts.tf/1","var":"z^-1","ts":1e-4,"num":[1,-1.001],"den":[1,-0.5],"delay":1}"#,
+    )
+    .unwrap();
+    fts()
+        .current_dir(d)
+        .args(["zpetc", "--tf", "g.json", "--stable-inversion", "1.0005"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("g.json").and(predicate::str::contains("terms")));
+    std::fs::write(
+        d.join("fts.toml"),
+        "[step.z]\nkind = \"zpetc\"\ntf = \"g.json\"\nstable_inversion = 1.0005\nout = \"z.json\"\n",
+    )
+    .unwrap();
+    fts()
+        .current_dir(d)
+        .arg("build")
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("g.json").and(predicate::str::contains("terms")));
+    assert!(!d.join("z.json").exists());
 }

@@ -19,6 +19,7 @@
  *   u = clamp(u_ff + v, OUTPUT_MIN, OUTPUT_MAX).
  * A is FTS_SS_NX x FTS_SS_NX row-major, B FTS_SS_NX x 1, C 1 x FTS_SS_NX.
  * Anti-windup conditional-update: x is held when u_ff + v is beyond a limit and C (x+ - x) points further out */
+#define FTS_HAS_FEEDBACK 1
 #define FTS_HAS_PID 0
 #define FTS_HAS_STATE_SPACE 1
 #define FTS_SS_NX 4

@@ -36,7 +36,7 @@ pub struct BodeArgs {
     #[arg(long, value_name = "BODE.svg")]
     plot: Option<PathBuf>,
     /// Upper frequency of the printed table and the plot in Hz (default Nyquist).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", value_parser = super::common::parse_positive)]
     fmax: Option<f64>,
     /// Rows of the printed table.
     #[arg(long, default_value_t = 20)]

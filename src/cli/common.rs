@@ -71,6 +71,11 @@ fn identity(path: &Path) -> PathBuf {
     }
 }
 
+/// The identity under which an output path is compared with others.
+pub fn output_identity(path: &Path) -> PathBuf {
+    identity(path)
+}
+
 fn note_input(path: &Path) {
     if let Ok(mut files) = RUN_FILES.lock() {
         files.inputs.push(identity(path));
@@ -151,6 +156,15 @@ pub fn parse_points(text: &str) -> Result<usize, String> {
     }
 }
 
+/// A positive finite number (a frequency, a gain): clap names the option
+/// and the value given when it is not.
+pub fn parse_positive(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err("expected a positive finite number".into()),
+    }
+}
+
 /// The error of a failed write to stdout (exit 1).
 pub fn stdout_error(e: std::io::Error) -> anyhow::Error {
     anyhow::anyhow!("cannot write to stdout: {e}")
@@ -177,13 +191,31 @@ pub fn step_error(e: crate::workflow::StepError) -> anyhow::Error {
         StepError::Input {
             field: Some(field),
             message,
-        } => bad(format!("--{}: {message}", field.replace('_', "-"))),
+        } => {
+            // A message that names its flag already reads as is.
+            let message = flags(&message);
+            if message.contains(&flag(field)) {
+                bad(message)
+            } else {
+                bad(format!("{}: {message}", flag(field)))
+            }
+        }
         StepError::Input {
             field: None,
             message,
-        } => bad(message),
-        StepError::Computation(message) => anyhow::anyhow!(message),
+        } => bad(flags(&message)),
+        StepError::Computation(message) => anyhow::anyhow!(flags(&message)),
     }
+}
+
+/// The flag of a step's setting: `max_iterations` is `--max-iterations`.
+fn flag(field: &str) -> String {
+    format!("--{}", field.replace('_', "-"))
+}
+
+/// A step's message with the settings it names written as flags.
+fn flags(message: &str) -> String {
+    crate::workflow::render_settings(message, flag)
 }
 
 /// Prints a step's report: serialised with `--json`, else its summary.

@@ -5,10 +5,10 @@
 
 use super::common::{fmt_complex, print_json, write_atomic};
 use crate::io::controller_file::{Provenance, sha256_hex, to_c_header};
-use crate::io::hysteresis_json::{FitRecord, ModelFile, SignalInfo, model_to_string};
+use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_string};
 use crate::io::timeseries::{time_column, write_csv};
 use crate::io::{plot, tf_json, zpetc_json};
-use crate::lti::{Bode, TransferFunction, linspace};
+use crate::lti::{Bode, TransferFunction, logspace};
 use crate::sim::experiment::{self, ExperimentParams, Progress, build_controller};
 use crate::synth::composite::Stages;
 use clap::Args;
@@ -43,6 +43,12 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
+    if args.out.exists() && !args.out.is_dir() {
+        return Err(super::common::bad(format!(
+            "--out: {} exists and is not a folder; name a folder for the demo's files",
+            args.out.display()
+        )));
+    }
     std::fs::create_dir_all(&args.out).map_err(|e| {
         anyhow::anyhow!(
             "{}: cannot create the output folder: {e}",
@@ -78,25 +84,19 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         write_csv(&["t", "u", "y"], &[&time_column(u.len(), ts), u, y]).as_bytes(),
     )?;
     let info = &m.inverse.info;
-    let inverse_file = ModelFile {
-        model: m.inverse.model.clone(),
-        input: SignalInfo {
+    // The inverse model maps displacement to command ([Li21]).
+    let inverse_file = ModelFile::identified(
+        &m.inverse,
+        &params.hysteresis,
+        SignalInfo {
             quantity: "displacement".into(),
             unit: "um".into(),
         },
-        output: SignalInfo {
+        SignalInfo {
             quantity: "voltage".into(),
             unit: "V".into(),
         },
-        fit: Some(FitRecord {
-            rms_percent: info.fit.rms_percent,
-            max_percent: info.fit.max_percent,
-            samples: info.fit.samples,
-            method: "ls".into(),
-            condition_number: info.condition_number,
-            iterations: info.iterations,
-        }),
-    };
+    );
     let inverse_text = model_to_string(&inverse_file);
     write(dir, "inverse-hysteresis.json", inverse_text.as_bytes())?;
     let inv_out = m.inverse.model.simulate(y);
@@ -129,7 +129,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let cl = &m.closed_loop;
     let cl_text = tf_json::tf_to_string(&TransferFunction::Discrete(cl.tf.clone()));
     write(dir, "closed-loop.json", cl_text.as_bytes())?;
-    let grid = linspace(1.0, 0.5 / ts, 1000);
+    let grid = logspace(1.0, 0.5 / ts, 1000);
     let model_bode = Bode::from_fn(&grid, |f| cl.tf.response_at_hz(f));
     let paper = crate::lti::DiscreteTf::new(
         vec![4.154, -9.631, 10.23, -5.511, 1.154],
@@ -144,7 +144,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             ("identified (virtual FTS)", &model_bode),
             ("[Li21] Eq. 11", &paper_bode),
         ],
-        false,
     )?;
     write(dir, "closed-loop-bode.svg", bode_svg.as_bytes())?;
 

@@ -142,9 +142,25 @@ pub fn parse_sweep(spec: &str) -> anyhow::Result<SweepAxes> {
     Ok((k2, c2))
 }
 
+/// `k2 must be ...` as `--k2 must be ...`: a parameter message names its flag.
+fn flag_named(message: &str) -> String {
+    let name_len = message
+        .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+        .unwrap_or(0);
+    if name_len > 0 && message[name_len..].starts_with(" must") {
+        format!(
+            "--{}{}",
+            message[..name_len].replace('_', "-"),
+            &message[name_len..]
+        )
+    } else {
+        message.to_owned()
+    }
+}
+
 fn d22_err(e: Ding22Error) -> anyhow::Error {
     match e {
-        Ding22Error::Param(m) => bad(m),
+        Ding22Error::Param(m) => bad(flag_named(&m)),
         Ding22Error::Synth(SynthError::Numerical(m)) | Ding22Error::Numerical(m) => {
             anyhow::anyhow!("ding22: numerical failure: {m}")
         }
@@ -310,7 +326,10 @@ fn plot_of(b: &ErrorBudget, pid: Option<&ErrorBudget>) -> anyhow::Result<String>
 /// `fts ding22`.
 pub fn run(args: Ding22Args) -> anyhow::Result<()> {
     if !(args.fmax.is_finite() && args.fmax > 1e-3) || args.points < 2 {
-        return Err(bad("--fmax must be above 1e-3 Hz and --points at least 2"));
+        return Err(bad(format!(
+            "--fmax: must be above 1e-3 Hz, got {}",
+            args.fmax
+        )));
     }
     let mut problem = problem_of(&args)?;
     let swept = match &args.sweep {

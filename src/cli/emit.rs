@@ -1,15 +1,18 @@
 //! `fts emit [--hysteresis inv.json] [--zpetc zpetc.json | --closed-loop cl.json]
-//! (--kp KP --ki KI --kd KD | --ss K.json [--c2d zoh|tustin] [--prewarp HZ])
-//! [--format json|c-header] [--c-header controller.h] -o controller.json`:
-//! writes the `fts.controller/1` coefficient file (or its C header) that a
-//! real-time loop consumes, with the SHA-256 of every input file. The
-//! feedback controller is the PID, or a state-space controller (`fts.ss/1`,
-//! e.g. from `fts mixsyn`), discretised at the loop's sample time when it is
-//! continuous.
+//! (--pid-form parallel|li21 --kp KP --ki KI --kd KD [--pid-n N] | --ss K.json
+//! [--c2d zoh|tustin] [--prewarp HZ] | --feedback none)
+//! [--format json|c-header|c] [--c-header controller.h] -o controller.json`:
+//! writes the `fts.controller/1` coefficient file (or its C header, or the
+//! C runtime beside it) that a real-time loop consumes, with the SHA-256 of
+//! every input file. The feedback controller is the one asked for and no
+//! other: the PID (continuous parallel gains, discretised, or per-sample
+//! [Li21] gains), a state-space controller (`fts.ss/1`, e.g. from
+//! `fts mixsyn`, discretised at the loop's sample time when continuous), or
+//! none (feedforward only).
 
 use super::common::{bad, read_input, step_error, write_atomic};
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
-use crate::io::controller_file::{Feedback, StateSpaceBlock};
+use crate::io::controller_file::{Feedback, ParallelPid, StateSpaceBlock, to_c_files};
 use crate::io::{hysteresis_json, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
 use crate::runtime::PidSpec;
@@ -26,6 +29,25 @@ enum Format {
     Json,
     /// A C header with the same numbers.
     CHeader,
+    /// The C runtime: `fts_controller.h` (numbers and loader),
+    /// `fts_runtime.h` and `fts_runtime.c`, written into the -o directory.
+    C,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum PidForm {
+    /// Continuous parallel form: --kp, --ki in 1/s, --kd in s (MATLAB
+    /// `pid(Kp, Ki, Kd, 1/N)`), discretised by backward Euler at the loop's
+    /// sample time; the file records both.
+    Parallel,
+    /// [Li21] Eq. 5 gains per sample, used as given.
+    Li21,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum FeedbackChoice {
+    /// No feedback controller: a feedforward-only file (ZPETC and/or HC).
+    None,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -83,9 +105,21 @@ pub fn read_ss_block(
 ) -> anyhow::Result<StateSpaceBlock> {
     let (text, source) = hashed(path, "state_space", inputs)?;
     let sys = crate::io::ss_json::parse_system(&text, &source)?;
-    args.step(limits)
+    let block = args
+        .step(limits)
         .block(&sys, ts, &source)
-        .map_err(step_error)
+        .map_err(step_error)?;
+    let fast = SsController::poles_beyond_nyquist(&sys, ts);
+    if let Some((pole, hz)) = fast.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+        eprintln!(
+            "warning: {source}: {} continuous pole(s) beyond the Nyquist frequency {} Hz of ts = {ts} s, the fastest {}{:+}j rad/s ({hz:.4e} Hz); the discretised controller does not reproduce them: sample faster or reduce the controller",
+            fast.len(),
+            0.5 / ts,
+            pole.re,
+            pole.im
+        );
+    }
+    Ok(block)
 }
 
 impl SsArgs {
@@ -119,15 +153,24 @@ pub struct EmitArgs {
     /// Closed-loop model (`fts.tf/1`) to build the ZPETC from, with default settings.
     #[arg(long, value_name = "CL.json")]
     closed_loop: Option<PathBuf>,
+    /// Which form the PID gains are in (required with --kp/--ki/--kd).
+    #[arg(long, value_enum, conflicts_with = "ss")]
+    pid_form: Option<PidForm>,
     /// PID proportional gain.
-    #[arg(long, default_value_t = crate::sim::experiment::DEFAULT_PID.kp, allow_hyphen_values = true)]
-    kp: f64,
-    /// PID integral gain per sample.
-    #[arg(long, default_value_t = crate::sim::experiment::DEFAULT_PID.ki, allow_hyphen_values = true)]
-    ki: f64,
-    /// PID derivative gain per sample (on the measurement).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    kd: f64,
+    #[arg(long, allow_hyphen_values = true)]
+    kp: Option<f64>,
+    /// PID integral gain: 1/s (--pid-form parallel) or per sample (li21). Default 0.
+    #[arg(long, allow_hyphen_values = true)]
+    ki: Option<f64>,
+    /// PID derivative gain on the measurement: s (parallel) or per sample (li21). Default 0.
+    #[arg(long, allow_hyphen_values = true)]
+    kd: Option<f64>,
+    /// Derivative filter bandwidth N, rad/s: Kd N s/(s + N) (--pid-form parallel only).
+    #[arg(long, value_name = "N", conflicts_with = "ss")]
+    pid_n: Option<f64>,
+    /// `none`: no feedback controller (a feedforward-only file).
+    #[arg(long, value_enum, conflicts_with_all = ["kp", "ki", "kd", "pid_form", "pid_n", "ss"])]
+    feedback: Option<FeedbackChoice>,
     #[command(flatten)]
     ss: SsArgs,
     /// Lowest command, V (PID default 0; a state-space controller has no limit unless given).
@@ -145,7 +188,7 @@ pub struct EmitArgs {
     /// Also write the C header here (with --format json and -o).
     #[arg(long, value_name = "CONTROLLER.h", requires = "output")]
     c_header: Option<PathBuf>,
-    /// Write here (default: stdout).
+    /// Write here (default: stdout); a directory with --format c.
     #[arg(short = 'o', long = "out", value_name = "CONTROLLER.json")]
     output: Option<PathBuf>,
 }
@@ -231,8 +274,8 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
             "--ts: expected a positive number of seconds, got {ts}"
         )));
     }
-    let (feedback, kind) = match &args.ss.ss {
-        Some(path) => (
+    let (feedback, kind) = match (&args.ss.ss, args.feedback) {
+        (Some(path), _) => (
             Feedback::StateSpace(read_ss_block(
                 &args.ss,
                 path,
@@ -242,8 +285,21 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
             )?),
             FeedbackKind::StateSpace,
         ),
-        None => (Feedback::Pid(pid_from_flags(args)?), FeedbackKind::Pid),
+        (None, Some(FeedbackChoice::None)) => {
+            if args.output_min.is_some() || args.output_max.is_some() {
+                return Err(bad(
+                    "--output-min/--output-max: a feedforward-only controller (--feedback none) has no command limits; clamp in the loop",
+                ));
+            }
+            (Feedback::None, FeedbackKind::None)
+        }
+        (None, None) => (pid_from_flags(args)?, FeedbackKind::Pid),
     };
+    if kind == FeedbackKind::None && inverse.is_none() && filter.is_none() {
+        return Err(bad(
+            "--feedback none: a feedforward-only controller needs --hysteresis, --zpetc or --closed-loop",
+        ));
+    }
     let stages = Stages {
         feedback: kind,
         hysteresis_compensation: inverse.is_some(),
@@ -263,10 +319,27 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
     .map_err(bad)
 }
 
-/// The PID block from its flags, each checked where it is named: the gains
-/// finite, the limits finite and ordered.
-fn pid_from_flags(args: &EmitArgs) -> anyhow::Result<PidSpec> {
-    for (name, value) in [("--kp", args.kp), ("--ki", args.ki), ("--kd", args.kd)] {
+/// The PID block from its flags, each checked where it is named: the form
+/// stated, the gains finite, the limits finite and ordered. No flags at all
+/// is refused: emit adds no feedback controller the user did not ask for.
+fn pid_from_flags(args: &EmitArgs) -> anyhow::Result<Feedback> {
+    let given = args.kp.is_some() || args.ki.is_some() || args.kd.is_some();
+    let Some(form) = args.pid_form else {
+        return Err(bad(if given {
+            "--pid-form: say which form the PID gains are in: parallel (Kp, Ki in 1/s, Kd in s, as MATLAB's pid) or li21 (gains per sample)"
+        } else {
+            "no feedback controller given: PID gains (--pid-form parallel|li21 --kp .. --ki .. [--kd ..]), a state-space controller (--ss K.json), or --feedback none for a feedforward-only file"
+        }));
+    };
+    if !given {
+        return Err(bad("--kp: --pid-form given without any PID gain"));
+    }
+    let (kp, ki, kd) = (
+        args.kp.unwrap_or(0.0),
+        args.ki.unwrap_or(0.0),
+        args.kd.unwrap_or(0.0),
+    );
+    for (name, value) in [("--kp", kp), ("--ki", ki), ("--kd", kd)] {
         if !value.is_finite() {
             return Err(bad(format!("{name}: expected a finite gain, got {value}")));
         }
@@ -280,13 +353,36 @@ fn pid_from_flags(args: &EmitArgs) -> anyhow::Result<PidSpec> {
             "--output-min/--output-max: expected finite limits with min < max, got {lo} and {hi}"
         )));
     }
-    Ok(PidSpec {
-        kp: args.kp,
-        ki: args.ki,
-        kd: args.kd,
-        output_min: lo,
-        output_max: hi,
-    })
+    match form {
+        PidForm::Li21 => {
+            if args.pid_n.is_some() {
+                return Err(bad(
+                    "--pid-n: the derivative filter goes with --pid-form parallel",
+                ));
+            }
+            Ok(Feedback::Pid(PidSpec {
+                kp,
+                ki,
+                kd,
+                output_min: lo,
+                output_max: hi,
+            }))
+        }
+        PidForm::Parallel => {
+            let pid = ParallelPid {
+                kp,
+                ki,
+                kd,
+                n: args.pid_n,
+                output_min: lo,
+                output_max: hi,
+            };
+            pid.validate().map_err(|(key, m)| {
+                bad(format!("--{}: {m}", if key == "n" { "pid-n" } else { key }))
+            })?;
+            Ok(Feedback::ParallelPid(pid))
+        }
+    }
 }
 
 pub fn run(args: EmitArgs) -> anyhow::Result<()> {
@@ -294,6 +390,7 @@ pub fn run(args: EmitArgs) -> anyhow::Result<()> {
     let text = match args.format {
         Format::Json => file.to_json_string(),
         Format::CHeader => to_c_header(&file),
+        Format::C => return write_c_runtime(&args, &file),
     };
     if let Some(h) = &args.c_header {
         if args.format != Format::Json {
@@ -315,5 +412,37 @@ pub fn run(args: EmitArgs) -> anyhow::Result<()> {
         }
         None => say_part!("{text}"),
     }
+    Ok(())
+}
+
+/// `--format c`: the three C files into the -o directory (created if
+/// missing), each written atomically.
+fn write_c_runtime(args: &EmitArgs, file: &ControllerFile) -> anyhow::Result<()> {
+    let Some(dir) = &args.output else {
+        return Err(bad(
+            "-o/--out: --format c writes three files; give the directory to write them into",
+        ));
+    };
+    if args.c_header.is_some() {
+        return Err(bad("--c-header goes with --format json"));
+    }
+    if dir.exists() && !dir.is_dir() {
+        return Err(bad(format!(
+            "-o/--out: {} is a file; --format c writes into a directory",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow::anyhow!("{}: cannot create the directory: {e}", dir.display()))?;
+    for (name, text) in to_c_files(file) {
+        write_atomic(&dir.join(name), text.as_bytes())?;
+    }
+    eprintln!(
+        "wrote {}/{{fts_controller.h, fts_runtime.h, fts_runtime.c}} ({}, preview {} samples, ts {} s); compile with -ffp-contract=off",
+        dir.display(),
+        file.stages_name(),
+        file.preview(),
+        file.ts
+    );
     Ok(())
 }

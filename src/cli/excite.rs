@@ -186,8 +186,7 @@ pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
             offset,
         } => {
             let freqs_hz = match lines {
-                Some(n) if n >= 1 => crate::lti::linspace(f_min, f_max, n),
-                Some(_) => return Err(bad("--lines: at least one line")),
+                Some(n) => multisine_lines(n, f_min, f_max, period, ts)?,
                 None => freqs,
             };
             excite::multisine(&excite::MultisineParams {
@@ -228,4 +227,32 @@ pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
         None => say_part!("{text}"),
     }
     Ok(())
+}
+
+/// `--lines N` from `--f-min` to `--f-max`, checked before they are made:
+/// at most the distinct lines a period holds below Nyquist.
+fn multisine_lines(
+    n: usize,
+    f_min: f64,
+    f_max: f64,
+    period: f64,
+    ts: f64,
+) -> anyhow::Result<Vec<f64>> {
+    if !(period.is_finite() && period > 0.0) {
+        return Err(bad(format!(
+            "--period: must be a positive number of seconds, got {period}"
+        )));
+    }
+    let most = (period / ts / 2.0).floor();
+    if n == 0 || (most.is_finite() && n as f64 > most.max(1.0)) {
+        return Err(bad(format!(
+            "--lines: {n} lines; a period of {period} s at ts = {ts} s holds from 1 to {most} distinct lines below Nyquist"
+        )));
+    }
+    if n > 1 && f_min.partial_cmp(&f_max) != Some(std::cmp::Ordering::Less) {
+        return Err(bad(format!(
+            "--f-min/--f-max: expected f-min < f-max, got {f_min} and {f_max} Hz"
+        )));
+    }
+    Ok(crate::lti::linspace(f_min, f_max, n))
 }

@@ -165,6 +165,13 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
     let model = &model_file.model;
     let mut state = model.new_state();
     let y: Vec<f64> = u.iter().map(|&x| model.step(&mut state, x)).collect();
+    if let Some(k) = y.iter().position(|v| !v.is_finite()) {
+        return Err(bad(format!(
+            "{}: the output overflows at sample {k} of {source} (input {}): the model's weights or offsets are too large for this input; check the model's units",
+            args.model.display(),
+            u[k]
+        )));
+    }
     if let Some(path) = &args.out {
         let csv = match &table.time {
             Some(t) => write_csv(&["t", "u", "y"], &[t, &u, &y]),

@@ -1,33 +1,27 @@
 //! `fts identify arx|oe|iv|arx-struct DATA ...`: linear models from
-//! input/output records (docs/math.md §2).
+//! input/output records (docs/math.md §2). The steps, with the record
+//! preparation and the diagnostics, are the library's
+//! ([`crate::workflow::identify`]); this file turns flags into them, reads
+//! the records and renders the reports and plots.
 //!
 //! Column options (`--input-col`, `--output-col`, `--time-col`, the layout
 //! options) are shared with every record-reading command (`columns.rs`); the
 //! result file is `-o/--out FILE`.
 
 use super::columns::ColumnArgs;
-use super::common::{bad, complex_pairs, fmt_complex, print_json, write_atomic};
-use crate::ident::arx::{ArxParams, Orders, arx, arx_residuals};
-use crate::ident::data::{Detrend, detrend, split_point};
+use super::common::{bad, print_report, step_error, write_atomic};
+use crate::ident::data::Detrend;
 use crate::ident::freq::{FreqError, FreqResponse, WelchParams, welch};
-use crate::ident::iv::{IvParams, iv};
-use crate::ident::linear::{
-    Criteria, Fits, IdentError, NoiseModel, PolyModel, Whiteness, fits, whiteness,
-};
-use crate::ident::oe::{OeParams, OeStart, oe};
-use crate::ident::structure::{
-    SelectionRule, StructParams, StructSearch, arx_struct_observed, delay_estimate,
-};
 use crate::io::plot::{Series, stacked_charts_svg};
 use crate::io::tf_json;
-use crate::io::timeseries::Timing;
-use crate::lti::{Bode, TransferFunction};
+use crate::lti::Bode;
+use crate::workflow::Validate;
+use crate::workflow::identify::{
+    ArxStruct, IdentifyArx, IdentifyIv, IdentifyOe, InitialChoice, LinearInputs, LinearProgress,
+    LinearReport, OeStartChoice, Prepared, RecordSettings, SelectionRuleChoice,
+};
 use clap::{Args, Subcommand, ValueEnum};
-use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
-
-/// Lags of the residual tests (MATLAB `resid` default).
-const RESID_LAGS: usize = 25;
 
 #[derive(Debug, Subcommand)]
 pub enum IdentifyLinear {
@@ -83,6 +77,35 @@ pub struct DataArgs {
     pub split: Option<f64>,
 }
 
+impl DataArgs {
+    /// The record preparation settings.
+    fn settings(&self) -> RecordSettings {
+        RecordSettings {
+            ts: self.ts,
+            detrend: self.detrend.into(),
+            split: self.split,
+        }
+    }
+
+    /// Reads the record and the validation record.
+    fn inputs(&self) -> anyhow::Result<LinearInputs> {
+        let validation = match &self.validate {
+            Some(path) => Some((self.columns.read(path, 2)?, path.display().to_string())),
+            None => None,
+        };
+        Ok(LinearInputs {
+            data: self.columns.read(&self.data, 2)?,
+            source: self.data.display().to_string(),
+            validation,
+        })
+    }
+}
+
+/// Reads, splits and detrends the data as the options say.
+pub fn prepare(d: &DataArgs) -> anyhow::Result<Prepared> {
+    d.settings().prepare(d.inputs()?).map_err(step_error)
+}
+
 /// Output options shared by the model-producing commands.
 #[derive(Debug, Args)]
 pub struct OutArgs {
@@ -96,7 +119,7 @@ pub struct OutArgs {
     #[arg(long, value_name = "BODE.svg")]
     pub plot: Option<PathBuf>,
     /// Upper frequency of the plot in Hz (default Nyquist).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", value_parser = super::common::parse_positive)]
     pub plot_fmax: Option<f64>,
     /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
     #[arg(long, value_name = "COMPARE.svg")]
@@ -122,6 +145,9 @@ pub struct ArxArgs {
     /// Selection rule for --auto.
     #[arg(long, value_enum, default_value_t = RuleArg::Auto, requires = "auto")]
     pub rule: RuleArg,
+    /// Also fit an output-error model of the same orders and keep it when it simulates the estimation data better (as `fts demo` does).
+    #[arg(long)]
+    pub refine_oe: bool,
     #[command(flatten)]
     pub out: OutArgs,
 }
@@ -139,15 +165,15 @@ pub struct OeArgs {
     /// Input delay in samples.
     #[arg(long)]
     pub nk: usize,
-    /// Start estimate of the iteration.
-    #[arg(long, value_enum, default_value_t = StartArg::Best)]
-    pub start: StartArg,
+    /// Start estimate of the iteration (manifest key `start_estimate`).
+    #[arg(long, visible_alias = "start", value_enum, default_value_t = StartArg::Best)]
+    pub start_estimate: StartArg,
     /// Initial conditions of the simulation: estimated with the model (MATLAB default) or zero.
     #[arg(long, value_enum, default_value_t = InitialArg::Estimate)]
     pub initial: InitialArg,
     /// Maximum Levenberg-Marquardt iterations.
-    #[arg(long, default_value_t = OeParams::new(Orders::new(1, 1, 1)).max_iterations)]
-    pub max_iter: usize,
+    #[arg(long, visible_alias = "max-iter", default_value_t = IdentifyOe::default().max_iterations)]
+    pub max_iterations: usize,
     #[command(flatten)]
     pub out: OutArgs,
 }
@@ -168,34 +194,17 @@ pub enum RuleArg {
     Mdl,
 }
 
-impl From<RuleArg> for SelectionRule {
+impl From<RuleArg> for SelectionRuleChoice {
     fn from(r: RuleArg) -> Self {
         match r {
-            RuleArg::Auto => SelectionRule::Auto,
-            RuleArg::Loss => SelectionRule::ValidationLoss,
-            RuleArg::Fit => SelectionRule::ValidationFit,
-            RuleArg::Aic => SelectionRule::Aic,
-            RuleArg::Fpe => SelectionRule::Fpe,
-            RuleArg::Mdl => SelectionRule::Mdl,
+            RuleArg::Auto => SelectionRuleChoice::Auto,
+            RuleArg::Loss => SelectionRuleChoice::Loss,
+            RuleArg::Fit => SelectionRuleChoice::Fit,
+            RuleArg::Aic => SelectionRuleChoice::Aic,
+            RuleArg::Fpe => SelectionRuleChoice::Fpe,
+            RuleArg::Mdl => SelectionRuleChoice::Mdl,
         }
     }
-}
-
-/// The structure `rule` picks, with the rule's name; a validation rule
-/// without validation data is bad usage.
-fn pick(s: &StructSearch, rule: RuleArg) -> anyhow::Result<(Orders, &'static str)> {
-    let name = match (rule, s.best_validation.is_some()) {
-        (RuleArg::Auto, true) | (RuleArg::Loss, _) => "validation_loss",
-        (RuleArg::Auto, false) | (RuleArg::Mdl, _) => "mdl",
-        (RuleArg::Fit, _) => "validation_fit",
-        (RuleArg::Aic, _) => "aic",
-        (RuleArg::Fpe, _) => "fpe",
-    };
-    s.pick(rule.into()).map(|o| (o, name)).ok_or_else(|| {
-        bad(format!(
-            "--rule {name} needs validation data: give --validate FILE or --split FRACTION"
-        ))
-    })
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -238,16 +247,16 @@ pub struct StructArgs {
     #[command(flatten)]
     pub data: DataArgs,
     /// Range of na: `LO:HI`, a list `1,2,4`, or one value.
-    #[arg(long, default_value = "1:10")]
+    #[arg(long, default_value_t = ArxStruct::default().na)]
     pub na: String,
     /// Range of nb.
-    #[arg(long, default_value = "1:10")]
+    #[arg(long, default_value_t = ArxStruct::default().nb)]
     pub nb: String,
     /// Range of nk.
-    #[arg(long, default_value = "0:10")]
+    #[arg(long, default_value_t = ArxStruct::default().nk)]
     pub nk: String,
     /// Rows of the table to print (best first by the rule).
-    #[arg(long, default_value_t = 15)]
+    #[arg(long, default_value_t = ArxStruct::default().top)]
     pub top: usize,
     /// Which structure to recommend (and write with -o).
     #[arg(long, value_enum, default_value_t = RuleArg::Auto)]
@@ -260,228 +269,239 @@ pub struct StructArgs {
     pub json: bool,
 }
 
+impl ArxArgs {
+    /// The step these flags describe.
+    pub fn step(&self) -> IdentifyArx {
+        let s = self.data.settings();
+        IdentifyArx {
+            ts: s.ts,
+            detrend: s.detrend,
+            split: s.split,
+            na: self.na,
+            nb: self.nb,
+            nk: self.nk,
+            auto: self.auto,
+            rule: self.rule.into(),
+            refine_oe: self.refine_oe,
+        }
+    }
+}
+
+impl OeArgs {
+    /// The step these flags describe.
+    pub fn step(&self) -> IdentifyOe {
+        let s = self.data.settings();
+        IdentifyOe {
+            ts: s.ts,
+            detrend: s.detrend,
+            split: s.split,
+            nb: Some(self.nb),
+            nf: Some(self.nf),
+            nk: Some(self.nk),
+            start_estimate: match self.start_estimate {
+                StartArg::Best => OeStartChoice::Best,
+                StartArg::Iv => OeStartChoice::Iv,
+                StartArg::Arx => OeStartChoice::Arx,
+            },
+            initial: match self.initial {
+                InitialArg::Estimate => InitialChoice::Estimate,
+                InitialArg::Zero => InitialChoice::Zero,
+            },
+            max_iterations: self.max_iterations,
+        }
+    }
+}
+
+impl IvArgs {
+    /// The step these flags describe.
+    pub fn step(&self) -> IdentifyIv {
+        let s = self.data.settings();
+        IdentifyIv {
+            ts: s.ts,
+            detrend: s.detrend,
+            split: s.split,
+            na: Some(self.na),
+            nb: Some(self.nb),
+            nk: Some(self.nk),
+        }
+    }
+}
+
+impl StructArgs {
+    /// The step these flags describe.
+    pub fn step(&self) -> ArxStruct {
+        let s = self.data.settings();
+        ArxStruct {
+            ts: s.ts,
+            detrend: s.detrend,
+            split: s.split,
+            na: self.na.clone(),
+            nb: self.nb.clone(),
+            nk: self.nk.clone(),
+            top: self.top,
+            rule: self.rule.into(),
+        }
+    }
+}
+
 pub fn run(cmd: IdentifyLinear) -> anyhow::Result<()> {
     match cmd {
-        IdentifyLinear::Arx(a) => run_arx(a),
-        IdentifyLinear::Oe(a) => run_oe(a),
-        IdentifyLinear::Iv(a) => run_iv(a),
+        IdentifyLinear::Arx(a) => {
+            let step = a.step();
+            step.validate().map_err(step_error)?;
+            let inputs = a.data.inputs()?;
+            let bar = progress_bar();
+            let report = step
+                .run_observed(inputs, &mut |p| show(&bar, p))
+                .map_err(step_error)?;
+            bar.finish_and_clear();
+            if let Some(s) = &report.details.selection {
+                eprintln!(
+                    "structure selection over {} candidates chose {} (rule {})",
+                    s.candidates, report.orders, s.rule
+                );
+            }
+            finish(&report, &a.out)
+        }
+        IdentifyLinear::Oe(a) => {
+            let step = a.step();
+            step.validate().map_err(step_error)?;
+            let inputs = a.data.inputs()?;
+            let bar = progress_bar();
+            let report = step
+                .run_observed(inputs, &mut |p| show(&bar, p))
+                .map_err(step_error)?;
+            bar.finish_and_clear();
+            finish(&report, &a.out)
+        }
+        IdentifyLinear::Iv(a) => {
+            let step = a.step();
+            step.validate().map_err(step_error)?;
+            let report = step.run(a.data.inputs()?).map_err(step_error)?;
+            finish(&report, &a.out)
+        }
         IdentifyLinear::ArxStruct(a) => run_struct(a),
     }
 }
 
-/// One prepared record.
-pub struct Record {
-    pub u: Vec<f64>,
-    pub y: Vec<f64>,
-    pub label: String,
-}
-
-/// Estimation and (optional) validation records, detrended, with `ts`.
-pub struct Prepared {
-    pub est: Record,
-    pub val: Option<Record>,
-    pub ts: f64,
-    /// The estimation record's time column, when it has one.
-    pub timing: Option<Timing>,
-    pub detrend: Detrend,
-    pub source: String,
-}
-
-/// The sample time: `--ts` when given (checked against a time column, which
-/// may deviate by its jitter tolerance), else the time column's mean step.
-fn resolve_ts(timing: Option<&Timing>, arg: Option<f64>, source: &str) -> anyhow::Result<f64> {
-    match (timing, arg) {
-        (_, Some(ts)) if !(ts.is_finite() && ts > 0.0) => Err(bad(format!(
-            "--ts: expected a positive number of seconds, got {ts}"
-        ))),
-        (Some(t), Some(ts)) if ((t.ts - ts) / ts).abs() > t.tolerance.max(1e-6) => {
-            Err(bad(format!(
-                "{source}: the time column '{}' gives a sample time of {} s but --ts is {ts} s",
-                t.column, t.ts
-            )))
-        }
-        (_, Some(ts)) => Ok(ts),
-        (Some(t), None) => Ok(t.ts),
-        (None, None) => Err(bad(format!(
-            "{source}: no time column, so the sample time is unknown; give --ts SECONDS"
-        ))),
-    }
-}
-
-/// Reads, splits and detrends the data as the options say.
-pub fn prepare(d: &DataArgs) -> anyhow::Result<Prepared> {
-    let source = d.data.display().to_string();
-    let io = d.columns.read(&d.data, 2)?;
-    let timing = io.timing.clone();
-    let ts = resolve_ts(timing.as_ref(), d.ts, &source)?;
-    let how: Detrend = d.detrend.into();
-    let (mut est, mut val) = match (&d.validate, d.split) {
-        (Some(path), _) => {
-            let vsource = path.display().to_string();
-            let v = d.columns.read(path, 2)?;
-            if let Some(vt) = &v.timing
-                && ((vt.ts - ts) / ts).abs() > vt.tolerance.max(1e-6)
-            {
-                let vts = vt.ts;
-                return Err(bad(format!(
-                    "{vsource}: sample time {vts} s differs from the estimation data's {ts} s"
-                )));
-            }
-            (
-                Record {
-                    u: io.input,
-                    y: io.output,
-                    label: source.clone(),
-                },
-                Some(Record {
-                    u: v.input,
-                    y: v.output,
-                    label: vsource,
-                }),
-            )
-        }
-        (None, Some(f)) => {
-            if !(f > 0.0 && f < 1.0) {
-                return Err(bad(format!(
-                    "--split: expected a fraction strictly between 0 and 1, got {f}"
-                )));
-            }
-            let n = io.input.len();
-            let k = split_point(n, f);
-            if k < 2 || n - k < 2 {
-                return Err(bad(format!(
-                    "{source}: --split {f} leaves {k} estimation and {} validation samples",
-                    n - k
-                )));
-            }
-            let (ue, uv) = io.input.split_at(k);
-            let (ye, yv) = io.output.split_at(k);
-            (
-                Record {
-                    u: ue.to_vec(),
-                    y: ye.to_vec(),
-                    label: format!("{source} samples 1..{k}"),
-                },
-                Some(Record {
-                    u: uv.to_vec(),
-                    y: yv.to_vec(),
-                    label: format!("{source} samples {}..{n}", k + 1),
-                }),
-            )
-        }
-        (None, None) => (
-            Record {
-                u: io.input,
-                y: io.output,
-                label: source.clone(),
-            },
-            None,
-        ),
-    };
-    for r in std::iter::once(&mut est).chain(val.as_mut()) {
-        detrend(&mut r.u, how);
-        detrend(&mut r.y, how);
-    }
-    Ok(Prepared {
-        est,
-        val,
-        ts,
-        timing,
-        detrend: how,
-        source,
-    })
-}
-
-/// Structure search with a progress bar on stderr (hidden when stderr is
-/// not a terminal).
-fn search(p: &Prepared, sp: &StructParams) -> anyhow::Result<StructSearch> {
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+fn progress_bar() -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(0);
     bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
-    let s = arx_struct_observed(
-        &p.est.u,
-        &p.est.y,
-        p.val.as_ref().map(|v| (&v.u[..], &v.y[..])),
-        sp,
-        &mut |done, total| {
+    bar
+}
+
+fn show(bar: &indicatif::ProgressBar, p: LinearProgress) {
+    match p {
+        LinearProgress::Oe(pr) => {
+            bar.set_message(format!(
+                "OE iteration {}: loss {:.6e}, damping {:.1e}",
+                pr.iteration, pr.loss, pr.damping
+            ));
+            bar.tick();
+        }
+        LinearProgress::Search { done, total } => {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
-        },
-    )
-    .map_err(|e| ident_err(&p.source, e))?;
+        }
+    }
+}
+
+fn run_struct(a: StructArgs) -> anyhow::Result<()> {
+    let step = a.step();
+    step.validate().map_err(step_error)?;
+    let inputs = a.data.inputs()?;
+    let bar = progress_bar();
+    let report = step
+        .run_observed(inputs, &mut |p| show(&bar, p))
+        .map_err(step_error)?;
     bar.finish_and_clear();
-    Ok(s)
-}
-
-/// Maps identification errors to exit codes: everything about the data or
-/// the structure is bad input (2) and names the file.
-pub fn ident_err(source: &str, e: IdentError) -> anyhow::Error {
-    match e {
-        IdentError::Numerical(_) => anyhow::Error::new(e),
-        other => bad(format!("{source}: {other}")),
+    if let Some(path) = &a.out {
+        write_atomic(
+            path,
+            tf_json::tf_to_string(&report.transfer_function()).as_bytes(),
+        )?;
     }
+    print_report(&report, a.json)?;
+    if let (false, Some(path)) = (a.json, &a.out) {
+        say!("wrote {}", path.display());
+    }
+    Ok(())
 }
 
-/// Everything the summary of one estimate shows.
-struct Report {
-    method: &'static str,
-    orders_label: String,
-    orders: Value,
-    model: PolyModel,
-    std_den: Vec<f64>,
-    std_num: Vec<f64>,
-    criteria: Criteria,
-    noise_variance: f64,
-    condition_number: f64,
-    noise: NoiseModel,
-    extra: Value,
-}
-
-fn fits_value(f: &Fits) -> Value {
-    json!({
-        "simulation_fit_percent": f.simulation_percent,
-        "simulation_fit_zero_ic_percent": f.simulation_zero_ic_percent,
-        "prediction_fit_percent": f.prediction_percent,
-        "prediction_mse": f.prediction_mse,
-    })
-}
-
-fn residuals(r: &Report, u: &[f64], y: &[f64]) -> Vec<f64> {
-    let start = r.model.memory();
-    match r.noise {
-        NoiseModel::Arx => arx_residuals(&r.model, u, y, start),
-        NoiseModel::OutputError => {
-            let s = r.model.simulate_fit_ic(u, y);
-            y.iter().zip(&s).map(|(a, b)| a - b).collect()
+/// Writes the model and the plots, then prints the report.
+fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
+    let p = &r.prepared;
+    if let Some(path) = &out.out {
+        write_atomic(
+            path,
+            tf_json::tf_to_string(&r.transfer_function()).as_bytes(),
+        )?;
+    }
+    if let Some(path) = &out.plot {
+        let emp = welch_for_plot(&p.est.u, &p.est.y, p.ts)
+            .map_err(|e| bad(format!("{}: --plot: {e}", p.source)))?;
+        let fmax = out.plot_fmax.unwrap_or(0.5 / p.ts).min(0.5 / p.ts);
+        let title = format!("{} {} of {}", r.method.to_uppercase(), r.orders, p.source);
+        let svg = bode_plot_svg(&title, Some(&r.tf), &emp, fmax)?;
+        write_atomic(path, svg.as_bytes())?;
+    }
+    if let Some(path) = &out.plot_compare {
+        write_atomic(path, compare_plot_svg(r)?.as_bytes())?;
+    }
+    print_report(r, out.json)?;
+    if !out.json {
+        for path in out.out.iter().chain(&out.plot).chain(&out.plot_compare) {
+            say!("wrote {}", path.display());
         }
     }
+    Ok(())
 }
 
-fn poly_string(c: &[f64], sd: Option<&[f64]>, first_power: usize, skip_first_sd: bool) -> String {
-    let mut out = String::new();
-    for (i, v) in c.iter().enumerate() {
-        let power = first_power + i;
-        let sd_i = sd.and_then(|s| {
-            let idx = if skip_first_sd { i.checked_sub(1)? } else { i };
-            s.get(idx).copied()
-        });
-        let term = match sd_i {
-            Some(s) => format!("{:.6} (±{:.2e})", v.abs(), s),
-            None => format!("{:.6}", v.abs()),
-        };
-        let sign = if v.is_sign_negative() { "-" } else { "+" };
-        if i == 0 {
-            if v.is_sign_negative() {
-                out.push('-');
-            }
-        } else {
-            out.push_str(&format!(" {sign} "));
-        }
-        out.push_str(&term);
-        if power > 0 {
-            out.push_str(&format!(" z^-{power}"));
-        }
-    }
-    out
+/// Measured vs simulated output and the error (MATLAB `compare`), on the
+/// validation record when there is one.
+fn compare_plot_svg(r: &LinearReport) -> anyhow::Result<String> {
+    let p = &r.prepared;
+    let rec = p.val.as_ref().unwrap_or(&p.est);
+    let sim = r.model.simulate_fit_ic(&rec.u, &rec.y);
+    let t: Vec<f64> = (0..rec.y.len()).map(|k| k as f64 * p.ts).collect();
+    let err: Vec<f64> = rec.y.iter().zip(&sim).map(|(a, b)| a - b).collect();
+    let fit = crate::ident::metrics::nrmse_fit_percent(&rec.y, &sim);
+    let title = format!(
+        "{} {}: simulation fit {fit:.2} % on {}",
+        r.method.to_uppercase(),
+        r.orders,
+        rec.label
+    );
+    Ok(stacked_charts_svg(&[
+        (
+            title.as_str(),
+            "time (s)",
+            "output",
+            vec![
+                Series {
+                    label: "measured",
+                    x: &t,
+                    y: &rec.y,
+                },
+                Series {
+                    label: "simulated (initial conditions estimated)",
+                    x: &t,
+                    y: &sim,
+                },
+            ],
+        ),
+        (
+            "",
+            "time (s)",
+            "measured - simulated",
+            vec![Series {
+                label: "simulation error",
+                x: &t,
+                y: &err,
+            }],
+        ),
+    ])?)
 }
 
 fn welch_for_plot(u: &[f64], y: &[f64], ts: f64) -> Result<FreqResponse, FreqError> {
@@ -551,544 +571,6 @@ fn bode_plot_svg(
         ));
     }
     Ok(stacked_charts_svg(&panels)?)
-}
-
-fn finish(p: &Prepared, r: Report, out: &OutArgs) -> anyhow::Result<()> {
-    let tf = r.model.tf().map_err(|e| ident_err(&p.source, e))?;
-    let est_fits = fits(&r.model, r.noise, &p.est.u, &p.est.y);
-    let val_fits = p.val.as_ref().map(|v| fits(&r.model, r.noise, &v.u, &v.y));
-    let white: Whiteness = whiteness(&residuals(&r, &p.est.u, &p.est.y), &p.est.u, RESID_LAGS);
-    let val_white = p
-        .val
-        .as_ref()
-        .map(|v| whiteness(&residuals(&r, &v.u, &v.y), &v.u, RESID_LAGS));
-    let stable = r.model.is_stable();
-    let poles = tf.poles().unwrap_or_default();
-    let zeros = tf.zeros().unwrap_or_default();
-    let g = TransferFunction::Discrete(tf.clone());
-
-    if let Some(path) = &out.out {
-        write_atomic(path, tf_json::tf_to_string(&g).as_bytes())?;
-    }
-    if let Some(path) = &out.plot {
-        let emp = welch_for_plot(&p.est.u, &p.est.y, p.ts)
-            .map_err(|e| bad(format!("{}: --plot: {e}", p.source)))?;
-        let fmax = out.plot_fmax.unwrap_or(0.5 / p.ts).min(0.5 / p.ts);
-        let svg = bode_plot_svg(
-            &format!(
-                "{} {} of {}",
-                r.method.to_uppercase(),
-                r.orders_label,
-                p.source
-            ),
-            Some(&tf),
-            &emp,
-            fmax,
-        )?;
-        write_atomic(path, svg.as_bytes())?;
-    }
-
-    if let Some(path) = &out.plot_compare {
-        let rec = p.val.as_ref().unwrap_or(&p.est);
-        let sim = r.model.simulate_fit_ic(&rec.u, &rec.y);
-        let t: Vec<f64> = (0..rec.y.len()).map(|k| k as f64 * p.ts).collect();
-        let err: Vec<f64> = rec.y.iter().zip(&sim).map(|(a, b)| a - b).collect();
-        let fit = crate::ident::metrics::nrmse_fit_percent(&rec.y, &sim);
-        let title = format!(
-            "{} {}: simulation fit {fit:.2} % on {}",
-            r.method.to_uppercase(),
-            r.orders_label,
-            rec.label
-        );
-        let svg = stacked_charts_svg(&[
-            (
-                title.as_str(),
-                "time (s)",
-                "output",
-                vec![
-                    Series {
-                        label: "measured",
-                        x: &t,
-                        y: &rec.y,
-                    },
-                    Series {
-                        label: "simulated (initial conditions estimated)",
-                        x: &t,
-                        y: &sim,
-                    },
-                ],
-            ),
-            (
-                "",
-                "time (s)",
-                "measured - simulated",
-                vec![Series {
-                    label: "simulation error",
-                    x: &t,
-                    y: &err,
-                }],
-            ),
-        ])?;
-        write_atomic(path, svg.as_bytes())?;
-    }
-    let noise_note = match (r.noise, white.white) {
-        (_, true) => None,
-        (NoiseModel::Arx, false) => Some(
-            "ARX residuals are not white: the noise is not equation error 1/A e, so the ARX estimate is biased; use `fts identify oe` or `fts identify iv`, or raise the orders",
-        ),
-        (NoiseModel::OutputError, false) => Some(
-            "residuals are not white: the measurement noise is coloured (the B/F estimate stays consistent, its standard deviations are optimistic)",
-        ),
-    };
-    if out.json {
-        let mut doc = tf_json::tf_to_value(&g);
-        let obj = doc.as_object_mut().expect("object");
-        obj.insert("method".into(), json!(r.method));
-        obj.insert("orders".into(), r.orders.clone());
-        obj.insert("fit_percent".into(), json!(est_fits.simulation_percent));
-        obj.insert(
-            "prediction_fit_percent".into(),
-            json!(est_fits.prediction_percent),
-        );
-        obj.insert("estimation".into(), fits_value(&est_fits));
-        obj.insert(
-            "validation".into(),
-            match (&val_fits, &p.val) {
-                (Some(f), Some(v)) => {
-                    let mut fv = fits_value(f);
-                    fv.as_object_mut()
-                        .expect("object")
-                        .insert("data".into(), json!(v.label));
-                    fv.as_object_mut()
-                        .expect("object")
-                        .insert("whiteness".into(), serde_json::to_value(&val_white)?);
-                    fv
-                }
-                _ => Value::Null,
-            },
-        );
-        obj.insert(
-            "validation_fit_percent".into(),
-            json!(val_fits.map(|f| f.simulation_percent)),
-        );
-        obj.insert("std_den".into(), json!(r.std_den));
-        obj.insert("std_num".into(), json!(r.std_num));
-        obj.insert("loss".into(), json!(r.criteria.loss));
-        obj.insert("mse".into(), json!(r.criteria.mse));
-        obj.insert("fpe".into(), json!(r.criteria.fpe));
-        obj.insert("aic".into(), json!(r.criteria.aic));
-        obj.insert("naic".into(), json!(r.criteria.naic));
-        obj.insert("mdl".into(), json!(r.criteria.mdl));
-        obj.insert("noise_variance".into(), json!(r.noise_variance));
-        obj.insert("condition_number".into(), json!(r.condition_number));
-        obj.insert("samples".into(), json!(p.est.y.len()));
-        obj.insert("timing".into(), serde_json::to_value(&p.timing)?);
-        obj.insert("detrend".into(), json!(p.detrend));
-        obj.insert("whiteness".into(), serde_json::to_value(&white)?);
-        obj.insert("stable".into(), json!(stable));
-        obj.insert("poles".into(), complex_pairs(&poles));
-        obj.insert("zeros".into(), complex_pairs(&zeros));
-        obj.insert("dc_gain".into(), json!(tf.dc_gain()));
-        obj.insert(
-            "notes".into(),
-            json!(noise_note.into_iter().collect::<Vec<_>>()),
-        );
-        if let Value::Object(extra) = r.extra {
-            // The note is for the human summary; JSON has the raw fields.
-            obj.extend(extra.into_iter().filter(|(k, _)| k != "iterations_note"));
-        }
-        return print_json(&doc);
-    }
-    say!(
-        "{} {} from {} ({} samples, Ts = {} s, detrend {})",
-        r.method.to_uppercase(),
-        r.orders_label,
-        p.est.label,
-        p.est.y.len(),
-        p.ts,
-        match p.detrend {
-            Detrend::None => "none",
-            Detrend::Mean => "mean",
-            Detrend::Linear => "linear",
-        }
-    );
-    if let Some(t) = &p.timing {
-        say!("  {t}");
-    }
-    let den_name = if r.noise == NoiseModel::OutputError {
-        "F"
-    } else {
-        "A"
-    };
-    say!(
-        "  {den_name}(z^-1) = {}",
-        poly_string(&r.model.a, Some(&r.std_den), 0, true)
-    );
-    say!(
-        "  B(z^-1) = {}    (input delay z^-{})",
-        poly_string(&r.model.b, Some(&r.std_num), 0, false),
-        r.model.nk
-    );
-    say!(
-        "  loss {:.6e}  FPE {:.6e}  AIC {:.4} (nAIC {:.4})  MDL {:.6e}  cond(Phi) {:.3e}",
-        r.criteria.loss,
-        r.criteria.fpe,
-        r.criteria.aic,
-        r.criteria.naic,
-        r.criteria.mdl,
-        r.condition_number
-    );
-    if let Some(Value::String(s)) = r.extra.get("iterations_note") {
-        say!("  {s}");
-    }
-    say!(
-        "  fit on estimation data: simulation {:.2} % (zero IC {:.2} %), one-step prediction {:.2} %",
-        est_fits.simulation_percent,
-        est_fits.simulation_zero_ic_percent,
-        est_fits.prediction_percent
-    );
-    if let (Some(f), Some(v)) = (&val_fits, &p.val) {
-        say!(
-            "  fit on validation data ({}): simulation {:.2} % (zero IC {:.2} %), one-step prediction {:.2} %",
-            v.label,
-            f.simulation_percent,
-            f.simulation_zero_ic_percent,
-            f.prediction_percent
-        );
-    }
-    say!(
-        "  residuals: {} (max |r_ee| {:.3}, 99 % bound {:.3}, lags 1..{}); {} of input (max |r_eu| {:.3}, bound {:.3})",
-        if white.white { "white" } else { "NOT white" },
-        white.max_autocorr,
-        white.bound,
-        white.lags,
-        if white.independent {
-            "independent"
-        } else {
-            "NOT independent"
-        },
-        white.max_crosscorr,
-        white.cross_bound
-    );
-    if let Some(n) = noise_note {
-        say!("  note: {n}");
-    }
-    say!(
-        "  poles ({}): {}",
-        if stable { "stable" } else { "UNSTABLE" },
-        poles
-            .iter()
-            .map(|z| fmt_complex(*z))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    say!("  DC gain {:.6}", tf.dc_gain());
-    if let Some(path) = &out.out {
-        say!("wrote {}", path.display());
-    }
-    for path in out.plot.iter().chain(&out.plot_compare) {
-        say!("wrote {}", path.display());
-    }
-    Ok(())
-}
-
-fn orders_json(o: Orders, oe: bool) -> Value {
-    if oe {
-        json!({"nb": o.nb, "nf": o.na, "nk": o.nk})
-    } else {
-        json!({"na": o.na, "nb": o.nb, "nk": o.nk})
-    }
-}
-
-fn run_arx(a: ArxArgs) -> anyhow::Result<()> {
-    let p = prepare(&a.data)?;
-    let mut extra = json!({});
-    let mut start = None;
-    let o = if a.auto {
-        let sp = StructParams {
-            ts: p.ts,
-            ..Default::default()
-        };
-        let s = search(&p, &sp)?;
-        let (o, rule) = pick(&s, a.rule)?;
-        start = Some(s.start);
-        eprintln!(
-            "structure selection over {} candidates chose {o} (rule {rule})",
-            s.rows.len()
-        );
-        extra = json!({"selection": {
-            "candidates": s.rows.len(),
-            "rule": rule,
-            "best_aic": s.best_aic, "best_fpe": s.best_fpe, "best_mdl": s.best_mdl,
-            "best_validation": s.best_validation,
-            "best_validation_fit": s.best_validation_fit,
-        }});
-        o
-    } else {
-        // clap guarantees the three orders without --auto.
-        Orders::new(a.na.unwrap_or(0), a.nb.unwrap_or(1), a.nk.unwrap_or(0))
-    };
-    let mut ap = ArxParams::new(o);
-    ap.ts = p.ts;
-    ap.start = start;
-    let est = arx(&p.est.u, &p.est.y, &ap).map_err(|e| ident_err(&p.source, e))?;
-    let r = Report {
-        method: "arx",
-        orders_label: o.to_string(),
-        orders: orders_json(o, false),
-        model: est.model,
-        std_den: est.std_a,
-        std_num: est.std_b,
-        criteria: est.criteria,
-        noise_variance: est.noise_variance,
-        condition_number: est.condition_number,
-        noise: NoiseModel::Arx,
-        extra,
-    };
-    finish(&p, r, &a.out)
-}
-
-fn run_iv(a: IvArgs) -> anyhow::Result<()> {
-    let p = prepare(&a.data)?;
-    let o = Orders::new(a.na, a.nb, a.nk);
-    let mut ip = IvParams::new(o);
-    ip.ts = p.ts;
-    let est = iv(&p.est.u, &p.est.y, &ip).map_err(|e| ident_err(&p.source, e))?;
-    let note = format!(
-        "refined IV: {} iterations, {}",
-        est.iterations,
-        if est.converged {
-            "converged"
-        } else {
-            "NOT converged (iteration cap)"
-        }
-    );
-    let r = Report {
-        method: "iv",
-        orders_label: o.to_string(),
-        orders: orders_json(o, false),
-        model: est.model,
-        std_den: est.std_a,
-        std_num: est.std_b,
-        criteria: est.criteria,
-        noise_variance: est.noise_variance,
-        condition_number: est.condition_number,
-        noise: NoiseModel::OutputError,
-        extra: json!({"iterations": est.iterations, "converged": est.converged, "iterations_note": note}),
-    };
-    finish(&p, r, &a.out)
-}
-
-fn run_oe(a: OeArgs) -> anyhow::Result<()> {
-    let p = prepare(&a.data)?;
-    let o = Orders::new(a.nf, a.nb, a.nk);
-    let mut op = OeParams::new(o);
-    op.ts = p.ts;
-    op.max_iterations = a.max_iter;
-    op.start = match a.start {
-        StartArg::Best => OeStart::Best,
-        StartArg::Iv => OeStart::Iv,
-        StartArg::Arx => OeStart::Arx,
-    };
-    op.estimate_initial = a.initial == InitialArg::Estimate;
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
-    let est = oe(&p.est.u, &p.est.y, &op, &mut |pr| {
-        bar.set_message(format!(
-            "OE iteration {}: loss {:.6e}, damping {:.1e}",
-            pr.iteration, pr.loss, pr.damping
-        ));
-        bar.tick();
-    })
-    .map_err(|e| ident_err(&p.source, e))?;
-    bar.finish_and_clear();
-    let note = format!(
-        "Levenberg-Marquardt: {} iterations, {}, loss {:.6e} -> {:.6e} from the {} start",
-        est.iterations,
-        if est.converged {
-            "converged"
-        } else {
-            "NOT converged (iteration cap)"
-        },
-        est.start_loss,
-        est.criteria.loss,
-        match a.start {
-            StartArg::Best => "best of IV/ARX",
-            StartArg::Iv => "IV",
-            StartArg::Arx => "ARX",
-        }
-    );
-    let r = Report {
-        method: "oe",
-        orders_label: format!("[nb nf nk] = [{} {} {}]", o.nb, o.na, o.nk),
-        orders: orders_json(o, true),
-        model: est.model,
-        std_den: est.std_f,
-        std_num: est.std_b,
-        criteria: est.criteria,
-        noise_variance: est.noise_variance,
-        condition_number: est.condition_number,
-        noise: NoiseModel::OutputError,
-        extra: json!({"iterations": est.iterations, "converged": est.converged, "start_loss": est.start_loss, "initial_conditions": est.initial_conditions, "iterations_note": note}),
-    };
-    finish(&p, r, &a.out)
-}
-
-/// Parses `LO:HI`, `A,B,C` or `N`.
-fn parse_range(text: &str, name: &str) -> anyhow::Result<Vec<usize>> {
-    let err = || {
-        bad(format!(
-            "--{name}: expected LO:HI, a comma list or a number, got {text:?}"
-        ))
-    };
-    let t = text.trim();
-    let v: Vec<usize> = if let Some((lo, hi)) = t.split_once(':') {
-        let lo: usize = lo.trim().parse().map_err(|_| err())?;
-        let hi: usize = hi.trim().parse().map_err(|_| err())?;
-        if lo > hi || hi - lo > 200 {
-            return Err(err());
-        }
-        (lo..=hi).collect()
-    } else {
-        t.split(',')
-            .map(|s| s.trim().parse::<usize>().map_err(|_| err()))
-            .collect::<Result<_, _>>()?
-    };
-    if v.is_empty() {
-        return Err(err());
-    }
-    Ok(v)
-}
-
-fn run_struct(a: StructArgs) -> anyhow::Result<()> {
-    let p = prepare(&a.data)?;
-    let sp = StructParams {
-        na: parse_range(&a.na, "na")?,
-        nb: parse_range(&a.nb, "nb")?,
-        nk: parse_range(&a.nk, "nk")?,
-        ts: p.ts,
-    };
-    let s: StructSearch = search(&p, &sp)?;
-    let nk_lo = *sp.nk.iter().min().unwrap_or(&0);
-    let nk_hi = *sp.nk.iter().max().unwrap_or(&0);
-    let delay = delay_estimate(&p.est.u, &p.est.y, 2, 2, nk_lo..=nk_hi).ok();
-    let (best, rule) = pick(&s, a.rule)?;
-    let mut ap = ArxParams::new(best);
-    ap.ts = p.ts;
-    ap.start = Some(s.start);
-    let est = arx(&p.est.u, &p.est.y, &ap).map_err(|e| ident_err(&p.source, e))?;
-    let g = TransferFunction::Discrete(est.model.tf().map_err(|e| ident_err(&p.source, e))?);
-    if let Some(path) = &a.out {
-        write_atomic(path, tf_json::tf_to_string(&g).as_bytes())?;
-    }
-    let val_fit = p
-        .val
-        .as_ref()
-        .map(|v| fits(&est.model, NoiseModel::Arx, &v.u, &v.y).simulation_percent);
-    let mut order: Vec<usize> = (0..s.rows.len()).collect();
-    let key = |i: usize| {
-        let r = &s.rows[i];
-        match rule {
-            "validation_loss" => r.validation_loss.unwrap_or(f64::INFINITY),
-            "validation_fit" => -r.validation_fit_percent.unwrap_or(f64::NEG_INFINITY),
-            "aic" => r.criteria.naic,
-            "fpe" => r.criteria.fpe,
-            _ => r.criteria.mdl,
-        }
-    };
-    order.sort_by(|&x, &y| key(x).total_cmp(&key(y)));
-    if a.json {
-        let mut doc = json!({
-            "recommended": best,
-            "rule": rule,
-            "best_validation": s.best_validation,
-            "best_validation_fit": s.best_validation_fit,
-            "best_aic": s.best_aic,
-            "best_fpe": s.best_fpe,
-            "best_mdl": s.best_mdl,
-            "delay_estimate": delay.as_ref().map(|d| d.0),
-            "delay_losses": delay.as_ref().map(|d| &d.1),
-            "validation_fit_percent": val_fit,
-            "fit_percent": fits(&est.model, NoiseModel::Arx, &p.est.u, &p.est.y).simulation_percent,
-            "rows": s.rows,
-            "skipped": s.skipped.iter().map(|(o, m)| json!({"orders": o, "reason": m})).collect::<Vec<_>>(),
-        });
-        let obj = doc.as_object_mut().expect("object");
-        if let Value::Object(tf) = tf_json::tf_to_value(&g) {
-            obj.insert("model".into(), Value::Object(tf));
-        }
-        return print_json(&doc);
-    }
-    say!(
-        "ARX structure selection on {} ({} samples, Ts = {} s), {} candidates{}",
-        p.est.label,
-        p.est.y.len(),
-        p.ts,
-        s.rows.len(),
-        match &p.val {
-            Some(v) => format!(", validated on {}", v.label),
-            None => ", no validation data (criteria on estimation data)".into(),
-        }
-    );
-    if let Some((nk, _)) = &delay {
-        say!("  delay estimate (ARX [2 2 nk], nk in {nk_lo}..{nk_hi}): {nk} samples");
-    }
-    say!(
-        "  {:>3} {:>3} {:>3} {:>13} {:>13} {:>13} {:>10} {:>13} {:>9}",
-        "na",
-        "nb",
-        "nk",
-        "loss(est)",
-        "FPE",
-        "MDL",
-        "nAIC",
-        "loss(val)",
-        "fit(val)%"
-    );
-    for &i in order.iter().take(a.top) {
-        let r = &s.rows[i];
-        say!(
-            "  {:>3} {:>3} {:>3} {:>13.6e} {:>13.6e} {:>13.6e} {:>10.4} {:>13} {:>9}",
-            r.orders.na,
-            r.orders.nb,
-            r.orders.nk,
-            r.criteria.loss,
-            r.criteria.fpe,
-            r.criteria.mdl,
-            r.criteria.naic,
-            r.validation_loss
-                .map(|v| format!("{v:.6e}"))
-                .unwrap_or_else(|| "-".into()),
-            r.validation_fit_percent
-                .map(|v| format!("{v:.2}"))
-                .unwrap_or_else(|| "-".into()),
-        );
-    }
-    say!(
-        "  best: AIC {}  FPE {}  MDL {}{}",
-        s.best_aic,
-        s.best_fpe,
-        s.best_mdl,
-        match (s.best_validation, s.best_validation_fit) {
-            (Some(l), Some(f)) => format!("  validation loss {l}  validation fit {f}"),
-            _ => String::new(),
-        }
-    );
-    say_part!("  recommended ({rule}) {best}");
-    if let Some(f) = val_fit {
-        say_part!(": validation simulation fit {f:.2} %");
-    }
-    say!();
-    if !s.skipped.is_empty() {
-        say!(
-            "  {} candidates skipped (singular or too short)",
-            s.skipped.len()
-        );
-    }
-    if let Some(path) = &a.out {
-        say!("wrote {}", path.display());
-    }
-    Ok(())
 }
 
 /// Used by `fts bode`: the empirical response of a prepared record.

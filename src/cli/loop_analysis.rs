@@ -13,6 +13,31 @@ use clap::Args;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
+/// A PID controller given by its gains, for the plant's time domain.
+#[derive(Debug, Args)]
+pub struct PidFlags {
+    /// PID proportional gain. Continuous plant: C(s) = kp + ki/s + kd N s/(s+N);
+    /// discrete plant: the [Li21] per-sample form kp + ki/(1 - z^-1) + kd (1 - z^-1).
+    #[arg(long, allow_hyphen_values = true)]
+    pub kp: Option<f64>,
+    /// PID integral gain (1/s for a continuous plant, per sample for a discrete one).
+    #[arg(long, allow_hyphen_values = true)]
+    pub ki: Option<f64>,
+    /// PID derivative gain (s for a continuous plant, per sample for a discrete one).
+    #[arg(long, allow_hyphen_values = true)]
+    pub kd: Option<f64>,
+    /// Derivative filter pole N in rad/s (continuous plants; needed with --kd).
+    #[arg(long, value_name = "N")]
+    pub tf_derivative: Option<f64>,
+}
+
+impl PidFlags {
+    /// Whether any gain was given.
+    pub fn given(&self) -> bool {
+        self.kp.is_some() || self.ki.is_some() || self.kd.is_some()
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct LoopArgs {
     /// The plant G (`fts.tf/1` or `fts.ss/1`, continuous or discrete, SISO).
@@ -21,19 +46,8 @@ pub struct LoopArgs {
     /// The controller K (`fts.tf/1` or `fts.ss/1`, same sample time as G).
     #[arg(long, value_name = "K.json", conflicts_with_all = ["kp", "ki", "kd", "tf_derivative"])]
     controller: Option<PathBuf>,
-    /// PID proportional gain. Continuous plant: C(s) = kp + ki/s + kd N s/(s+N);
-    /// discrete plant: the [Li21] per-sample form kp + ki/(1 - z^-1) + kd (1 - z^-1).
-    #[arg(long, allow_hyphen_values = true)]
-    kp: Option<f64>,
-    /// PID integral gain (1/s for a continuous plant, per sample for a discrete one).
-    #[arg(long, allow_hyphen_values = true)]
-    ki: Option<f64>,
-    /// PID derivative gain (s for a continuous plant, per sample for a discrete one).
-    #[arg(long, allow_hyphen_values = true)]
-    kd: Option<f64>,
-    /// Derivative filter pole N in rad/s (continuous plants; needed with --kd).
-    #[arg(long, value_name = "N")]
-    tf_derivative: Option<f64>,
+    #[command(flatten)]
+    pid: PidFlags,
     /// Grid density used to bracket crossovers and peaks.
     #[arg(long, default_value_t = LoopParams::default().points_per_decade)]
     points_per_decade: usize,
@@ -43,7 +57,7 @@ pub struct LoopArgs {
     /// Highest frequency analysed, Hz (default: 3 decades above the fastest; Nyquist at most).
     #[arg(long, value_name = "HZ")]
     fmax: Option<f64>,
-    /// Write a Bode plot of L, S and T (SVG) here.
+    /// Write a Bode plot of L, S and T and a Nyquist plot of L (SVG) here.
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
     /// Print the report as one JSON object on stdout instead of the summary.
@@ -52,7 +66,7 @@ pub struct LoopArgs {
 }
 
 /// Reads an `fts.tf/1` file as a transfer function, anything else as `fts.ss/1`.
-fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
+pub fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
     let text = read_input(path)?;
     let source = path.display().to_string();
     let is_tf = serde_json::from_str::<Value>(&text)
@@ -67,7 +81,7 @@ fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
 }
 
 /// The PID controller for the plant's time domain, and a description.
-fn pid(args: &LoopArgs, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)> {
+pub fn pid(args: &PidFlags, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)> {
     let (kp, ki, kd) = (
         args.kp.unwrap_or(0.0),
         args.ki.unwrap_or(0.0),
@@ -139,12 +153,26 @@ fn pid(args: &LoopArgs, ts: Option<f64>) -> anyhow::Result<(LoopSystem, String)>
     }
 }
 
+/// A library setting's message in terms of the options that set it.
+fn loop_setting_message(message: &str) -> String {
+    let named = [
+        ("f_min", "--fmin"),
+        ("f_max", "--fmax"),
+        ("points per decade", "--points-per-decade"),
+        ("frequency range", "--fmin/--fmax: the frequency range"),
+    ];
+    match named.iter().find(|(lib, _)| message.contains(lib)) {
+        Some((lib, flag)) => message.replacen(lib, flag, 1),
+        None => message.to_owned(),
+    }
+}
+
 /// `fts loop`.
 pub fn run(args: LoopArgs) -> anyhow::Result<()> {
     let g = read_loop_system(&args.plant)?;
     let (k, controller) = match &args.controller {
         Some(path) => (read_loop_system(path)?, path.display().to_string()),
-        None if args.kp.is_some() || args.ki.is_some() || args.kd.is_some() => pid(&args, g.ts())?,
+        None if args.pid.given() => pid(&args.pid, g.ts())?,
         None => {
             return Err(bad(
                 "give the controller: --controller K.json, or PID gains --kp/--ki/--kd",
@@ -157,9 +185,15 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         f_max_hz: args.fmax,
         ..LoopParams::default()
     };
+    let plant = args.plant.display().to_string();
     let report = analyze_loop(&g, &k, &params).map_err(|e| match e {
         // A failed eigenvalue iteration is a computation failure (exit 1).
         LoopError::Ss(SsError::NoConvergence) => anyhow::Error::new(e),
+        // Each message names its culprit: the file, or the option.
+        LoopError::NotSiso { which: "plant", .. } => bad(format!("{plant}: {e}")),
+        LoopError::NotSiso { .. } => bad(format!("{controller}: {e}")),
+        LoopError::SampleTimeMismatch { .. } => bad(format!("{plant} and {controller}: {e}")),
+        LoopError::BadParams(m) => bad(loop_setting_message(&m)),
         e => bad(e.to_string()),
     })?;
     if let Some(path) = &args.plot {
@@ -172,11 +206,19 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         let bl = Bode::from_fn(&grid, l);
         let bs = Bode::from_fn(&grid, |f| 1.0 / (1.0 + l(f)));
         let bt = Bode::from_fn(&grid, |f| l(f) / (1.0 + l(f)));
-        let svg = plot::bode_svg(
+        let curves = [
+            ("L = G K", &bl, plot::Style::Line),
+            ("S = 1/(1 + L)", &bs, plot::Style::Line),
+            ("T = L/(1 + L)", &bt, plot::Style::Line),
+        ];
+        let mags: Vec<Vec<f64>> = curves.iter().map(|(_, b, _)| b.magnitude_db()).collect();
+        let [mag, phase] = plot::bode_panels(
             "Loop L = G K, sensitivity S and complementary sensitivity T",
-            &[("L", &bl), ("S", &bs), ("T", &bt)],
-            true,
-        )?;
+            &curves,
+            &mags,
+        );
+        let nyquist = nyquist_points(&grid, l);
+        let svg = plot::panels_svg(&[mag, phase, nyquist.panel()])?;
         write_atomic(path, svg.as_bytes())?;
     }
     if args.json {
@@ -193,3 +235,79 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         Ok(())
     }
 }
+
+/// The Nyquist curve of `L` near the critical point: positive and mirrored
+/// negative frequencies, cut where `|L|` exceeds [`NYQUIST_RADIUS`] so that
+/// an integrator's large low-frequency values do not hide the region that
+/// decides stability.
+struct NyquistPoints {
+    re: Vec<f64>,
+    im: Vec<f64>,
+    im_mirror: Vec<f64>,
+}
+
+const NYQUIST_RADIUS: f64 = 4.0;
+
+fn nyquist_points(grid: &[f64], l: impl Fn(f64) -> crate::lti::c64) -> NyquistPoints {
+    let mut p = NyquistPoints {
+        re: Vec::new(),
+        im: Vec::new(),
+        im_mirror: Vec::new(),
+    };
+    // Denser than the Bode grid: the curve moves fastest near crossover.
+    let fine = logspace(grid[0], grid[grid.len() - 1], 8 * grid.len());
+    for f in fine {
+        let z = l(f);
+        // NaN breaks the curve where it leaves the window.
+        let (re, im) = if z.norm() <= NYQUIST_RADIUS {
+            (z.re, z.im)
+        } else {
+            (f64::NAN, f64::NAN)
+        };
+        p.re.push(re);
+        p.im.push(im);
+        p.im_mirror.push(-im);
+    }
+    p
+}
+
+impl NyquistPoints {
+    fn panel(&self) -> plot::Panel<'_> {
+        plot::Panel {
+            title: "Nyquist plot of L (|L| <= 4 shown; the critical point is -1)",
+            x_label: "Re L",
+            y_label: "Im L",
+            series: vec![
+                (
+                    plot::Series {
+                        label: "L(j w), w > 0",
+                        x: &self.re,
+                        y: &self.im,
+                    },
+                    plot::Style::Line,
+                ),
+                (
+                    plot::Series {
+                        label: "L(j w), w < 0",
+                        x: &self.re,
+                        y: &self.im_mirror,
+                    },
+                    plot::Style::Faint,
+                ),
+                (
+                    plot::Series {
+                        label: "critical point -1",
+                        x: &CRITICAL_X,
+                        y: &CRITICAL_Y,
+                    },
+                    plot::Style::Marker,
+                ),
+            ],
+            log_x: false,
+            shade: None,
+        }
+    }
+}
+
+const CRITICAL_X: [f64; 1] = [-1.0];
+const CRITICAL_Y: [f64; 1] = [0.0];

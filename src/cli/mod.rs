@@ -30,6 +30,7 @@ mod bode;
 mod build;
 mod columns;
 mod common;
+mod convert;
 mod demo;
 mod ding22;
 mod emit;
@@ -39,6 +40,7 @@ mod identify;
 mod identify_hysteresis;
 mod identify_linear;
 mod loop_analysis;
+mod response;
 mod robust;
 mod simulate;
 mod tf;
@@ -98,6 +100,18 @@ enum Command {
     Budget(robust::BudgetArgs),
     /// Margins (gain, phase, delay, modulus), |S| |T| |KS| |GS| peaks, bandwidth and closed-loop poles of L = G K.
     Loop(loop_analysis::LoopArgs),
+    /// Step or impulse response of a system or closed loop, with rise/settling time, overshoot and steady-state error.
+    Response(response::ResponseArgs),
+    /// Convert a model: state space to transfer functions (one per channel) or back.
+    Convert(convert::ConvertArgs),
+    /// Zeros, poles and gain (MATLAB zpk) of every channel of a model.
+    Zpk(convert::ZpkArgs),
+    /// Minimal realisation: remove uncontrollable and unobservable states (pole-zero cancellations).
+    Minreal(convert::MinrealArgs),
+    /// Balanced truncation of a stable model, with its Hankel singular values and error bound.
+    Balred(convert::BalredArgs),
+    /// The continuous model whose zero-order-hold discretisation is the given discrete one.
+    D2c(convert::D2cArgs),
     /// Ding22 workflow: two-mass FTS, H2 design vs PID, error budget, structural sweep.
     Ding22(ding22::Ding22Args),
 }
@@ -108,8 +122,13 @@ pub fn main() -> ExitCode {
         eprintln!("fts: error: {message}");
         return ExitCode::from(2);
     }
+    let args = join_negative_values(std::env::args_os().collect());
+    if let Err(message) = reject_duplicate_outputs(&args) {
+        eprintln!("fts: error: {message}");
+        return ExitCode::from(2);
+    }
     let parsed = allow_negative_numbers(Cli::command())
-        .try_get_matches()
+        .try_get_matches_from(args)
         .and_then(|m| Cli::from_arg_matches(&m));
     let cli = match parsed {
         Ok(cli) => cli,
@@ -134,9 +153,82 @@ pub fn main() -> ExitCode {
 
 /// `--ts -1` must reach the option's own validation (which names it), not
 /// read as an unknown flag `-1`.
+/// Every help text ends with the unit convention.
+const UNITS_NOTE: &str = "Units: frequencies in Hz unless an option says rad/s (e.g. --w0-rad), times in s, displacements in um, commands in V; discrete coefficients in ascending powers of z^-1.";
+
+/// Every (sub)command takes negative numbers as values and states the units.
 fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
     cmd.allow_negative_numbers(true)
+        .after_help(UNITS_NOTE)
         .mut_subcommands(allow_negative_numbers)
+}
+
+/// `--ts -1e-4` as `--ts=-1e-4`: clap takes only plain negative decimals
+/// (`-1`, `-0.5`) for values, and would read `-1e-4` or `-inf` as short
+/// flags, so the option's own check (which names it) would never see them.
+fn join_negative_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::with_capacity(args.len());
+    for arg in args {
+        let joined = match (out.last().and_then(|p| p.to_str()), arg.to_str()) {
+            (Some(prev), Some(value))
+                if prev.starts_with("--")
+                    && prev.len() > 2
+                    && !prev.contains('=')
+                    && value.starts_with('-')
+                    && value.parse::<f64>().is_ok() =>
+            {
+                Some(format!("{prev}={value}"))
+            }
+            _ => None,
+        };
+        match joined {
+            Some(j) => *out.last_mut().expect("a previous argument") = j.into(),
+            None => out.push(arg),
+        }
+    }
+    out
+}
+
+/// Options that name a result file.
+const OUTPUT_OPTIONS: [&str; 8] = [
+    "-o",
+    "--out",
+    "--plot",
+    "--plot-compare",
+    "--c-header",
+    "--csv",
+    "--bode",
+    "--augmented",
+];
+
+/// Two result options naming one file are refused before any work, so the
+/// first is not written when the second is then refused.
+fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
+    let mut seen: Vec<(&str, std::path::PathBuf)> = Vec::new();
+    let mut iter = args.iter().skip(1).filter_map(|a| a.to_str()).peekable();
+    while let Some(arg) = iter.next() {
+        if arg == "--" {
+            break;
+        }
+        let (name, value) = match arg.split_once('=') {
+            Some((n, v)) if n.starts_with("--") => (n, Some(v.to_owned())),
+            _ => (arg, None),
+        };
+        let Some(option) = OUTPUT_OPTIONS.iter().find(|o| **o == name) else {
+            continue;
+        };
+        let Some(value) = value.or_else(|| iter.next().map(str::to_owned)) else {
+            continue;
+        };
+        let id = common::output_identity(std::path::Path::new(&value));
+        if let Some((first, _)) = seen.iter().find(|(_, p)| *p == id) {
+            return Err(format!(
+                "{value}: two results of this run would be written to the same file ({first} and {option}); name another file"
+            ));
+        }
+        seen.push((option, id));
+    }
+    Ok(())
 }
 
 /// A clap usage error on one line: its message and tips, without the usage
@@ -196,6 +288,53 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::SsInfo(args) => robust::run_ss_info(args),
         Command::Budget(args) => robust::run_budget(args),
         Command::Loop(args) => loop_analysis::run(args),
+        Command::Response(args) => response::run(args),
+        Command::Convert(args) => convert::run_convert(args),
+        Command::Zpk(args) => convert::run_zpk(args),
+        Command::Minreal(args) => convert::run_minreal(args),
+        Command::Balred(args) => convert::run_balred(args),
+        Command::D2c(args) => convert::run_d2c(args),
         Command::Ding22(args) => ding22::run(args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::ffi::OsString;
+
+    fn args(list: &[&str]) -> Vec<OsString> {
+        list.iter().map(OsString::from).collect()
+    }
+
+    #[test]
+    fn negative_values_reach_their_option() {
+        let joined = join_negative_values(args(&[
+            "fts", "excite", "--ts", "-1e-4", "--offset", "-inf", "-o", "-2", "--freq", "-x",
+        ]));
+        assert_eq!(
+            joined,
+            args(&[
+                "fts",
+                "excite",
+                "--ts=-1e-4",
+                "--offset=-inf",
+                "-o",
+                "-2",
+                "--freq",
+                "-x"
+            ])
+        );
+    }
+
+    #[test]
+    fn one_file_named_by_two_result_options_is_refused() {
+        let e = reject_duplicate_outputs(&args(&["fts", "zpetc", "-o", "z.json", "--plot=z.json"]))
+            .unwrap_err();
+        assert!(e.contains("(-o and --plot)"), "{e}");
+        assert!(
+            reject_duplicate_outputs(&args(&["fts", "zpetc", "-o", "z.json", "--plot", "z.svg"]))
+                .is_ok()
+        );
     }
 }

@@ -142,18 +142,24 @@ pub struct WeightArgs {
     /// Peak sensitivity / gain M (ws, wt).
     #[arg(long)]
     m: Option<f64>,
-    /// Corner frequency w0 in rad/s (ws, wt).
-    #[arg(long)]
+    /// Corner frequency w0 in Hz (ws, wt).
+    #[arg(long, value_name = "HZ")]
     w0: Option<f64>,
+    /// Corner frequency w0 in rad/s, instead of --w0.
+    #[arg(long, value_name = "RAD_PER_S", conflicts_with = "w0")]
+    w0_rad: Option<f64>,
     /// Low/high-frequency gain parameter A (ws, wt).
     #[arg(long)]
     a: Option<f64>,
     /// makeweight: DC gain.
     #[arg(long)]
     dc: Option<f64>,
-    /// makeweight: frequency (rad/s) where the gain is --mag.
-    #[arg(long)]
+    /// makeweight: frequency in Hz where the gain is --mag.
+    #[arg(long, value_name = "HZ")]
     freq: Option<f64>,
+    /// makeweight: that frequency in rad/s, instead of --freq.
+    #[arg(long, value_name = "RAD_PER_S", conflicts_with = "freq")]
+    freq_rad: Option<f64>,
     /// makeweight: gain at --freq.
     #[arg(long)]
     mag: Option<f64>,
@@ -174,9 +180,11 @@ pub fn run_weight(args: WeightArgs) -> anyhow::Result<()> {
         shape: Some(args.kind.into()),
         m: args.m,
         w0: args.w0,
+        w0_rad: args.w0_rad,
         a: args.a,
         dc: args.dc,
         freq: args.freq,
+        freq_rad: args.freq_rad,
         mag: args.mag,
         hf: args.hf,
     };
@@ -218,11 +226,50 @@ pub struct MixsynArgs {
     /// Reduce the controller to this many states by balanced truncation
     /// (the closed loop is re-checked with the reduced controller; refused,
     /// exit 1, when its H-inf norm exceeds 1.1 times the full controller's).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = parse_order)]
     order: Option<usize>,
     /// Accept a reduced controller (--order) whatever its degradation.
     #[arg(long)]
     allow_degradation: bool,
+}
+
+/// `--order`: at least one state (a static gain is not a reduction of a
+/// mixed-sensitivity controller) and at most a system file's.
+fn parse_order(text: &str) -> Result<usize, String> {
+    let max = ss_json::MAX_STATES;
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!("expected a whole number of states from 1 to {max}")),
+    }
+}
+
+/// A mixed-sensitivity weight must be continuous, stable and square with
+/// the plant's channel count (`ny` for Ws and Wt, `nu` for Wu); refused
+/// here, naming its file and option, before the plant is blamed.
+fn check_weight(path: &Path, option: &str, w: &StateSpace, size: usize) -> anyhow::Result<()> {
+    let file = path.display();
+    if w.is_discrete() {
+        return Err(bad(format!(
+            "{file}: the {option} weight is discrete; mixsyn weights are continuous (\"ts\": null)"
+        )));
+    }
+    if w.ny() != size || w.nu() != size {
+        return Err(bad(format!(
+            "{file}: the {option} weight is {}x{} (outputs x inputs); the plant needs {size}x{size}",
+            w.ny(),
+            w.nu()
+        )));
+    }
+    let poles = w
+        .poles()
+        .map_err(|e| bad(format!("{file}: the {option} weight's poles: {e}")))?;
+    if let Some(p) = poles.iter().find(|p| p.re >= 0.0) {
+        return Err(bad(format!(
+            "{file}: the {option} weight is unstable (pole at s = {}{:+}j); mixsyn weights must be stable",
+            p.re, p.im
+        )));
+    }
+    Ok(())
 }
 
 /// `fts mixsyn`.
@@ -238,6 +285,13 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     let ws = read_system(&args.ws)?;
     let wu = args.wu.as_deref().map(read_system).transpose()?;
     let wt = args.wt.as_deref().map(read_system).transpose()?;
+    check_weight(&args.ws, "--ws", &ws, g.ny())?;
+    if let (Some(path), Some(w)) = (&args.wu, &wu) {
+        check_weight(path, "--wu", w, g.nu())?;
+    }
+    if let (Some(path), Some(w)) = (&args.wt, &wt) {
+        check_weight(path, "--wt", w, g.ny())?;
+    }
     let source = args.plant.display().to_string();
     let report = step
         .run(MixsynInputs {
@@ -339,6 +393,7 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
             "poles": complex_pairs(&poles), "stable": stable,
             "zeros": zeros.as_ref().map(complex_pairs),
             "h2_norm": h2, "hinf_norm": hinf.map(|h| h.0), "hinf_omega": hinf.map(|h| h.1),
+            "hinf_freq_hz": hinf.map(|h| h.1 / std::f64::consts::TAU),
         }))
     } else {
         say!(
@@ -350,8 +405,10 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
                 .map_or("continuous".to_string(), |t| format!("ts = {t} s")),
             poles_summary(&poles),
             hinf.map_or("infinite (unstable)".to_string(), |h| format!(
-                "{:.9} at {:.6} rad/s",
-                h.0, h.1
+                "{:.9} at {:.6} Hz ({:.6} rad/s)",
+                h.0,
+                h.1 / std::f64::consts::TAU,
+                h.1
             ))
         );
         Ok(())
@@ -420,7 +477,7 @@ pub fn run_budget(args: BudgetArgs) -> anyhow::Result<()> {
         (None, None) => 1e4,
     };
     if !(fmax.is_finite() && fmax > 0.0) || args.points < 2 {
-        return Err(bad("--fmax must be positive and --points at least 2"));
+        return Err(bad(format!("--fmax: must be positive, got {fmax}")));
     }
     let grid = crate::lti::linspace(0.0, fmax, args.points);
     let b = crate::synth::budget::error_budget(&sys, args.output_index, &grid)

@@ -23,6 +23,8 @@ enum ReferenceKind {
     Sine,
     Sweep,
     FiveLeaf,
+    /// A step of --amplitude from --offset at --step-time, with rise/settling time and overshoot.
+    Step,
 }
 
 #[derive(Debug, Args)]
@@ -60,9 +62,12 @@ pub struct SimulateArgs {
     /// Centre of the reference, um (mid-stroke of the embedded plant).
     #[arg(long, default_value_t = 7.0, allow_hyphen_values = true)]
     offset: f64,
-    /// Length of the reference, s (default: sine 20 periods and at least 0.2 s; sweep 2 s; five-leaf 1 s).
+    /// Length of the reference, s (default: sine 20 periods and at least 0.2 s; sweep 2 s; five-leaf 1 s; step 0.1 s).
     #[arg(long)]
     duration: Option<f64>,
+    /// Time of the step into the evaluated part, s (--reference step).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.01)]
+    step_time: f64,
     /// Scale of the five-leaved trajectory (Eq. 13 as printed spans +-50 um).
     #[arg(long, default_value_t = 0.1, allow_hyphen_values = true)]
     scale: f64,
@@ -180,6 +185,14 @@ fn build_reference(args: &SimulateArgs, ts: f64, preview: usize) -> anyhow::Resu
             &timing,
         )
         .map_err(excite_err),
+        ReferenceKind::Step => reference::step(
+            args.amplitude,
+            args.offset,
+            args.step_time,
+            args.duration.unwrap_or(0.1),
+            &timing,
+        )
+        .map_err(excite_err),
         ReferenceKind::FiveLeaf => reference::five_leaf(
             args.scale,
             args.offset,
@@ -237,7 +250,7 @@ fn controller(
         .map_err(|e| bad(format!("--controller: {e}")))?;
     let mut inputs = Vec::new();
     let feedback = match (stages.feedback, &args.ss.ss) {
-        (FeedbackKind::Pid, Some(_)) => {
+        (FeedbackKind::Pid | FeedbackKind::None, Some(_)) => {
             return Err(bad(format!(
                 "--controller {}: --ss gives a state-space controller; use --controller ss[+hc][+zpec]",
                 stages.name()
@@ -272,8 +285,22 @@ fn controller(
                 &mut inputs,
             )?)
         }
+        (FeedbackKind::None, None) => {
+            if stages.zpetc && args.zpetc.is_none() && args.closed_loop.is_none() {
+                return Err(bad(format!(
+                    "--controller {}: give the ZPETC of the loop it feeds (--zpetc or --closed-loop); the one fts identifies is for its PID loop",
+                    stages.name()
+                )));
+            }
+            None
+        }
         (FeedbackKind::Pid, None) => None,
     };
+    for (name, value) in [("--kp", args.kp), ("--ki", args.ki), ("--kd", args.kd)] {
+        if !value.is_finite() {
+            return Err(bad(format!("{name}: expected a finite gain, got {value}")));
+        }
+    }
     let pid = PidSpec {
         kp: args.kp,
         ki: args.ki,
@@ -328,9 +355,10 @@ fn controller(
     let file = experiment::build_controller(
         stages,
         ts,
-        match feedback {
-            Some(k) => Feedback::StateSpace(k),
-            None => Feedback::Pid(pid),
+        match (feedback, stages.feedback) {
+            (Some(k), _) => Feedback::StateSpace(k),
+            (None, FeedbackKind::None) => Feedback::None,
+            (None, _) => Feedback::Pid(pid),
         },
         inverse.as_ref(),
         zpetc.as_ref(),
@@ -448,8 +476,13 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     }
     let controller_name = file.stages_name();
     let evaluated_from_s = m.start as f64 * trace.ts;
+    let step = step_figures(&args, &trace, &reference);
     if args.json {
         return print_json(&json!({
+            "step": step.as_ref().map(|s| match s {
+                Ok(s) => json!(s),
+                Err(e) => json!({"no_step_info": e.to_string()}),
+            }),
             "controller": controller_name,
             "reference": reference.label,
             "max_abs_error": m.max_abs_error,
@@ -477,6 +510,24 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         m.max_error_percent,
         m.amplitude
     );
+    match &step {
+        Some(Ok(s)) => {
+            let i = &s.info;
+            let opt = |x: Option<f64>, none: &str| {
+                x.map_or(none.to_string(), |v| format!("{:.3} ms", v * 1e3))
+            };
+            say!(
+                "step: rise (10-90 %) {}, settling (2 %) {}, overshoot {:.2} %, undershoot {:.2} %, steady-state error {:.4} um",
+                opt(i.rise_time, "not reached"),
+                opt(i.settling_time, "not settled"),
+                i.overshoot,
+                i.undershoot,
+                s.steady_state_error
+            );
+        }
+        Some(Err(e)) => say!("step: no figures: {e}"),
+        None => {}
+    }
     if m.saturated_samples > 0 {
         say!(
             "warning: the command sat on its limits ({} .. {} V) for {} samples: the reference leaves the actuator's range or the loop overshoots",
@@ -489,6 +540,26 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         say!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// The step figures of a `--reference step` run (`None` for other references).
+fn step_figures(
+    args: &SimulateArgs,
+    trace: &closed_loop::Trace,
+    reference: &Reference,
+) -> Option<Result<reference::StepTracking, crate::lti::response::NoStepInfo>> {
+    if args.reference_file.is_some() || !matches!(args.reference, ReferenceKind::Step) {
+        return None;
+    }
+    let at = reference.evaluate_from + (args.step_time / trace.ts).round() as usize;
+    Some(reference::step_tracking(
+        &trace.measurement,
+        trace.ts,
+        at,
+        reference.evaluate_to,
+        args.offset,
+        args.amplitude,
+    ))
 }
 
 fn write_plot(

@@ -15,7 +15,7 @@
 //! noise). With coloured or output noise ARX is biased and the residual test
 //! says so ([`super::linear::whiteness`]).
 
-use super::linear::{Criteria, IdentError, PolyModel, check_signals};
+use super::linear::{Criteria, IdentError, PolyModel, check_excited, check_signals};
 use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
 
 /// Orders of a polynomial model: `na` poles, `nb` numerator coefficients,
@@ -40,6 +40,33 @@ impl Orders {
     pub fn params(&self) -> usize {
         // Saturating: absurd orders must reach the data-length check, not overflow.
         self.na.saturating_add(self.nb)
+    }
+
+    /// Refuses orders without input (`nb = 0`) or whose model could not be written as an `fts.tf/1`
+    /// file (at most [`crate::io::tf_json::MAX_COEFFS`] coefficients per
+    /// polynomial, a delay of at most [`crate::io::tf_json::MAX_DELAY`]):
+    /// checked before any work, since the regression's memory grows with
+    /// `(na + nb)^2`.
+    pub fn check(&self) -> Result<(), IdentError> {
+        use crate::io::tf_json::{MAX_COEFFS, MAX_DELAY};
+        if self.nb == 0 {
+            return Err(IdentError::BadStructure(
+                "nb must be at least 1 (a model without input)".into(),
+            ));
+        }
+        let too_big = [
+            ("na", self.na, MAX_COEFFS - 1),
+            ("nb", self.nb, MAX_COEFFS),
+            ("nk", self.nk, MAX_DELAY as usize),
+        ]
+        .into_iter()
+        .find(|&(_, v, max)| v > max);
+        match too_big {
+            Some((name, v, max)) => Err(IdentError::BadStructure(format!(
+                "{name} = {v} is beyond the largest accepted, {max}"
+            ))),
+            None => Ok(()),
+        }
     }
 
     /// Past samples each regression row needs: `max(na, nb + nk - 1)`.
@@ -118,11 +145,8 @@ pub(crate) fn singular_hint(u: &[f64], nb: usize) -> String {
 pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, IdentError> {
     check_signals(u, y)?;
     let o = params.orders;
-    if o.nb == 0 {
-        return Err(IdentError::BadStructure(
-            "nb must be at least 1 (a model without input)".into(),
-        ));
-    }
+    o.check()?;
+    check_excited(u)?;
     let n = y.len();
     let d = o.params();
     let start = params.start.unwrap_or(0).max(o.memory());
@@ -261,9 +285,24 @@ mod tests {
     fn errors() {
         let u = vec![1.0; 30];
         let y: Vec<f64> = (0..30).map(|k| k as f64).collect();
-        let e = arx(&u, &y, &ArxParams::new(Orders::new(2, 2, 1))).unwrap_err();
-        assert!(matches!(e, IdentError::Singular { .. }), "{e}");
-        assert!(e.to_string().contains("input is constant"), "{e}");
+        // A constant input is refused whatever the orders: with nb = 1 the
+        // regression is full rank (the input acts as an offset) and would
+        // otherwise return a meaningless model.
+        for nb in [1, 2] {
+            let e = arx(&u, &y, &ArxParams::new(Orders::new(2, nb, 1))).unwrap_err();
+            assert!(matches!(e, IdentError::ConstantInput { .. }), "{e}");
+            assert!(e.to_string().contains("input is constant"), "{e}");
+        }
+        let jittery: Vec<f64> = (0..30).map(|k| ((k * 7919) % 13) as f64).collect();
+        for orders in [
+            Orders::new(512, 1, 1),
+            Orders::new(1, 513, 1),
+            Orders::new(1, 1, 1_000_001),
+        ] {
+            let e = arx(&jittery, &y, &ArxParams::new(orders)).unwrap_err();
+            assert!(matches!(e, IdentError::BadStructure(_)), "{e}");
+            assert!(e.to_string().contains("beyond the largest accepted"), "{e}");
+        }
         let e = arx(&y[..5], &y[..5], &ArxParams::new(Orders::new(2, 2, 1))).unwrap_err();
         assert!(matches!(e, IdentError::TooShort { .. }), "{e}");
         let mut bad = y.clone();

@@ -2,7 +2,7 @@
 //! splits (MATLAB `detrend`, `data(1:n)`).
 
 /// Trend removed before identification.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Detrend {
     /// Keep the data as they are (default).

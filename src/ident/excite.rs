@@ -54,6 +54,10 @@ pub fn sample_count(duration: f64, ts: f64) -> Result<usize, ExciteError> {
 /// is an error naming its option, not an out-of-memory abort.
 pub const MAX_SAMPLES: f64 = 5e7;
 
+/// The most sine evaluations (lines times samples per period) one multisine
+/// period may cost.
+pub const MAX_MULTISINE_WORK: f64 = 1e9;
+
 /// Refuses a signal of `n` samples beyond [`MAX_SAMPLES`], blaming `field`.
 fn check_total(field: &'static str, n: f64) -> Result<(), ExciteError> {
     check(
@@ -122,7 +126,7 @@ pub fn triangle(p: &TriangleParams) -> Result<Vec<f64>, ExciteError> {
     check(
         p.freq_hz.is_finite() && p.freq_hz > 0.0,
         "freq",
-        "must be a positive frequency in Hz",
+        format!("must be a positive frequency in Hz, got {}", p.freq_hz),
     )?;
     check(p.cycles >= 1, "cycles", "at least one period per amplitude")?;
     check(p.offset.is_finite(), "offset", "must be finite")?;
@@ -184,10 +188,14 @@ pub struct SineParams {
 pub fn sine(p: &SineParams) -> Result<Vec<f64>, ExciteError> {
     check_ts(p.ts)?;
     check(p.amplitude.is_finite(), "amplitude", "must be finite")?;
+    let nyquist = 0.5 / p.ts;
     check(
-        p.freq_hz.is_finite() && p.freq_hz >= 0.0,
+        p.freq_hz.is_finite() && p.freq_hz >= 0.0 && p.freq_hz <= nyquist,
         "freq",
-        "must be a non-negative frequency in Hz",
+        format!(
+            "must lie in [0, {nyquist}] Hz (Nyquist at this sample time), got {}",
+            p.freq_hz
+        ),
     )?;
     check(
         p.offset.is_finite() && p.phase.is_finite(),
@@ -233,14 +241,20 @@ pub fn sweep(p: &SweepParams) -> Result<Vec<f64>, ExciteError> {
     check_ts(p.ts)?;
     let nyquist = 0.5 / p.ts;
     check(
-        p.f0.is_finite() && p.f0 >= 0.0,
+        p.f0.is_finite() && p.f0 >= 0.0 && p.f0 <= nyquist,
         "f0",
-        "must be a non-negative frequency in Hz",
+        format!(
+            "must lie in [0, {nyquist}] Hz (Nyquist at this sample time), got {}",
+            p.f0
+        ),
     )?;
     check(
         p.f1.is_finite() && p.f1 > 0.0 && p.f1 <= nyquist,
         "f1",
-        format!("must lie in (0, {nyquist}] Hz (Nyquist at this sample time)"),
+        format!(
+            "must lie in (0, {nyquist}] Hz (Nyquist at this sample time), got {}",
+            p.f1
+        ),
     )?;
     check(
         p.amplitude.is_finite() && p.offset.is_finite(),
@@ -322,6 +336,15 @@ pub fn multisine(p: &MultisineParams) -> Result<(Vec<f64>, Vec<f64>), ExciteErro
     lines.sort_unstable();
     let per_period = samples(p.period, p.ts)?;
     check_total("periods", per_period as f64 * p.periods as f64)?;
+    // One sine per line and sample of a period: bounded like a signal's length.
+    check(
+        per_period as f64 * lines.len() as f64 <= MAX_MULTISINE_WORK,
+        "freqs",
+        format!(
+            "{} lines over {per_period} samples per period is beyond {MAX_MULTISINE_WORK:e} sine evaluations; use fewer lines or a shorter period",
+            lines.len()
+        ),
+    )?;
     let big_k = lines.len() as f64;
     let one_period: Vec<f64> = (0..per_period)
         .map(|n| {
@@ -414,6 +437,47 @@ mod tests {
         })
         .unwrap();
         assert_eq!(b, vec![0.0, 0.5, 1.0, 0.5, 0.0, -0.5, -1.0, -0.5, 0.0]);
+    }
+
+    #[test]
+    fn frequencies_beyond_nyquist_and_costly_multisines_are_refused() {
+        let sine_at = |freq_hz| {
+            sine(&SineParams {
+                amplitude: 1.0,
+                freq_hz,
+                phase: 0.0,
+                offset: 0.0,
+                duration: 0.01,
+                ts: 1e-4,
+            })
+        };
+        assert!(sine_at(5000.0).is_ok());
+        let e = sine_at(6000.0).unwrap_err();
+        assert_eq!(e.field, "freq");
+        assert!(e.message.contains("got 6000"), "{}", e.message);
+        let e = sweep(&SweepParams {
+            f0: 6000.0,
+            f1: 1000.0,
+            duration: 0.01,
+            amplitude: 1.0,
+            offset: 0.0,
+            ts: 1e-4,
+            spacing: SweepSpacing::Linear,
+        })
+        .unwrap_err();
+        assert_eq!(e.field, "f0");
+        // 5000 lines over 1e6 samples per period: 5e9 sine evaluations.
+        let e = multisine(&MultisineParams {
+            freqs_hz: (1..=5000).map(|k| 0.5 * k as f64).collect(),
+            period: 100.0,
+            periods: 1,
+            amplitude: 1.0,
+            offset: 0.0,
+            ts: 1e-4,
+        })
+        .unwrap_err();
+        assert_eq!(e.field, "freqs");
+        assert!(e.message.contains("sine evaluations"), "{}", e.message);
     }
 
     #[test]

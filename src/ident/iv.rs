@@ -190,6 +190,7 @@ fn model_from(theta: &[f64], o: Orders, ts: f64) -> PolyModel {
 
 /// Estimates `z^-nk B/A` by iterated (refined) instrumental variables.
 pub fn iv(u: &[f64], y: &[f64], params: &IvParams) -> Result<IvEstimate, IdentError> {
+    // arx() below refuses a constant input, after the orders.
     check_signals(u, y)?;
     let o = params.orders;
     let mut ap = ArxParams::new(o);

@@ -61,6 +61,17 @@ pub enum IdentError {
         /// Output length.
         output: usize,
     },
+    /// The input never changes: no dynamics are excited, so `B` cannot be
+    /// told apart from a constant offset, whatever orders are asked for.
+    #[error(
+        "the input is constant ({value}) over all {samples} samples: it excites no dynamics, so no model can be identified from it; use a sweep, multisine or random input"
+    )]
+    ConstantInput {
+        /// The input's only value.
+        value: f64,
+        /// Samples in the record.
+        samples: usize,
+    },
     /// The estimate could not be turned into a transfer function, or an
     /// iterative method broke down.
     #[error("numerical failure: {0}")]
@@ -94,6 +105,21 @@ pub fn check_signals(u: &[f64], y: &[f64]) -> Result<(), IdentError> {
         });
     }
     Ok(())
+}
+
+/// Refuses an estimation input that never changes. Some orders (`nb = 1`)
+/// would still give a full-rank regression, the constant input acting as an
+/// offset term, and return a model that means nothing.
+pub fn check_excited(u: &[f64]) -> Result<(), IdentError> {
+    match u.first() {
+        Some(&value) if u.len() > 1 && u.iter().all(|&v| v == value) => {
+            Err(IdentError::ConstantInput {
+                value,
+                samples: u.len(),
+            })
+        }
+        _ => Ok(()),
+    }
 }
 
 /// A SISO polynomial model `y(k) = z^-nk B(z^-1)/A(z^-1) u(k)`, the form

@@ -23,7 +23,9 @@
 
 use super::arx::{ArxParams, Orders, arx};
 use super::iv::{IvParams, iv};
-use super::linear::{Criteria, IdentError, PolyModel, check_signals, filter_ab, stabilize};
+use super::linear::{
+    Criteria, IdentError, PolyModel, check_excited, check_signals, filter_ab, stabilize,
+};
 use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
 
 /// Where the iteration starts.
@@ -195,6 +197,8 @@ pub fn oe(
 ) -> Result<OeEstimate, IdentError> {
     check_signals(u, y)?;
     let o = params.orders;
+    o.check()?;
+    check_excited(u)?;
     let n = y.len();
     let d = o.params();
     let nic = if params.estimate_initial {
@@ -547,4 +551,57 @@ mod tests {
         assert!((m_oe - a[1]).abs() < 4.0 * s_oe / (runs as f64).sqrt());
         assert!((m_iv - a[1]).abs() < 4.0 * s_iv / (runs as f64).sqrt());
     }
+}
+
+/// The outcome of [`refine_arx`]: the output-error model tried from an ARX
+/// estimate, and whether it replaces it.
+#[derive(Debug, Clone)]
+pub struct OeRefinement {
+    /// The OE estimate, when the iteration ran (`None`: it failed).
+    pub oe: Option<OeEstimate>,
+    /// Its simulation and prediction fits on the record.
+    pub oe_fit: Option<super::linear::Fits>,
+    /// The ARX model's fits on the record.
+    pub arx_fit: super::linear::Fits,
+    /// Whether the OE model is kept instead of the ARX model.
+    pub chosen: bool,
+    /// Which model was kept and why, in words.
+    pub reason: String,
+}
+
+/// ARX, then an output-error refinement of the same orders kept only when
+/// it is stable, realisable and simulates the record better than the ARX
+/// model: what `fts demo` and a pipeline `arx` step with `refine_oe` do.
+pub fn refine_arx(arx_model: &PolyModel, u: &[f64], y: &[f64], params: &OeParams) -> OeRefinement {
+    use super::linear::{NoiseModel, fits};
+    let arx_fit = fits(arx_model, NoiseModel::Arx, u, y);
+    let mut out = OeRefinement {
+        oe: None,
+        oe_fit: None,
+        arx_fit,
+        chosen: false,
+        reason: String::from("ARX kept: the output-error refinement did not converge"),
+    };
+    let Ok(o) = oe(u, y, params, &mut |_| {}) else {
+        return out;
+    };
+    let f = fits(&o.model, NoiseModel::OutputError, u, y);
+    out.reason = match o.model.tf() {
+        Err(e) => format!("ARX kept: the OE model is unusable ({e})"),
+        Ok(_) if !o.model.is_stable() => String::from("ARX kept: the OE model is unstable"),
+        Ok(_) if f.simulation_percent > arx_fit.simulation_percent => {
+            out.chosen = true;
+            format!(
+                "OE chosen: simulation fit {:.2} % against ARX {:.2} %",
+                f.simulation_percent, arx_fit.simulation_percent
+            )
+        }
+        Ok(_) => format!(
+            "ARX kept: OE did not improve the simulation fit ({:.2} % against {:.2} %)",
+            f.simulation_percent, arx_fit.simulation_percent
+        ),
+    };
+    out.oe = Some(o);
+    out.oe_fit = Some(f);
+    out
 }

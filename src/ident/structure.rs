@@ -12,7 +12,7 @@
 //! scored on fewer, different samples.
 
 use super::arx::{ArxParams, Orders, arx, arx_residuals};
-use super::linear::{Criteria, IdentError, NoiseModel, check_signals, fits};
+use super::linear::{Criteria, IdentError, NoiseModel, check_excited, check_signals, fits};
 
 /// The grid searched.
 #[derive(Debug, Clone)]
@@ -124,6 +124,9 @@ fn argmin(rows: &[StructRow], key: impl Fn(&StructRow) -> f64) -> Orders {
         .unwrap_or(Orders::new(0, 1, 0))
 }
 
+/// The most candidates one structure search fits (the default grid has 1100).
+pub const MAX_CANDIDATES: usize = 4096;
+
 /// Searches the grid. `val` is the validation record, if any.
 pub fn arx_struct(
     u: &[f64],
@@ -166,7 +169,24 @@ pub fn arx_struct_observed(
         })
         .max()
         .unwrap_or(0);
-    let total = params.na.len() * params.nb.len() * params.nk.len();
+    let total = params
+        .na
+        .len()
+        .saturating_mul(params.nb.len())
+        .saturating_mul(params.nk.len());
+    if total > MAX_CANDIDATES {
+        return Err(IdentError::BadStructure(format!(
+            "the grid has {total} candidates (na x nb x nk); at most {MAX_CANDIDATES} are searched"
+        )));
+    }
+    for &na in &params.na {
+        for &nb in &params.nb {
+            for &nk in &params.nk {
+                Orders::new(na, nb, nk).check()?;
+            }
+        }
+    }
+    check_excited(u)?;
     let mut done = 0;
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
@@ -267,6 +287,24 @@ mod tests {
     use super::*;
     use crate::ident::linear::filter_ab;
     use crate::ident::testutil::noise;
+
+    #[test]
+    fn constant_input_and_huge_grids_are_refused() {
+        let u = vec![1.5; 200];
+        let y = noise(200, 3);
+        let params = StructParams::default();
+        let e = arx_struct(&u, &y, None, &params).unwrap_err();
+        assert!(matches!(e, IdentError::ConstantInput { .. }), "{e}");
+        let u = noise(200, 4);
+        let big = StructParams {
+            na: (1..=20).collect(),
+            nb: (1..=20).collect(),
+            nk: (0..=20).collect(),
+            ..StructParams::default()
+        };
+        let e = arx_struct(&u, &y, None, &big).unwrap_err();
+        assert!(e.to_string().contains("8400 candidates"), "{e}");
+    }
 
     #[test]
     fn finds_the_true_structure_and_delay() {

@@ -14,8 +14,8 @@
 use super::InputError;
 use super::tf_json::{check_format, get_f64_array, get_str};
 use crate::runtime::{
-    FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeSpec, SsAntiWindup, StateSpaceSpec,
-    ZpetcSpec,
+    FeedbackSpec, HysteresisSpec, PidFilteredSpec, PidSpec, PlayForm, RuntimeSpec, SsAntiWindup,
+    StateSpaceSpec, ZpetcSpec,
 };
 use serde_json::{Map, Value, json};
 use std::fmt::Write;
@@ -187,11 +187,87 @@ impl StateSpaceBlock {
     }
 }
 
-/// The feedback stage of a controller file: exactly one.
+/// A PID given in the continuous parallel form
+/// `C(s) = Kp + Ki/s + Kd s` or, with a derivative filter,
+/// `Kp + Ki/s + Kd N s/(s + N)` (MATLAB `pid(Kp, Ki, Kd, 1/N)`), run by the
+/// loop after backward-Euler discretisation at the file's sample time,
+/// derivative on the measurement (docs/formats.md "PID forms").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParallelPid {
+    /// Proportional gain.
+    pub kp: f64,
+    /// Integral gain, 1/s.
+    pub ki: f64,
+    /// Derivative gain, s.
+    pub kd: f64,
+    /// Derivative filter bandwidth `N`, rad/s; `None`: unfiltered.
+    pub n: Option<f64>,
+    /// Lowest command.
+    pub output_min: f64,
+    /// Highest command.
+    pub output_max: f64,
+}
+
+/// The name of the discretisation [`ParallelPid::discretise`] uses.
+pub const PARALLEL_PID_DISCRETISATION: &str = "backward-euler";
+
+impl ParallelPid {
+    /// Checks the gains where they are named (`kp`, `ki`, `kd`, `n`).
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        for (name, v) in [("kp", self.kp), ("ki", self.ki), ("kd", self.kd)] {
+            if !v.is_finite() {
+                return Err((name, format!("expected a finite gain, got {v}")));
+            }
+        }
+        if let Some(n) = self.n
+            && !(n.is_finite() && n > 0.0)
+        {
+            return Err((
+                "n",
+                format!("expected a positive derivative filter bandwidth in rad/s, got {n}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The loop's coefficients at sample time `ts` by backward Euler,
+    /// `s = (1 - z^-1)/Ts`: `ki Ts` per sample; without a filter the [Li21]
+    /// form with `kd = Kd/Ts`; with one, `pole = 1/(1 + N Ts)` and
+    /// `kd = Kd N pole` (docs/formats.md "PID forms").
+    pub fn discretise(&self, ts: f64) -> FeedbackSpec<'static> {
+        match self.n {
+            None => FeedbackSpec::Pid(PidSpec {
+                kp: self.kp,
+                ki: self.ki * ts,
+                kd: self.kd / ts,
+                output_min: self.output_min,
+                output_max: self.output_max,
+            }),
+            Some(n) => {
+                let pole = 1.0 / (1.0 + n * ts);
+                FeedbackSpec::PidFiltered(PidFilteredSpec {
+                    kp: self.kp,
+                    ki: self.ki * ts,
+                    kd: self.kd * n * pole,
+                    derivative_pole: pole,
+                    output_min: self.output_min,
+                    output_max: self.output_max,
+                })
+            }
+        }
+    }
+}
+
+/// The feedback stage of a controller file: at most one controller.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Feedback {
-    /// The [Li21] PID.
+    /// None: a feedforward-only controller (`no_feedback` block); the
+    /// command is the last block's output.
+    None,
+    /// The [Li21] PID, gains per sample.
     Pid(PidSpec),
+    /// A PID given in continuous parallel form, discretised.
+    ParallelPid(ParallelPid),
     /// A discrete state-space controller.
     StateSpace(StateSpaceBlock),
 }
@@ -345,7 +421,9 @@ impl ControllerFile {
                 dead_zone_weights: &h.dead_zone_weights,
             }),
             feedback: match &self.feedback {
+                Feedback::None => FeedbackSpec::None,
                 Feedback::Pid(p) => FeedbackSpec::Pid(*p),
+                Feedback::ParallelPid(p) => p.discretise(self.ts),
                 Feedback::StateSpace(k) => FeedbackSpec::StateSpace(StateSpaceSpec {
                     a: &k.a,
                     b: &k.b,
@@ -365,28 +443,30 @@ impl ControllerFile {
         self.runtime_spec().feedback.limits()
     }
 
-    /// The PID, when the feedback controller is one.
+    /// The per-sample [Li21] PID, when the feedback controller is one.
     pub fn pid(&self) -> Option<&PidSpec> {
         match &self.feedback {
             Feedback::Pid(p) => Some(p),
-            Feedback::StateSpace(_) => None,
+            _ => None,
         }
     }
 
     /// The state-space controller, when the feedback controller is one.
     pub fn state_space(&self) -> Option<&StateSpaceBlock> {
         match &self.feedback {
-            Feedback::Pid(_) => None,
             Feedback::StateSpace(k) => Some(k),
+            _ => None,
         }
     }
 
     /// The stages in the `--controller` grammar.
     pub fn stages(&self) -> crate::synth::composite::Stages {
+        use crate::synth::composite::FeedbackKind;
         crate::synth::composite::Stages {
             feedback: match self.feedback {
-                Feedback::Pid(_) => crate::synth::composite::FeedbackKind::Pid,
-                Feedback::StateSpace(_) => crate::synth::composite::FeedbackKind::StateSpace,
+                Feedback::None => FeedbackKind::None,
+                Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
+                Feedback::StateSpace(_) => FeedbackKind::StateSpace,
             },
             hysteresis_compensation: self.hysteresis.is_some(),
             zpetc: self.zpetc.is_some(),
@@ -413,7 +493,8 @@ impl ControllerFile {
             v.push("hysteresis_inverse");
         }
         v.push(match self.feedback {
-            Feedback::Pid(_) => "pid",
+            Feedback::None => "no_feedback",
+            Feedback::Pid(_) | Feedback::ParallelPid(_) => "pid",
             Feedback::StateSpace(_) => "state_space",
         });
         v
@@ -481,6 +562,32 @@ impl ControllerFile {
             anti_windup: &'static str,
         }
         #[derive(serde::Serialize)]
+        struct ParDoc {
+            r#type: &'static str,
+            form: &'static str,
+            kp: f64,
+            ki: f64,
+            kd: f64,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            derivative_pole: Option<f64>,
+            output_min: f64,
+            output_max: f64,
+            anti_windup: &'static str,
+            continuous: ContDoc,
+        }
+        #[derive(serde::Serialize)]
+        struct ContDoc {
+            kp: f64,
+            ki: f64,
+            kd: f64,
+            n: Option<f64>,
+            discretisation: &'static str,
+        }
+        #[derive(serde::Serialize)]
+        struct NoneDoc {
+            r#type: &'static str,
+        }
+        #[derive(serde::Serialize)]
         struct SDoc<'a> {
             r#type: &'static str,
             ts: f64,
@@ -528,6 +635,36 @@ impl ControllerFile {
             );
         }
         blocks.push(match &self.feedback {
+            Feedback::None => serde_json::to_value(NoneDoc {
+                r#type: "no_feedback",
+            })
+            .expect("serialisable"),
+            Feedback::ParallelPid(p) => {
+                let (kp, ki, kd, pole) = match p.discretise(self.ts) {
+                    FeedbackSpec::PidFiltered(d) => (d.kp, d.ki, d.kd, Some(d.derivative_pole)),
+                    FeedbackSpec::Pid(d) => (d.kp, d.ki, d.kd, None),
+                    _ => unreachable!("a PID discretises to a PID"),
+                };
+                serde_json::to_value(ParDoc {
+                    r#type: "pid",
+                    form: "parallel",
+                    kp,
+                    ki,
+                    kd,
+                    derivative_pole: pole,
+                    output_min: p.output_min,
+                    output_max: p.output_max,
+                    anti_windup: "conditional-integration",
+                    continuous: ContDoc {
+                        kp: p.kp,
+                        ki: p.ki,
+                        kd: p.kd,
+                        n: p.n,
+                        discretisation: PARALLEL_PID_DISCRETISATION,
+                    },
+                })
+                .expect("serialisable")
+            }
             Feedback::Pid(p) => serde_json::to_value(PDoc {
                 r#type: "pid",
                 form: "li21",
@@ -673,7 +810,14 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
         Some(Value::Array(b)) => b,
         _ => return Err(InputError::new(source, "expected an array of blocks").in_field("blocks")),
     };
-    let order = ["zpetc", "hysteresis_inverse", "pid", "state_space"];
+    let order = [
+        "zpetc",
+        "hysteresis_inverse",
+        "pid",
+        "state_space",
+        "no_feedback",
+    ];
+    let is_feedback = |k: &str| k == "pid" || k == "state_space" || k == "no_feedback";
     let mut last_rank = None;
     let mut file = ControllerFile {
         ts,
@@ -697,17 +841,17 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
             .ok_or_else(|| InputError::new(source, "expected an object").in_field(field.clone()))?;
         let kind = get_str(b, source, "type").map_err(|e| e.in_field(format!("{field}.type")))?;
         if let Some(first) = feedback_seen
-            && (kind == "pid" || kind == "state_space")
+            && is_feedback(kind)
         {
             return Err(InputError::new(
                 source,
                 format!(
-                    "a second feedback controller {kind:?} after {first:?}: exactly one of \"pid\" and \"state_space\" is allowed"
+                    "a second feedback block {kind:?} after {first:?}: exactly one of \"pid\", \"state_space\" and \"no_feedback\" is allowed"
                 ),
             )
             .in_field(format!("{field}.type")));
         }
-        // pid and state_space are alternatives at the same place in the chain.
+        // pid, state_space and no_feedback are alternatives at the same place in the chain.
         let rank = order
             .iter()
             .position(|k| *k == kind)
@@ -789,23 +933,12 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
                 file.feedback = Feedback::StateSpace(parse_state_space(b, source, &field, ts)?);
                 feedback_seen = Some("state_space");
             }
+            "no_feedback" => {
+                file.feedback = Feedback::None;
+                feedback_seen = Some("no_feedback");
+            }
             _ => {
-                if let Some(form) = b.get("form").and_then(Value::as_str)
-                    && form != "li21"
-                {
-                    return Err(InputError::new(
-                        source,
-                        format!("unknown PID form {form:?}; expected \"li21\""),
-                    )
-                    .in_field(format!("{field}.form")));
-                }
-                file.feedback = Feedback::Pid(PidSpec {
-                    kp: num(b, source, "kp", &field)?,
-                    ki: num(b, source, "ki", &field)?,
-                    kd: num(b, source, "kd", &field)?,
-                    output_min: num(b, source, "output_min", &field)?,
-                    output_max: num(b, source, "output_max", &field)?,
-                });
+                file.feedback = parse_pid(b, source, &field, ts)?;
                 feedback_seen = Some("pid");
             }
         }
@@ -813,7 +946,14 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
     if feedback_seen.is_none() {
         return Err(InputError::new(
             source,
-            "missing block \"pid\" or \"state_space\": every controller ends with one feedback controller",
+            "missing block \"pid\" or \"state_space\" (or \"no_feedback\" for a feedforward-only controller): every controller ends with its feedback stage",
+        )
+        .in_field("blocks"));
+    }
+    if file.feedback == Feedback::None && file.zpetc.is_none() && file.hysteresis.is_none() {
+        return Err(InputError::new(
+            source,
+            "a \"no_feedback\" controller needs a feedforward block (\"zpetc\" or \"hysteresis_inverse\")",
         )
         .in_field("blocks"));
     }
@@ -849,6 +989,106 @@ pub fn parse_controller(text: &str, source: &str) -> Result<ControllerFile, Inpu
     }
     file.validate(source)?;
     Ok(file)
+}
+
+/// A `pid` block: `form` `li21` (gains per sample; the default) or
+/// `parallel` (continuous gains under `continuous`, the per-sample
+/// coefficients beside them checked against their discretisation).
+fn parse_pid(
+    b: &Map<String, Value>,
+    source: &str,
+    field: &str,
+    ts: f64,
+) -> Result<Feedback, InputError> {
+    let output_min = num(b, source, "output_min", field)?;
+    let output_max = num(b, source, "output_max", field)?;
+    match b.get("form").and_then(Value::as_str).unwrap_or("li21") {
+        "li21" => Ok(Feedback::Pid(PidSpec {
+            kp: num(b, source, "kp", field)?,
+            ki: num(b, source, "ki", field)?,
+            kd: num(b, source, "kd", field)?,
+            output_min,
+            output_max,
+        })),
+        "parallel" => {
+            let cont_field = format!("{field}.continuous");
+            let cont = b
+                .get("continuous")
+                .and_then(Value::as_object)
+                .ok_or_else(|| {
+                    InputError::new(
+                        source,
+                        "missing: a parallel-form PID records its continuous gains",
+                    )
+                    .in_field(cont_field.clone())
+                })?;
+            let n = match cont.get("n") {
+                None | Some(Value::Null) => None,
+                Some(_) => Some(num(cont, source, "n", &cont_field)?),
+            };
+            if let Some(d) = cont.get("discretisation")
+                && d.as_str() != Some(PARALLEL_PID_DISCRETISATION)
+            {
+                return Err(InputError::new(
+                    source,
+                    format!("expected \"{PARALLEL_PID_DISCRETISATION}\", found {d}"),
+                )
+                .in_field(format!("{cont_field}.discretisation")));
+            }
+            let pid = ParallelPid {
+                kp: num(cont, source, "kp", &cont_field)?,
+                ki: num(cont, source, "ki", &cont_field)?,
+                kd: num(cont, source, "kd", &cont_field)?,
+                n,
+                output_min,
+                output_max,
+            };
+            pid.validate().map_err(|(k, m)| {
+                InputError::new(source, m).in_field(format!("{cont_field}.{k}"))
+            })?;
+            check_parallel_coefficients(b, source, field, &pid, ts)?;
+            Ok(Feedback::ParallelPid(pid))
+        }
+        other => Err(InputError::new(
+            source,
+            format!("unknown PID form {other:?}; expected \"li21\" or \"parallel\""),
+        )
+        .in_field(format!("{field}.form"))),
+    }
+}
+
+/// The per-sample coefficients written beside a parallel PID's continuous
+/// gains must be their discretisation (to 1e-12 relative): a hand edit of
+/// one and not the other is refused rather than guessed at.
+fn check_parallel_coefficients(
+    b: &Map<String, Value>,
+    source: &str,
+    field: &str,
+    pid: &ParallelPid,
+    ts: f64,
+) -> Result<(), InputError> {
+    let (kp, ki, kd, pole) = match pid.discretise(ts) {
+        FeedbackSpec::PidFiltered(d) => (d.kp, d.ki, d.kd, Some(d.derivative_pole)),
+        FeedbackSpec::Pid(d) => (d.kp, d.ki, d.kd, None),
+        _ => unreachable!("a PID discretises to a PID"),
+    };
+    let mut expected = vec![("kp", kp), ("ki", ki), ("kd", kd)];
+    if let Some(p) = pole {
+        expected.push(("derivative_pole", p));
+    }
+    for (key, want) in expected {
+        let got = num(b, source, key, field)?;
+        if (got - want).abs() > 1e-12 * want.abs().max(1e-300) {
+            return Err(InputError::new(
+                source,
+                format!(
+                    "{got} is not the {PARALLEL_PID_DISCRETISATION} discretisation of the continuous gains at ts = {ts} s ({want}); edit the continuous gains and re-emit"
+                ),
+            )
+            .in_field(format!("{field}.{key}")));
+        }
+    }
+    Ok(())
 }
 
 /// A matrix as an array of rows; every entry finite; field names like
@@ -1074,10 +1314,48 @@ pub fn to_c_header(file: &ControllerFile) -> String {
         out.push_str("\n#define FTS_HAS_HYSTERESIS 0\n");
     }
     match &file.feedback {
+        Feedback::None => {
+            out.push_str("\n/* No feedback controller: the command is the last block's output (u_ff with a hysteresis block, else r_f), unclamped. */\n#define FTS_HAS_FEEDBACK 0\n#define FTS_HAS_PID 0\n#define FTS_HAS_STATE_SPACE 0\n");
+        }
+        Feedback::ParallelPid(p) => {
+            let (spec, pole) = match p.discretise(file.ts) {
+                FeedbackSpec::PidFiltered(d) => (
+                    PidSpec {
+                        kp: d.kp,
+                        ki: d.ki,
+                        kd: d.kd,
+                        output_min: d.output_min,
+                        output_max: d.output_max,
+                    },
+                    d.derivative_pole,
+                ),
+                FeedbackSpec::Pid(d) => (d, 0.0),
+                _ => unreachable!("a PID discretises to a PID"),
+            };
+            let _ = writeln!(
+                out,
+                "\n/* PID, continuous parallel form C(s) = KP + KI/s + KD N s/(s + N) (N absent: KD s), {PARALLEL_PID_DISCRETISATION} at FTS_TS, derivative on the measurement:\n *   d(k) = DERIVATIVE_POLE d(k-1) + KD (x(k) - x(k-1)); u = u_ff + KP e + KI sum(e) - d(k), clamped,\n *   conditional-integration anti-windup. FTS_PID_KP/KI/KD/DERIVATIVE_POLE are the per-sample coefficients. */\n#define FTS_HAS_FEEDBACK 1\n#define FTS_HAS_PID 1\n#define FTS_HAS_STATE_SPACE 0\n#define FTS_PID_FORM_PARALLEL 1\n#define FTS_PID_FILTERED {}",
+                u8::from(p.n.is_some())
+            );
+            for (name, v) in [
+                ("FTS_PID_CONTINUOUS_KP", p.kp),
+                ("FTS_PID_CONTINUOUS_KI", p.ki),
+                ("FTS_PID_CONTINUOUS_KD", p.kd),
+                ("FTS_PID_CONTINUOUS_N", p.n.unwrap_or(0.0)),
+                ("FTS_PID_KP", spec.kp),
+                ("FTS_PID_KI", spec.ki),
+                ("FTS_PID_KD", spec.kd),
+                ("FTS_PID_DERIVATIVE_POLE", pole),
+                ("FTS_PID_OUTPUT_MIN", spec.output_min),
+                ("FTS_PID_OUTPUT_MAX", spec.output_max),
+            ] {
+                let _ = writeln!(out, "#define {name} {}", c_double(v));
+            }
+        }
         Feedback::Pid(p) => {
             let _ = writeln!(
                 out,
-                "\n/* PID ([Li21] Eq. 5): u = u_ff + KP e + KI sum(e) - KD (x(k) - x(k-1)), clamped, conditional-integration anti-windup. */\n#define FTS_HAS_PID 1\n#define FTS_HAS_STATE_SPACE 0"
+                "\n/* PID ([Li21] Eq. 5): u = u_ff + KP e + KI sum(e) - KD (x(k) - x(k-1)), clamped, conditional-integration anti-windup. */\n#define FTS_HAS_FEEDBACK 1\n#define FTS_HAS_PID 1\n#define FTS_HAS_STATE_SPACE 0\n#define FTS_PID_FORM_PARALLEL 0\n#define FTS_PID_FILTERED 0\n#define FTS_PID_DERIVATIVE_POLE 0e0"
             );
             for (name, v) in [
                 ("FTS_PID_KP", p.kp),
@@ -1096,7 +1374,7 @@ pub fn to_c_header(file: &ControllerFile) -> String {
                 .replace(['"', '\\', '\n'], " ");
             let _ = writeln!(
                 out,
-                "\n/* State-space feedback controller ({}), e = r_f - x:\n *   v = C x + D e (states before the update); x <- A x + B e;\n *   u = clamp(u_ff + v, OUTPUT_MIN, OUTPUT_MAX).\n * A is FTS_SS_NX x FTS_SS_NX row-major, B FTS_SS_NX x 1, C 1 x FTS_SS_NX.\n * Anti-windup {}: {} */\n#define FTS_HAS_PID 0\n#define FTS_HAS_STATE_SPACE 1\n#define FTS_SS_NX {}\n#define FTS_SS_CONDITIONAL_UPDATE {}",
+                "\n/* State-space feedback controller ({}), e = r_f - x:\n *   v = C x + D e (states before the update); x <- A x + B e;\n *   u = clamp(u_ff + v, OUTPUT_MIN, OUTPUT_MAX).\n * A is FTS_SS_NX x FTS_SS_NX row-major, B FTS_SS_NX x 1, C 1 x FTS_SS_NX.\n * Anti-windup {}: {} */\n#define FTS_HAS_FEEDBACK 1\n#define FTS_HAS_PID 0\n#define FTS_HAS_STATE_SPACE 1\n#define FTS_SS_NX {}\n#define FTS_SS_CONDITIONAL_UPDATE {}",
                 label,
                 anti_windup_name(k.anti_windup),
                 match k.anti_windup {
@@ -1130,6 +1408,100 @@ pub fn to_c_header(file: &ControllerFile) -> String {
     }
     out.push_str("\n#endif /* FTS_CONTROLLER_H */\n");
     out
+}
+
+/// `fts_runtime.h`, the C99 runtime's interface (docs/formats.md "C runtime").
+pub const C_RUNTIME_H: &str = include_str!("../../crates/fts-runtime/c/fts_runtime.h");
+/// `fts_runtime.c`, the C99 twin of the `fts-runtime` step.
+pub const C_RUNTIME_C: &str = include_str!("../../crates/fts-runtime/c/fts_runtime.c");
+
+/// The three files of `fts emit --format c`, `(name, text)`:
+/// `fts_controller.h` (the numbers of [`to_c_header`] plus
+/// `fts_controller_init`, which loads them into an `fts_controller`),
+/// `fts_runtime.h` and `fts_runtime.c` (the step).
+pub fn to_c_files(file: &ControllerFile) -> [(&'static str, String); 3] {
+    let header = to_c_header(file);
+    let body = header
+        .strip_suffix("\n#endif /* FTS_CONTROLLER_H */\n")
+        .expect("to_c_header ends with its guard");
+    let mut out = String::from(body);
+    out.push_str(&c_loader(file));
+    out.push_str("\n#endif /* FTS_CONTROLLER_H */\n");
+    [
+        ("fts_controller.h", out),
+        ("fts_runtime.h", C_RUNTIME_H.to_owned()),
+        ("fts_runtime.c", C_RUNTIME_C.to_owned()),
+    ]
+}
+
+/// `fts_controller_init`: the `fts_spec` of the arrays above, then `fts_init`.
+fn c_loader(file: &ControllerFile) -> String {
+    let mut decl = String::from("    fts_spec spec;\n");
+    let mut body = String::from("    spec.zpetc = NULL;\n    spec.hysteresis = NULL;\n");
+    if file.zpetc.is_some() {
+        decl.push_str("    fts_zpetc_spec zpetc;\n");
+        body.push_str(
+            "    zpetc.preview = FTS_PREVIEW;\n    zpetc.num = FTS_ZPETC_NUM;\n    zpetc.num_len = FTS_ZPETC_NUM_LEN;\n    zpetc.den = FTS_ZPETC_DEN;\n    zpetc.den_len = FTS_ZPETC_DEN_LEN;\n    spec.zpetc = &zpetc;\n",
+        );
+    }
+    if let Some(h) = &file.hysteresis {
+        decl.push_str("    fts_hysteresis_spec hysteresis;\n");
+        let form = match h.operator {
+            PlayForm::Lower => "FTS_PLAY_LOWER",
+            PlayForm::Symmetric => "FTS_PLAY_SYMMETRIC",
+        };
+        let _ = write!(
+            body,
+            "    hysteresis.form = {form};\n    hysteresis.thresholds = FTS_HYST_THRESHOLDS;\n    hysteresis.thresholds_len = FTS_HYST_THRESHOLDS_LEN;\n    hysteresis.weights = FTS_HYST_WEIGHTS;\n    hysteresis.weights_len = FTS_HYST_WEIGHTS_LEN;\n    hysteresis.cbrt_gain = FTS_HYST_CBRT_GAIN;\n    hysteresis.offset = FTS_HYST_OFFSET;\n    hysteresis.input_offset = FTS_HYST_INPUT_OFFSET;\n    hysteresis.dead_zone_thresholds = FTS_HYST_DEAD_ZONE_THRESHOLDS;\n    hysteresis.dead_zone_thresholds_len = FTS_HYST_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.dead_zone_weights = FTS_HYST_DEAD_ZONE_WEIGHTS;\n    hysteresis.dead_zone_weights_len = FTS_HYST_DEAD_ZONE_WEIGHTS_LEN;\n    spec.hysteresis = &hysteresis;\n"
+        );
+    }
+    let pid = |kind: &str| {
+        format!(
+            "    spec.feedback = {kind};\n    spec.pid.kp = FTS_PID_KP;\n    spec.pid.ki = FTS_PID_KI;\n    spec.pid.kd = FTS_PID_KD;\n    spec.pid.derivative_pole = FTS_PID_DERIVATIVE_POLE;\n    spec.pid.output_min = FTS_PID_OUTPUT_MIN;\n    spec.pid.output_max = FTS_PID_OUTPUT_MAX;\n"
+        )
+    };
+    let no_pid = "    spec.pid.kp = 0.0;\n    spec.pid.ki = 0.0;\n    spec.pid.kd = 0.0;\n    spec.pid.derivative_pole = 0.0;\n    spec.pid.output_min = 0.0;\n    spec.pid.output_max = 0.0;\n";
+    let no_ss = "    spec.ss.n = 0;\n    spec.ss.a = NULL;\n    spec.ss.b = NULL;\n    spec.ss.c = NULL;\n    spec.ss.d = 0.0;\n    spec.ss.output_min = -fts_infinity();\n    spec.ss.output_max = fts_infinity();\n    spec.ss.conditional_update = 0;\n";
+    match &file.feedback {
+        Feedback::None => {
+            body.push_str("    spec.feedback = FTS_FEEDBACK_NONE;\n");
+            body.push_str(no_pid);
+            body.push_str(no_ss);
+        }
+        Feedback::Pid(_) => {
+            body.push_str(&pid("FTS_FEEDBACK_PID"));
+            body.push_str(no_ss);
+        }
+        Feedback::ParallelPid(p) => {
+            body.push_str(&pid(if p.n.is_some() {
+                "FTS_FEEDBACK_PID_FILTERED"
+            } else {
+                "FTS_FEEDBACK_PID"
+            }));
+            body.push_str(no_ss);
+        }
+        Feedback::StateSpace(k) => {
+            body.push_str("    spec.feedback = FTS_FEEDBACK_STATE_SPACE;\n");
+            body.push_str(no_pid);
+            let _ = write!(
+                body,
+                "    spec.ss.n = FTS_SS_NX;\n    spec.ss.a = FTS_SS_A;\n    spec.ss.b = FTS_SS_B;\n    spec.ss.c = FTS_SS_C;\n    spec.ss.d = FTS_SS_D;\n    spec.ss.output_min = {};\n    spec.ss.output_max = {};\n    spec.ss.conditional_update = FTS_SS_CONDITIONAL_UPDATE;\n",
+                if k.output_min.is_some() {
+                    "FTS_SS_OUTPUT_MIN"
+                } else {
+                    "-fts_infinity()"
+                },
+                if k.output_max.is_some() {
+                    "FTS_SS_OUTPUT_MAX"
+                } else {
+                    "fts_infinity()"
+                },
+            );
+        }
+    }
+    format!(
+        "\n/* The step: fts_runtime.h / fts_runtime.c (compile with -ffp-contract=off). */\n#include <stddef.h>\n#include \"fts_runtime.h\"\n\n/* Loads the coefficients above into *ctl, at rest. FTS_OK, or the reason with\n * *field (when field is not NULL) naming the offending list. */\nstatic inline fts_status fts_controller_init(fts_controller *ctl, const char **field)\n{{\n{decl}{body}    return fts_init(ctl, &spec, field);\n}}\n"
+    )
 }
 
 /// Reads back a header written by [`to_c_header`] (for consistency tests and
@@ -1262,6 +1634,21 @@ pub fn parse_c_header(text: &str, source: &str) -> Result<ControllerFile, InputE
                 .in_field("FTS_SS_NX"));
             }
             Feedback::StateSpace(k)
+        } else if defines.get("FTS_HAS_FEEDBACK").and_then(Value::as_str) == Some("0") {
+            Feedback::None
+        } else if flag("FTS_PID_FORM_PARALLEL") {
+            Feedback::ParallelPid(ParallelPid {
+                kp: d("FTS_PID_CONTINUOUS_KP")?,
+                ki: d("FTS_PID_CONTINUOUS_KI")?,
+                kd: d("FTS_PID_CONTINUOUS_KD")?,
+                n: if flag("FTS_PID_FILTERED") {
+                    Some(d("FTS_PID_CONTINUOUS_N")?)
+                } else {
+                    None
+                },
+                output_min: d("FTS_PID_OUTPUT_MIN")?,
+                output_max: d("FTS_PID_OUTPUT_MAX")?,
+            })
         } else {
             Feedback::Pid(PidSpec {
                 kp: d("FTS_PID_KP")?,

@@ -10,8 +10,10 @@
 //! ```
 
 use super::InputError;
-use super::tf_json::{check_format, get_f64_array, get_str};
-use crate::ident::hysteresis::{DeadZoneStage, HysteresisModel, ModelKind, PlayOperator};
+use super::tf_json::{MAX_COEFF_MAGNITUDE, check_format, get_f64_array, get_str};
+use crate::ident::hysteresis::{
+    DeadZoneStage, HysteresisModel, Identified, IdentifyParams, ModelKind, PlayOperator,
+};
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -58,6 +60,30 @@ pub struct ModelFile {
 }
 
 impl ModelFile {
+    /// The file of an identified model, with its fit record: what
+    /// `fts identify hysteresis`, `fts demo` and a pipeline step write.
+    pub fn identified(
+        identified: &Identified,
+        params: &IdentifyParams,
+        input: SignalInfo,
+        output: SignalInfo,
+    ) -> ModelFile {
+        let info = &identified.info;
+        ModelFile {
+            model: identified.model.clone(),
+            input,
+            output,
+            fit: Some(FitRecord {
+                rms_percent: info.fit.rms_percent,
+                max_percent: info.fit.max_percent,
+                samples: info.fit.samples,
+                method: params.method_name().into(),
+                condition_number: info.condition_number,
+                iterations: info.iterations,
+            }),
+        }
+    }
+
     /// `input->output`, e.g. `voltage->displacement`.
     pub fn mapping(&self) -> String {
         format!("{}->{}", self.input.quantity, self.output.quantity)
@@ -122,13 +148,61 @@ fn err(source: &str, field: &str, message: impl Into<String>) -> InputError {
     InputError::new(source, message).in_field(field)
 }
 
+/// The most operators (or dead zones) a model file may have: applying a
+/// model costs one play per operator and sample.
+pub const MAX_OPERATORS: usize = 1024;
+
+/// A bounded list of numbers, none subnormal or beyond
+/// [`MAX_COEFF_MAGNITUDE`] (such a model overflows on ordinary inputs).
+fn get_bounded_array(
+    obj: &Map<String, Value>,
+    source: &str,
+    key: &str,
+) -> Result<Vec<f64>, InputError> {
+    if let Some(Value::Array(a)) = obj.get(key)
+        && a.len() > MAX_OPERATORS
+    {
+        return Err(err(
+            source,
+            key,
+            format!("{} values; at most {MAX_OPERATORS} are accepted", a.len()),
+        ));
+    }
+    let values = get_f64_array(obj, source, key)?;
+    check_magnitude(source, key, &values)?;
+    Ok(values)
+}
+
+fn check_magnitude(source: &str, key: &str, values: &[f64]) -> Result<(), InputError> {
+    let absurd =
+        |v: f64| v != 0.0 && (v.abs() < f64::MIN_POSITIVE || v.abs() > MAX_COEFF_MAGNITUDE);
+    match values.iter().position(|&v| absurd(v)) {
+        Some(i) => Err(err(
+            source,
+            &format!("{key}[{i}]"),
+            format!(
+                "{:e} is subnormal or beyond {MAX_COEFF_MAGNITUDE:e}; rescale the model (other units)",
+                values[i]
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 fn get_number(obj: &Map<String, Value>, source: &str, key: &str) -> Result<f64, InputError> {
     match obj.get(key) {
         None | Some(Value::Null) => Ok(0.0),
-        Some(v) => v
-            .as_f64()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| err(source, key, format!("expected a finite number, found {v}"))),
+        Some(v) => {
+            let x = v
+                .as_f64()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| err(source, key, format!("expected a finite number, found {v}")))?;
+            check_magnitude(source, key, &[x]).map_err(|mut e| {
+                e.field = Some(key.to_owned());
+                e
+            })?;
+            Ok(x)
+        }
     }
 }
 
@@ -199,7 +273,7 @@ pub fn parse_model(text: &str, source: &str) -> Result<ModelFile, InputError> {
         Some(Value::Object(dz)) => {
             // Errors name the nested field, e.g. `dead_zone.weights[2]`.
             let nested = |key: &str| {
-                get_f64_array(dz, source, key).map_err(|mut e| {
+                get_bounded_array(dz, source, key).map_err(|mut e| {
                     e.field = e.field.map(|f| format!("dead_zone.{f}"));
                     e
                 })
@@ -220,8 +294,8 @@ pub fn parse_model(text: &str, source: &str) -> Result<ModelFile, InputError> {
     let model = HysteresisModel {
         kind,
         operator,
-        thresholds: get_f64_array(obj, source, "thresholds")?,
-        weights: get_f64_array(obj, source, "weights")?,
+        thresholds: get_bounded_array(obj, source, "thresholds")?,
+        weights: get_bounded_array(obj, source, "weights")?,
         cbrt_gain: get_number(obj, source, "cbrt_gain")?,
         offset: get_number(obj, source, "offset")?,
         input_offset: get_number(obj, source, "input_offset")?,
@@ -306,6 +380,29 @@ mod tests {
         let text = model_to_string(&f);
         assert!(text.contains("\"mapping\": \"voltage->displacement\""));
         assert_eq!(parse_model(&text, "m.json").unwrap(), f);
+    }
+
+    #[test]
+    fn operator_counts_and_magnitudes_are_bounded() {
+        let many = format!(
+            r#"{{"format": "fts.hysteresis/1", "model": "pi", "operator": "play-lower",
+                "thresholds": [{}], "weights": [1]}}"#,
+            (0..=MAX_OPERATORS)
+                .map(|i| i.to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        );
+        let e = parse_model(&many, "m.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("thresholds"), "{e}");
+        assert!(e.message.contains("1025 values"), "{e}");
+        let huge = r#"{"format": "fts.hysteresis/1", "model": "pi", "operator": "play-lower",
+            "thresholds": [0, 1], "weights": [1, 1e300]}"#;
+        let e = parse_model(huge, "m.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("weights[1]"), "{e}");
+        let offset = r#"{"format": "fts.hysteresis/1", "model": "pi", "operator": "play-lower",
+            "thresholds": [0], "weights": [1], "offset": 1e200}"#;
+        let e = parse_model(offset, "m.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("offset"), "{e}");
     }
 
     #[test]

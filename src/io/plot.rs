@@ -55,7 +55,8 @@ fn bounds<'a>(series: &[Series<'a>], pick: impl Fn(&Series<'a>) -> &'a [f64]) ->
 /// rather than `0.25000000000000006`.
 fn tick_label(v: f64) -> String {
     let a = v.abs();
-    if a == 0.0 {
+    if a < 1e-12 {
+        // Rounding residue of a tick at zero (`-2.2e-16`).
         "0".into()
     } else if !(1e-2..1e5).contains(&a) {
         let text = format!("{v:.1e}");
@@ -66,19 +67,119 @@ fn tick_label(v: f64) -> String {
     }
 }
 
+/// How a curve is drawn.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Style {
+    /// A solid line.
+    #[default]
+    Line,
+    /// Light dots: data shown for context but not trusted (low coherence,
+    /// outside the excited band).
+    Faint,
+    /// A cross at each point (a few points of interest).
+    Marker,
+}
+
+/// One chart: its curves, axes and an optional shaded interval of x.
+#[derive(Debug, Clone, Default)]
+pub struct Panel<'a> {
+    /// Caption above the chart.
+    pub title: &'a str,
+    /// x axis description, with its unit.
+    pub x_label: &'a str,
+    /// y axis description, with its unit.
+    pub y_label: &'a str,
+    /// Curves with their style.
+    pub series: Vec<(Series<'a>, Style)>,
+    /// Logarithmic x axis (points with `x <= 0` are skipped).
+    pub log_x: bool,
+    /// Shade `[x0, x1]` and say what it is in the legend.
+    pub shade: Option<(f64, f64, &'a str)>,
+}
+
+impl<'a> Panel<'a> {
+    /// A panel of solid lines.
+    pub fn lines(
+        title: &'a str,
+        x_label: &'a str,
+        y_label: &'a str,
+        series: Vec<Series<'a>>,
+    ) -> Self {
+        Panel {
+            title,
+            x_label,
+            y_label,
+            series: series.into_iter().map(|s| (s, Style::Line)).collect(),
+            ..Panel::default()
+        }
+    }
+}
+
+/// Width of the legend column right of every chart: legends never cover data.
+const LEGEND_WIDTH: u32 = 210;
+const SHADE: RGBColor = RGBColor(255, 200, 80);
+
+fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    panel: &Panel<'_>,
+) -> Result<(), PlotError> {
+    let font = ("sans-serif", 13).into_font();
+    let mut y = 40;
+    let mut entry = |text: &str, mark: &dyn Fn(i32) -> Result<(), PlotError>| {
+        mark(y)?;
+        area.draw(&Text::new(text.to_owned(), (34, y - 7), font.clone()))
+            .map_err(perr)?;
+        y += 20;
+        Ok::<(), PlotError>(())
+    };
+    for (i, (s, style)) in panel.series.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        if s.label.is_empty() {
+            continue;
+        }
+        match style {
+            Style::Line => entry(s.label, &|y| {
+                area.draw(&PathElement::new(
+                    vec![(6, y), (28, y)],
+                    color.stroke_width(2),
+                ))
+                .map_err(perr)
+            })?,
+            Style::Faint => entry(s.label, &|y| {
+                area.draw(&Circle::new((17, y), 2, color.mix(0.35).filled()))
+                    .map_err(perr)
+            })?,
+            Style::Marker => entry(s.label, &|y| {
+                area.draw(&Cross::new((17, y), 5, color.stroke_width(2)))
+                    .map_err(perr)
+            })?,
+        }
+    }
+    if let Some((_, _, label)) = panel.shade {
+        entry(label, &|y| {
+            area.draw(&Rectangle::new(
+                [(6, y - 5), (28, y + 5)],
+                SHADE.mix(0.3).filled(),
+            ))
+            .map_err(perr)
+        })?;
+    }
+    Ok(())
+}
+
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series<'_>],
-    log_x: bool,
+    panel: &Panel<'_>,
 ) -> Result<(), PlotError> {
-    let (x0, x1) = bounds(series, |s| s.x);
-    let (y0, y1) = bounds(series, |s| s.y);
-    let mut builder = ChartBuilder::on(area);
+    let (plot_area, legend_area) = area.split_horizontally(area.dim_in_pixel().0 - LEGEND_WIDTH);
+    legend(&legend_area, panel)?;
+    let all: Vec<Series<'_>> = panel.series.iter().map(|(s, _)| s.clone()).collect();
+    let (x0, x1) = bounds(&all, |s| s.x);
+    let (y0, y1) = bounds(&all, |s| s.y);
+    let log_x = panel.log_x;
+    let mut builder = ChartBuilder::on(&plot_area);
     builder
-        .caption(title, ("sans-serif", 18))
+        .caption(panel.title, ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60);
@@ -88,36 +189,62 @@ fn draw_panel<DB: DrawingBackend>(
             chart
                 .configure_mesh()
                 .x_label_formatter(&|v| tick_label(*v))
-                .x_desc(x_label)
-                .y_desc(y_label)
+                .x_desc(panel.x_label)
+                .y_desc(panel.y_label)
                 .draw()
                 .map_err(perr)?;
-            for (i, s) in series.iter().enumerate() {
-                let color = COLORS[i % COLORS.len()];
+            if let Some((a, b, _)) = panel.shade {
                 chart
-                    .draw_series(LineSeries::new(
-                        s.x.iter()
-                            .zip(s.y)
-                            .filter(|(x, y)| {
-                                x.is_finite() && y.is_finite() && (!log_x || **x > 0.0)
-                            })
-                            .map(|(x, y)| (*x, *y)),
-                        color.stroke_width(1),
-                    ))
-                    .map_err(perr)?
-                    .label(s.label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(a, y0), (b, y1)],
+                        SHADE.mix(0.3).filled(),
+                    )))
+                    .map_err(perr)?;
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .draw()
-                .map_err(perr)?;
+            for (i, (s, style)) in panel.series.iter().enumerate() {
+                let color = COLORS[i % COLORS.len()];
+                let drawable =
+                    |(x, y): (&f64, &f64)| x.is_finite() && y.is_finite() && (!log_x || *x > 0.0);
+                let points =
+                    s.x.iter()
+                        .zip(s.y)
+                        .filter(|p| drawable(*p))
+                        .map(|(x, y)| (*x, *y));
+                match style {
+                    Style::Line => {
+                        // A non-finite point breaks the line: gaps stay gaps.
+                        for run in
+                            s.x.iter()
+                                .zip(s.y)
+                                .collect::<Vec<_>>()
+                                .split(|p| !drawable(*p))
+                        {
+                            chart
+                                .draw_series(LineSeries::new(
+                                    run.iter().map(|(x, y)| (**x, **y)),
+                                    color.stroke_width(1),
+                                ))
+                                .map_err(perr)?;
+                        }
+                    }
+                    Style::Faint => {
+                        chart
+                            .draw_series(
+                                points.map(|p| Circle::new(p, 1, color.mix(0.35).filled())),
+                            )
+                            .map_err(perr)?;
+                    }
+                    Style::Marker => {
+                        chart
+                            .draw_series(points.map(|p| Cross::new(p, 6, color.stroke_width(2))))
+                            .map_err(perr)?;
+                    }
+                }
+            }
         }};
     }
     if log_x {
-        let lo = series
+        let lo = all
             .iter()
             .flat_map(|s| s.x.iter().copied())
             .filter(|v| *v > 0.0)
@@ -134,6 +261,23 @@ fn draw_panel<DB: DrawingBackend>(
     Ok(())
 }
 
+/// Charts stacked vertically, 360 pixels each.
+pub fn panels_svg(panels: &[Panel<'_>]) -> Result<String, PlotError> {
+    let mut out = String::new();
+    {
+        let height = 360 * panels.len().max(1) as u32;
+        let root =
+            SVGBackend::with_string(&mut out, (900 + LEGEND_WIDTH, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(perr)?;
+        let areas = root.split_evenly((panels.len().max(1), 1));
+        for (area, panel) in areas.iter().zip(panels) {
+            draw_panel(area, panel)?;
+        }
+        root.present().map_err(perr)?;
+    }
+    Ok(out)
+}
+
 /// A single x-y chart.
 pub fn line_chart_svg(
     title: &str,
@@ -141,14 +285,7 @@ pub fn line_chart_svg(
     y_label: &str,
     series: &[Series<'_>],
 ) -> Result<String, PlotError> {
-    let mut out = String::new();
-    {
-        let root = SVGBackend::with_string(&mut out, (900, 540)).into_drawing_area();
-        root.fill(&WHITE).map_err(perr)?;
-        draw_panel(&root, title, x_label, y_label, series, false)?;
-        root.present().map_err(perr)?;
-    }
-    Ok(out)
+    panels_svg(&[Panel::lines(title, x_label, y_label, series.to_vec())])
 }
 
 /// A single x-y chart with a logarithmic x axis (points with `x <= 0` are skipped).
@@ -158,78 +295,72 @@ pub fn line_chart_svg_log_x(
     y_label: &str,
     series: &[Series<'_>],
 ) -> Result<String, PlotError> {
-    let mut out = String::new();
-    {
-        let root = SVGBackend::with_string(&mut out, (900, 540)).into_drawing_area();
-        root.fill(&WHITE).map_err(perr)?;
-        draw_panel(&root, title, x_label, y_label, series, true)?;
-        root.present().map_err(perr)?;
-    }
-    Ok(out)
+    panels_svg(&[Panel {
+        log_x: true,
+        ..Panel::lines(title, x_label, y_label, series.to_vec())
+    }])
 }
 
 /// Several charts stacked vertically, each `(title, x_label, y_label, series)`.
 pub fn stacked_charts_svg(
     panels: &[(&str, &str, &str, Vec<Series<'_>>)],
 ) -> Result<String, PlotError> {
-    let mut out = String::new();
-    {
-        let height = 360 * panels.len().max(1) as u32;
-        let root = SVGBackend::with_string(&mut out, (900, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(perr)?;
-        let areas = root.split_evenly((panels.len().max(1), 1));
-        for (area, (title, xl, yl, series)) in areas.iter().zip(panels) {
-            draw_panel(area, title, xl, yl, series, false)?;
-        }
-        root.present().map_err(perr)?;
-    }
-    Ok(out)
+    let panels: Vec<Panel<'_>> = panels
+        .iter()
+        .map(|(t, xl, yl, s)| Panel::lines(t, xl, yl, s.clone()))
+        .collect();
+    panels_svg(&panels)
 }
 
-/// A Bode plot: magnitude (dB) above phase (deg), one curve per entry.
-pub fn bode_svg(title: &str, curves: &[(&str, &Bode)], log_x: bool) -> Result<String, PlotError> {
-    let mags: Vec<Vec<f64>> = curves.iter().map(|(_, b)| b.magnitude_db()).collect();
-    let mag_series: Vec<Series<'_>> = curves
-        .iter()
-        .zip(&mags)
-        .map(|((label, b), m)| Series {
-            label,
-            x: &b.freq_hz,
-            y: m,
-        })
-        .collect();
-    let phase_series: Vec<Series<'_>> = curves
-        .iter()
-        .map(|(label, b)| Series {
-            label,
-            x: &b.freq_hz,
-            y: &b.phase_deg,
-        })
-        .collect();
-    let mut out = String::new();
-    {
-        let root = SVGBackend::with_string(&mut out, (900, 720)).into_drawing_area();
-        root.fill(&WHITE).map_err(perr)?;
-        let (top, bottom) = root.split_vertically(360);
-        draw_panel(
-            &top,
+/// The two panels of a Bode plot (magnitude in dB, phase in degrees, log
+/// frequency in Hz), each curve with its style.
+pub fn bode_panels<'a>(
+    title: &'a str,
+    curves: &[(&'a str, &'a Bode, Style)],
+    magnitudes_db: &'a [Vec<f64>],
+) -> [Panel<'a>; 2] {
+    // The phase panel repeats no legend: its curves are the magnitude's.
+    let pick = |y: &dyn Fn(usize) -> &'a [f64], labelled: bool| {
+        curves
+            .iter()
+            .enumerate()
+            .map(|(i, (label, b, style))| {
+                let s = Series {
+                    label: if labelled { label } else { "" },
+                    x: &b.freq_hz,
+                    y: y(i),
+                };
+                (s, *style)
+            })
+            .collect::<Vec<_>>()
+    };
+    [
+        Panel {
             title,
-            "frequency (Hz)",
-            "magnitude (dB)",
-            &mag_series,
-            log_x,
-        )?;
-        draw_panel(
-            &bottom,
-            "",
-            "frequency (Hz)",
-            "phase (deg)",
-            &phase_series,
-            log_x,
-        )?;
-        root.present().map_err(perr)?;
-    }
-    Ok(out)
+            x_label: "frequency (Hz)",
+            y_label: "magnitude (dB)",
+            series: pick(&|i| &magnitudes_db[i], true),
+            log_x: true,
+            shade: None,
+        },
+        Panel {
+            title: "",
+            x_label: "frequency (Hz)",
+            y_label: "phase (deg)",
+            series: pick(&|i| &curves[i].1.phase_deg, false),
+            log_x: true,
+            shade: None,
+        },
+    ]
+}
+
+/// A Bode plot: magnitude (dB) above phase (deg) on a logarithmic frequency
+/// axis (0 Hz is left out), one curve per entry.
+pub fn bode_svg(title: &str, curves: &[(&str, &Bode)]) -> Result<String, PlotError> {
+    let styled: Vec<(&str, &Bode, Style)> =
+        curves.iter().map(|(l, b)| (*l, *b, Style::Line)).collect();
+    let mags: Vec<Vec<f64>> = curves.iter().map(|(_, b)| b.magnitude_db()).collect();
+    panels_svg(&bode_panels(title, &styled, &mags))
 }
 
 #[cfg(test)]
@@ -239,7 +370,7 @@ mod tests {
     #[test]
     fn renders_svg() {
         let b = Bode::from_fn(&[1.0, 10.0, 100.0], |f| crate::lti::c64::new(1.0, f));
-        let svg = bode_svg("t", &[("g", &b)], true).unwrap();
+        let svg = bode_svg("t", &[("g", &b)]).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("polyline"));
         let svg = line_chart_svg(
             "t",

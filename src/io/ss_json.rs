@@ -7,7 +7,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::InputError;
-use super::tf_json::check_format;
+use super::tf_json::{MAX_COEFF_MAGNITUDE, check_format};
 use crate::lti::ss::StateSpace;
 use faer::Mat;
 use serde_json::{Map, Value, json};
@@ -15,8 +15,21 @@ use serde_json::{Map, Value, json};
 /// The format tag this module reads and writes.
 pub const SS_FORMAT: &str = "fts.ss/1";
 
+/// The most states a file may have: eigenvalues, Riccati and Lyapunov
+/// solutions of a system this size stay within seconds.
+pub const MAX_STATES: usize = 512;
+
+/// The most inputs or outputs a file may have.
+pub const MAX_CHANNELS: usize = 64;
+
 fn field_err(source: &str, field: &str, message: impl Into<String>) -> InputError {
     InputError::new(source, message).in_field(field)
+}
+
+/// A finite entry that is subnormal or beyond [`MAX_COEFF_MAGNITUDE`]: such
+/// systems are refused as absurd, as in `fts.tf/1` files.
+fn absurd(x: f64) -> bool {
+    x.is_finite() && x != 0.0 && (x.abs() < f64::MIN_POSITIVE || x.abs() > MAX_COEFF_MAGNITUDE)
 }
 
 /// Reads a rectangular matrix (array of rows). `ncols_if_empty` gives the
@@ -37,6 +50,16 @@ fn get_matrix(
         }
         None => return Err(field_err(source, key, "missing")),
     };
+    if rows.len() > MAX_STATES {
+        return Err(field_err(
+            source,
+            key,
+            format!(
+                "{} rows; at most {MAX_STATES} (states) are accepted",
+                rows.len()
+            ),
+        ));
+    }
     let mut out = Vec::with_capacity(rows.len());
     let mut ncols = None;
     for (i, r) in rows.iter().enumerate() {
@@ -47,9 +70,28 @@ fn get_matrix(
                 "expected a row (array of numbers)",
             ));
         };
+        if r.len() > MAX_STATES {
+            return Err(field_err(
+                source,
+                &format!("{key}[{i}]"),
+                format!(
+                    "{} entries; at most {MAX_STATES} (states) are accepted",
+                    r.len()
+                ),
+            ));
+        }
         let mut row = Vec::with_capacity(r.len());
         for (j, v) in r.iter().enumerate() {
             match v.as_f64() {
+                Some(x) if absurd(x) => {
+                    return Err(field_err(
+                        source,
+                        &format!("{key}[{i}][{j}]"),
+                        format!(
+                            "{x:e} is subnormal or beyond {MAX_COEFF_MAGNITUDE:e}; rescale the system (e.g. time in ms, gains in other units)"
+                        ),
+                    ));
+                }
                 Some(x) if x.is_finite() => row.push(x),
                 _ => {
                     return Err(field_err(
@@ -132,6 +174,13 @@ pub fn parse_ss(text: &str, source: &str) -> Result<StateSpace, InputError> {
             source,
             "d",
             "must have one column per input (at least one input)",
+        ));
+    }
+    if ny > MAX_CHANNELS || nu > MAX_CHANNELS {
+        return Err(field_err(
+            source,
+            "d",
+            format!("{ny} outputs x {nu} inputs; at most {MAX_CHANNELS} of each are accepted"),
         ));
     }
     if b.len() != n {
@@ -249,6 +298,30 @@ pub fn ss_to_string(sys: &StateSpace) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn sizes_and_magnitudes_are_bounded() {
+        let rows = |n: usize| format!("[{}]", vec!["[0]"; n].join(","));
+        let big = format!(
+            r#"{{"format":"fts.ss/1","a":{},"b":[],"c":[[]],"d":[[1]]}}"#,
+            rows(MAX_STATES + 1)
+        );
+        let e = parse_ss(&big, "s.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("a"), "{e}");
+        assert!(e.message.contains("513 rows"), "{e}");
+        let wide = format!(
+            r#"{{"format":"fts.ss/1","a":[],"b":[],"c":[[]],"d":[[{}]]}}"#,
+            vec!["0"; MAX_CHANNELS + 1].join(",")
+        );
+        let e = parse_ss(&wide, "s.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("d"), "{e}");
+        for (value, field) in [("1e308", "a[0][0]"), ("1e-310", "a[0][0]")] {
+            let text =
+                format!(r#"{{"format":"fts.ss/1","a":[[{value}]],"b":[[1]],"c":[[1]],"d":[[0]]}}"#);
+            let e = parse_ss(&text, "s.json").unwrap_err();
+            assert_eq!(e.field.as_deref(), Some(field), "{e}");
+        }
+    }
+
     use super::*;
 
     const EX: &str = r#"{"format": "fts.ss/1", "ts": null,

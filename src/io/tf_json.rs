@@ -25,7 +25,7 @@ pub const MAX_DELAY: u64 = 1_000_000;
 pub const MAX_COEFF_MAGNITUDE: f64 = 1e100;
 
 /// Refuses polynomials that are too long or hold absurd coefficients.
-fn check_coeffs(source: &str, field: &str, c: &[f64]) -> Result<(), InputError> {
+pub(crate) fn check_coeffs(source: &str, field: &str, c: &[f64]) -> Result<(), InputError> {
     if c.len() > MAX_COEFFS {
         return Err(field_err(
             source,

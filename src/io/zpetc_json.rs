@@ -150,6 +150,8 @@ pub fn parse_zpetc(text: &str, source: &str) -> Result<Zpetc, InputError> {
     })?;
     let num = get_f64_array(obj, source, "num")?;
     let den = get_f64_array(obj, source, "den")?;
+    super::tf_json::check_coeffs(source, "num", &num)?;
+    super::tf_json::check_coeffs(source, "den", &den)?;
     if den[0] == 0.0 {
         return Err(InputError::new(source, "den[0] must be non-zero").in_field("den"));
     }

@@ -98,6 +98,37 @@ mod tests {
     use super::*;
 
     #[test]
+    fn runtime_zpetc_block_matches_tdf_filter_bit_for_bit() {
+        let num = [0.24, -0.19, 0.17, -0.15, 0.012, 0.008];
+        let den = [1.0, -2.3, 2.46, -1.33, 0.28];
+        let spec = crate::runtime::RuntimeSpec {
+            zpetc: Some(crate::runtime::ZpetcSpec {
+                preview: 5,
+                num: &num,
+                den: &den,
+            }),
+            hysteresis: None,
+            feedback: crate::runtime::FeedbackSpec::Pid(crate::runtime::PidSpec {
+                kp: 1.0,
+                ki: 0.0,
+                kd: 0.0,
+                output_min: -1e9,
+                output_max: 1e9,
+            }),
+        };
+        let mut rt = crate::runtime::RuntimeController::new(&spec).unwrap();
+        let mut filter = TdfFilter::from_coeffs(&num, &den, 0);
+        for k in 0..1000 {
+            let r = (k as f64 * 0.01).sin();
+            // With kp = 1 and x = 0 the command is r_f itself.
+            let (rf, _, u) = rt.step_traced(r, 0.0);
+            let expect = filter.step(r);
+            assert_eq!(rf.to_bits(), expect.to_bits());
+            assert_eq!(u.to_bits(), expect.to_bits());
+        }
+    }
+
+    #[test]
     fn impulse_response_matches_difference_equation() {
         // y(k) = 0.5 y(k-1) + 2 u(k-2) + u(k-3)  <=>  z^-2 (2 + z^-1)/(1 - 0.5 z^-1)
         let g = DiscreteTf::new(vec![2.0, 1.0], vec![1.0, -0.5], 2, 1.0).unwrap();

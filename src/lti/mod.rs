@@ -4,11 +4,13 @@
 pub(crate) mod accurate;
 pub mod balred;
 pub mod c2d;
+pub mod convert;
 pub mod filter;
 pub mod lyapunov;
 pub mod margins;
 pub mod norms;
 pub mod poly;
+pub mod response;
 pub mod riccati;
 pub mod roots;
 pub mod schur;

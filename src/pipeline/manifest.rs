@@ -3,28 +3,17 @@
 //! order). Every error names the manifest, the line and the field.
 
 use super::hash::sha256_hex;
-use crate::ident::arx::Orders;
-use crate::ident::data::Detrend;
-use crate::ident::hysteresis::{IdentifyParams, Method, ModelKind, PlayOperator};
 use crate::io::InputError;
-use crate::io::hysteresis_json::SignalInfo;
 use crate::io::timeseries::{
     ColumnRef, DEFAULT_TIME_JITTER, Delimiter, HeaderMode, IoColumns, Layout, TimeUnit,
 };
 use crate::runtime::PidSpec;
 use crate::sim::experiment::ExperimentParams;
-use crate::synth::zpetc::{StableInversion, ZpetcParams};
 
-/// Settings of a `zpetc` step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ZpetcSpec {
-    /// Classification and stable-inversion settings (`rho`, `min_damping`,
-    /// `stable_inversion` radius, `series_tol`).
-    pub params: ZpetcParams,
-    /// `minreal` tolerance applied to the model first, if any.
-    pub minreal: Option<f64>,
-}
-use crate::workflow::{C2d, H2, Hinf, Mixsyn, SsController, StepError, Validate, Weight};
+use crate::workflow::{
+    C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyOe, Mixsyn, SsController,
+    StepError, Validate, Weight,
+};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use std::collections::{BTreeMap, BTreeSet};
@@ -59,32 +48,17 @@ pub struct ColumnSpec {
 pub struct HysteresisSpec {
     /// Columns of the record.
     pub columns: ColumnSpec,
-    /// Identification settings.
-    pub params: IdentifyParams,
-    /// Identify the inverse directly (recorded output drives the model).
-    pub inverse: bool,
-    /// Quantity and unit of the record's input column.
-    pub input_info: SignalInfo,
-    /// Quantity and unit of the record's output column.
-    pub output_info: SignalInfo,
+    /// The identification step.
+    pub step: IdentifyHysteresis,
 }
 
-/// `kind = "arx"` / `kind = "oe"`: a transfer function from a record.
+/// `kind = "arx"` / `kind = "oe"`: what `fts identify arx|oe` does.
 #[derive(Debug, Clone)]
-pub struct LinearSpec {
-    /// Columns of the record.
+pub struct LinearSpec<T> {
+    /// Columns of the record (and of the validation record, if any).
     pub columns: ColumnSpec,
-    /// Sample time (required when the file has no time column).
-    pub ts: Option<f64>,
-    /// Trend removal.
-    pub detrend: Detrend,
-    /// `[na nb nk]` (for OE, `na` is `nf`).
-    pub orders: Orders,
-    /// ARX only: try an output-error refinement and keep it when it
-    /// simulates the data better (what `fts demo` does).
-    pub refine_oe: bool,
-    /// OE only: iteration cap.
-    pub max_iterations: Option<usize>,
+    /// The identification step.
+    pub step: T,
 }
 
 /// `kind = "controller"`: the `fts.controller/1` file and/or its C header.
@@ -107,11 +81,11 @@ pub enum Action {
     /// Hysteresis identification.
     Hysteresis(Box<HysteresisSpec>),
     /// ARX identification.
-    Arx(LinearSpec),
+    Arx(Box<LinearSpec<IdentifyArx>>),
     /// Output-error identification.
-    Oe(LinearSpec),
+    Oe(Box<LinearSpec<IdentifyOe>>),
     /// ZPETC design.
-    Zpetc(ZpetcSpec),
+    Zpetc(DesignZpetc),
     /// Coefficient file.
     Controller(ControllerSpec),
     /// Coefficient file with a state-space feedback controller (a
@@ -311,16 +285,6 @@ impl<'a> Fields<'a> {
         Ok(self.u64_opt(key)?.map(|x| x as usize))
     }
 
-    fn usize_req(&mut self, key: &str, step_line: usize) -> Result<usize, InputError> {
-        self.usize_opt(key)?.ok_or_else(|| {
-            self.err(
-                key,
-                step_line,
-                "missing: this kind of step needs it (a whole number)",
-            )
-        })
-    }
-
     fn bool(&mut self, key: &str, default: bool) -> Result<bool, InputError> {
         match self.take(key) {
             None => Ok(default),
@@ -343,12 +307,6 @@ impl<'a> Fields<'a> {
                 format!("expected a string, found {}", other.type_str()),
             )),
         }
-    }
-
-    fn string(&mut self, key: &str, default: &str) -> Result<String, InputError> {
-        Ok(self
-            .string_opt(key)?
-            .map_or_else(|| default.to_string(), |s| s.0))
     }
 
     fn choice<T: Copy>(
@@ -549,8 +507,8 @@ impl<'a> Fields<'a> {
             StepError::Input {
                 field: Some(k),
                 message,
-            } => self.err(k, line_of_field(k), message),
-            other => self.step_err(step_line, other.to_string()),
+            } => self.err(k, line_of_field(k), keys(&message)),
+            other => self.step_err(step_line, keys(&other.to_string())),
         })?;
         Ok(settings)
     }
@@ -572,6 +530,11 @@ impl<'a> Fields<'a> {
         }
         Ok((self.inputs, self.outputs))
     }
+}
+
+/// A step's message with the settings it names written as manifest keys.
+pub(crate) fn keys(message: &str) -> String {
+    crate::workflow::render_settings(message, |k| format!("'{k}'"))
 }
 
 /// Lexically normalised relative path with `/` separators; `None` for an
@@ -711,132 +674,28 @@ fn step(
         }
         "hysteresis" => {
             let columns = f.columns()?;
-            let mut params = IdentifyParams::default();
-            if let Some(k) = f.choice(
-                "model",
-                &[
-                    ("pi", ModelKind::Pi),
-                    ("mpi-cbrt", ModelKind::MpiCbrt),
-                    ("mpi-deadzone", ModelKind::MpiDeadzone),
-                ],
-            )? {
-                params.kind = k;
-            }
-            params.operator = f.choice(
-                "operator",
-                &[
-                    ("play-lower", PlayOperator::Lower),
-                    ("play-symmetric", PlayOperator::Symmetric),
-                ],
-            )?;
-            params.operators = f.usize_opt("operators")?.unwrap_or(params.operators);
-            params.thresholds = f.f64_list("thresholds")?;
-            params.dead_zone_operators = f
-                .usize_opt("dead_zone_operators")?
-                .unwrap_or(params.dead_zone_operators);
-            if let Some(m) = f.choice("method", &[("ls", Method::Ls), ("gd", Method::Gd)])? {
-                params.method = m;
-            }
-            params.invertible = f.bool("invertible", false)?;
-            params.offset = f.bool("offset", true)?;
-            params.gd.max_iters = f.u64_opt("max_iters")?.unwrap_or(2000);
-            let inverse = f.bool("inverse", false)?;
-            let input_info = SignalInfo {
-                quantity: f.string("input_quantity", "voltage")?,
-                unit: f.string("input_unit", "V")?,
-            };
-            let output_info = SignalInfo {
-                quantity: f.string("output_quantity", "displacement")?,
-                unit: f.string("output_unit", "um")?,
-            };
             f.input("data", true, line)?;
             f.output("out", true, line)?;
-            Action::Hysteresis(Box::new(HysteresisSpec {
-                columns,
-                params,
-                inverse,
-                input_info,
-                output_info,
-            }))
+            let step = f.typed(line)?;
+            Action::Hysteresis(Box::new(HysteresisSpec { columns, step }))
         }
         "arx" | "oe" => {
             let columns = f.columns()?;
-            let ts_line = f.line("ts");
-            let ts = f.f64_opt("ts")?;
-            if let Some(t) = ts
-                && t <= 0.0
-            {
-                return Err(f.err(
-                    "ts",
-                    ts_line,
-                    format!("expected a positive number of seconds, got {t}"),
-                ));
-            }
-            let detrend = f
-                .choice(
-                    "detrend",
-                    &[
-                        ("none", Detrend::None),
-                        ("mean", Detrend::Mean),
-                        ("linear", Detrend::Linear),
-                    ],
-                )?
-                .unwrap_or(Detrend::None);
-            let oe = kind == "oe";
-            let na = if oe {
-                f.usize_req("nf", line)?
-            } else {
-                f.usize_req("na", line)?
-            };
-            let orders = Orders::new(na, f.usize_req("nb", line)?, f.usize_req("nk", line)?);
-            let (refine_oe, max_iterations) = if oe {
-                (false, f.usize_opt("max_iterations")?)
-            } else {
-                (f.bool("refine_oe", false)?, None)
-            };
             f.input("data", true, line)?;
+            f.input("validate", false, line)?;
             f.output("out", true, line)?;
-            let spec = LinearSpec {
-                columns,
-                ts,
-                detrend,
-                orders,
-                refine_oe,
-                max_iterations,
-            };
-            if oe {
-                Action::Oe(spec)
+            if kind == "oe" {
+                let step = f.typed(line)?;
+                Action::Oe(Box::new(LinearSpec { columns, step }))
             } else {
-                Action::Arx(spec)
+                let step = f.typed(line)?;
+                Action::Arx(Box::new(LinearSpec { columns, step }))
             }
         }
         "zpetc" => {
-            let d = ZpetcParams::default();
-            let si = StableInversion::default();
-            let stable_inversion = f.f64_opt("stable_inversion")?;
-            let series_tol = f.f64("series_tol", si.tolerance)?;
-            let params = ZpetcParams {
-                rho: f.f64("rho", d.rho)?,
-                min_damping: f.f64("min_damping", d.min_damping)?,
-                stable_inversion: stable_inversion.map(|min_radius| StableInversion {
-                    min_radius,
-                    tolerance: series_tol,
-                    ..si
-                }),
-            };
-            let minreal = f.f64_opt("minreal")?;
-            if let Some(tol) = minreal
-                && !(tol > 0.0 && tol < 1.0)
-            {
-                return Err(f.err(
-                    "minreal",
-                    line,
-                    format!("expected a tolerance in (0, 1), got {tol}"),
-                ));
-            }
             f.input("tf", true, line)?;
             f.output("out", true, line)?;
-            Action::Zpetc(ZpetcSpec { params, minreal })
+            Action::Zpetc(f.typed(line)?)
         }
         "controller" if f.map.contains_key("ss") => {
             f.input("hysteresis", false, line)?;

@@ -3,25 +3,19 @@
 //! (`check`).
 
 use super::hash::{Lock, LockEntry, sha256_hex};
-use super::manifest::{Action, FileRef, LinearSpec, Plan, Step, parse_manifest};
-use crate::ident::arx::{ArxParams, arx};
-use crate::ident::data::detrend;
-use crate::ident::hysteresis::{IdentifyError, Method, identify};
-use crate::ident::linear::{IdentError, NoiseModel, fits};
-use crate::ident::oe::{OeParams, oe};
+use super::manifest::{Action, ColumnSpec, FileRef, Plan, Step, keys, parse_manifest};
 use crate::io::InputError;
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, to_c_header};
-use crate::io::hysteresis_json::{FitRecord, ModelFile, model_to_string, parse_model};
+use crate::io::hysteresis_json::{model_to_string, parse_model};
 use crate::io::timeseries::{IoData, read_io, time_column, write_csv};
 use crate::io::{ss_json, tf_json, zpetc_json};
-use crate::lti::TransferFunction;
 use crate::lti::ss::StateSpace;
 use crate::sim::experiment::{
     align_triangle_record, build_controller, sweep_record, triangle_record,
 };
 use crate::synth::composite::Stages;
-use crate::synth::zpetc;
-use crate::workflow::{ControllerInputs, MixsynInputs, SsController, StepError};
+use crate::workflow::identify::HysteresisInputs;
+use crate::workflow::{ControllerInputs, LinearInputs, MixsynInputs, SsController, StepError};
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::Path;
@@ -435,70 +429,22 @@ fn read_record(
     Ok(data)
 }
 
-fn ident_err(source: &str, e: IdentError) -> PipelineError {
-    match e {
-        IdentError::Numerical(_) => PipelineError::Failure(format!("{source}: {e}")),
-        other => bad(format!("{source}: {other}")),
-    }
-}
-
-fn linear(
-    spec: &LinearSpec,
-    bytes: &[u8],
-    source: &str,
-    oe_model: bool,
-) -> Result<TransferFunction, PipelineError> {
-    let io = read_record(bytes, source, &spec.columns, 2)?;
-    let tolerance = io.timing.as_ref().map_or(1e-6, |t| t.tolerance.max(1e-6));
-    let ts = match (io.ts, spec.ts) {
-        (Some(f), Some(ts)) if ((f - ts) / ts).abs() > tolerance => {
-            return Err(bad(format!(
-                "{source}: the time column gives a sample time of {f} s but field 'ts' is {ts} s"
-            )));
-        }
-        (_, Some(ts)) => ts,
-        (Some(f), None) => f,
-        (None, None) => {
-            return Err(bad(format!(
-                "{source}: no time column, so the sample time is unknown; set field 'ts'"
-            )));
-        }
+/// The record of a linear step and its validation record, read with the
+/// step's columns.
+fn linear_inputs<'a>(
+    columns: &ColumnSpec,
+    bytes_of: impl Fn(&str) -> Option<(&'a [u8], String)>,
+) -> Result<LinearInputs, PipelineError> {
+    let (bytes, source) = bytes_of("data").expect("validated: data is required");
+    let validation = match bytes_of("validate") {
+        Some((vbytes, vsource)) => Some((read_record(vbytes, &vsource, columns, 2)?, vsource)),
+        None => None,
     };
-    let (mut u, mut y) = (io.input, io.output);
-    detrend(&mut u, spec.detrend);
-    detrend(&mut y, spec.detrend);
-    let tf = if oe_model {
-        let mut p = OeParams::new(spec.orders);
-        p.ts = ts;
-        if let Some(n) = spec.max_iterations {
-            p.max_iterations = n;
-        }
-        let est = oe(&u, &y, &p, &mut |_| {}).map_err(|e| ident_err(source, e))?;
-        est.model.tf().map_err(|e| ident_err(source, e))?
-    } else {
-        let mut p = ArxParams::new(spec.orders);
-        p.ts = ts;
-        let est = arx(&u, &y, &p).map_err(|e| ident_err(source, e))?;
-        let arx_tf = est.model.tf().map_err(|e| ident_err(source, e))?;
-        let mut chosen = arx_tf;
-        if spec.refine_oe {
-            // As `fts demo`: keep the OE model when it simulates the data better.
-            let arx_fit = fits(&est.model, NoiseModel::Arx, &u, &y);
-            let mut op = OeParams::new(spec.orders);
-            op.ts = ts;
-            if let Ok(o) = oe(&u, &y, &op, &mut |_| {}) {
-                let f = fits(&o.model, NoiseModel::OutputError, &u, &y);
-                if f.simulation_percent > arx_fit.simulation_percent
-                    && o.model.is_stable()
-                    && let Ok(tf) = o.model.tf()
-                {
-                    chosen = tf;
-                }
-            }
-        }
-        chosen
-    };
-    Ok(TransferFunction::Discrete(tf))
+    Ok(LinearInputs {
+        data: read_record(bytes, &source, columns, 2)?,
+        source,
+        validation,
+    })
 }
 
 /// Runs one step on its inputs' bytes; returns every output's bytes (nothing
@@ -547,75 +493,33 @@ fn execute(
         Action::Hysteresis(spec) => {
             let (bytes, src) = bytes_of("data").expect("validated: data is required");
             let record = read_record(bytes, &src, &spec.columns, 1)?;
-            let (u, y, model_in, model_out) = if spec.inverse {
-                (
-                    &record.output,
-                    &record.input,
-                    spec.output_info.clone(),
-                    spec.input_info.clone(),
-                )
-            } else {
-                (
-                    &record.input,
-                    &record.output,
-                    spec.input_info.clone(),
-                    spec.output_info.clone(),
-                )
+            let inputs = HysteresisInputs {
+                record: &record,
+                source: &src,
+                start: spec.columns.start,
             };
-            let identified = identify(u, y, &spec.params).map_err(|e| match e {
-                IdentifyError::Solver(_) => PipelineError::Failure(e.to_string()),
-                IdentifyError::Thresholds(t) => bad(format!("field 'thresholds': {t}")),
-                IdentifyError::InvalidParams(m) => bad(m),
-                other => bad(format!("{src}: {other}")),
-            })?;
-            let info = &identified.info;
-            let method = match (spec.params.method, spec.params.invertible) {
-                (Method::Gd, _) => "gd",
-                (Method::Ls, true) => "ls-invertible",
-                (Method::Ls, false) => "ls",
-            };
-            let file = ModelFile {
-                model: identified.model.clone(),
-                input: model_in,
-                output: model_out,
-                fit: Some(FitRecord {
-                    rms_percent: info.fit.rms_percent,
-                    max_percent: info.fit.max_percent,
-                    samples: info.fit.samples,
-                    method: method.into(),
-                    condition_number: info.condition_number,
-                    iterations: info.iterations,
-                }),
-            };
-            files.push((out("out"), model_to_string(&file).into_bytes()));
+            let report = spec.step.run(inputs).map_err(|e| step_error(step, e))?;
+            files.push((out("out"), model_to_string(&report.file).into_bytes()));
         }
-        Action::Arx(spec) | Action::Oe(spec) => {
-            let (bytes, src) = bytes_of("data").expect("validated: data is required");
-            let g = linear(spec, bytes, &src, matches!(step.action, Action::Oe(_)))?;
-            files.push((out("out"), tf_json::tf_to_string(&g).into_bytes()));
+        Action::Arx(spec) => {
+            let inputs = linear_inputs(&spec.columns, bytes_of)?;
+            let report = spec.step.run(inputs).map_err(|e| step_error(step, e))?;
+            let tf = tf_json::tf_to_string(&report.transfer_function());
+            files.push((out("out"), tf.into_bytes()));
+        }
+        Action::Oe(spec) => {
+            let inputs = linear_inputs(&spec.columns, bytes_of)?;
+            let report = spec.step.run(inputs).map_err(|e| step_error(step, e))?;
+            let tf = tf_json::tf_to_string(&report.transfer_function());
+            files.push((out("out"), tf.into_bytes()));
         }
         Action::Zpetc(spec) => {
             let (text, src) = text_of("tf")?.expect("validated: tf is required");
-            let TransferFunction::Discrete(g) = tf_json::parse_tf(text, &src)? else {
-                return Err(bad(format!(
-                    "{src} field 'var': ZPETC needs a discrete closed loop (\"var\": \"z^-1\")"
-                )));
-            };
-            let g = match spec.minreal {
-                Some(tol) => {
-                    g.minreal(tol)
-                        .map_err(|e| PipelineError::Failure(format!("{src}: {e}")))?
-                        .tf
-                }
-                None => g,
-            };
-            let filter = zpetc::design(&g, &spec.params).map_err(|e| match e {
-                zpetc::ZpetcError::InvalidParams(m) => bad(format!(
-                    "fields rho/min_damping/stable_inversion/series_tol: {m}"
-                )),
-                zpetc::ZpetcError::ZeroAtDc => bad(format!("{src}: {e}")),
-                other => PipelineError::Failure(format!("{src}: {other}")),
-            })?;
+            let model = tf_json::parse_tf(text, &src)?;
+            let filter = spec
+                .run(&model, &src)
+                .map_err(|e| step_error(step, e))?
+                .filter;
             files.push((
                 out("out"),
                 zpetc_json::zpetc_to_string(&filter).into_bytes(),
@@ -711,15 +615,16 @@ fn step_error(step: &Step, e: StepError) -> PipelineError {
         } => {
             let line = step.field_lines.get(field).copied().unwrap_or(step.line);
             bad(format!(
-                "line {line}, field 'step.{}.{field}': {message}",
-                step.name
+                "line {line}, field 'step.{}.{field}': {}",
+                step.name,
+                keys(&message)
             ))
         }
         StepError::Input {
             field: None,
             message,
-        } => bad(message),
-        StepError::Computation(message) => PipelineError::Failure(message),
+        } => bad(keys(&message)),
+        StepError::Computation(message) => PipelineError::Failure(keys(&message)),
     }
 }
 

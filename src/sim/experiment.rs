@@ -18,7 +18,7 @@ use crate::ident::data::{Detrend, detrend};
 use crate::ident::excite;
 use crate::ident::hysteresis::{Identified, IdentifyParams, identify};
 use crate::ident::linear::{Fits, NoiseModel, fits};
-use crate::ident::oe::{OeParams, oe};
+use crate::ident::oe::{OeParams, refine_arx};
 use crate::io::controller_file::{
     ControllerFile, Feedback, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_controller,
 };
@@ -229,7 +229,8 @@ pub fn build_controller(
 ) -> Result<ControllerFile, String> {
     let feedback = feedback.into();
     let kind = match feedback {
-        Feedback::Pid(_) => FeedbackKind::Pid,
+        Feedback::None => FeedbackKind::None,
+        Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
         Feedback::StateSpace(_) => FeedbackKind::StateSpace,
     };
     if kind != stages.feedback {
@@ -238,7 +239,8 @@ pub fn build_controller(
             stages.name(),
             match stages.feedback {
                 FeedbackKind::Pid => "PID gains, not a state-space controller",
-                FeedbackKind::StateSpace => "a state-space controller (--ss K.json)",
+                FeedbackKind::StateSpace => "a state-space controller",
+                FeedbackKind::None => "no feedback controller",
             }
         ));
     }
@@ -389,39 +391,20 @@ pub fn identify_models(
         .model
         .tf()
         .map_err(|e| step_err("closed-loop ARX")(e.to_string()))?;
-    let arx_fit = fits(&est.model, NoiseModel::Arx, &r, &y);
     let mut chosen = (arx_tf.clone(), "arx");
-    let mut oe_fit = None;
     let mut reason = String::from("ARX: output-error refinement not requested");
+    let (mut arx_fit, mut oe_fit) = (None, None);
     if params.refine_oe {
         observer(Progress::Step("output-error refinement"));
         let mut oe_params = OeParams::new(params.orders);
         oe_params.ts = ts;
-        reason = String::from("ARX kept: the output-error refinement did not converge");
-        if let Ok(o) = oe(&r, &y, &oe_params, &mut |_| {}) {
-            let f = fits(&o.model, NoiseModel::OutputError, &r, &y);
-            match o.model.tf() {
-                Ok(tf) => {
-                    if !o.model.is_stable() {
-                        reason = String::from("ARX kept: the OE model is unstable");
-                    } else if f.simulation_percent > arx_fit.simulation_percent {
-                        reason = format!(
-                            "OE chosen: simulation fit {:.2} % against ARX {:.2} %",
-                            f.simulation_percent, arx_fit.simulation_percent
-                        );
-                        chosen = (tf, "oe");
-                    } else {
-                        reason = format!(
-                            "ARX kept: OE did not improve the simulation fit ({:.2} % against {:.2} %)",
-                            f.simulation_percent, arx_fit.simulation_percent
-                        );
-                    }
-                }
-                Err(e) => reason = format!("ARX kept: the OE model is unusable ({e})"),
-            }
-            oe_fit = Some(f);
+        let refined = refine_arx(&est.model, &r, &y, &oe_params);
+        if let (true, Some(Ok(tf))) = (refined.chosen, refined.oe.as_ref().map(|o| o.model.tf())) {
+            chosen = (tf, "oe");
         }
+        (arx_fit, oe_fit, reason) = (Some(refined.arx_fit), refined.oe_fit, refined.reason);
     }
+    let arx_fit = arx_fit.unwrap_or_else(|| fits(&est.model, NoiseModel::Arx, &r, &y));
     let (tf, removed_pairs) = match params.minreal_tol {
         Some(tol) => {
             let m = chosen

@@ -225,9 +225,110 @@ pub fn from_samples(mut samples: Vec<f64>, timing: &ReferenceTiming, label: Stri
     with_lead_in(samples, evaluated, timing, 0, label)
 }
 
+/// A step of `amplitude` from `offset` at `step_at` s into the evaluated
+/// part, held to `duration` s (and through the tail). The lead-in brings
+/// the loop to `offset` first, so the step starts from rest.
+pub fn step(
+    amplitude: f64,
+    offset: f64,
+    step_at: f64,
+    duration: f64,
+    timing: &ReferenceTiming,
+) -> Result<Reference, ExciteError> {
+    let bad = |field, message: String| Err(ExciteError { field, message });
+    if !(amplitude.is_finite() && amplitude != 0.0) {
+        return bad(
+            "amplitude",
+            format!("a step needs a non-zero amplitude, got {amplitude}"),
+        );
+    }
+    if !offset.is_finite() {
+        return bad("offset", format!("expected a finite number, got {offset}"));
+    }
+    let evaluated = excite::sample_count(duration, timing.ts)?;
+    if !(step_at.is_finite() && step_at >= 0.0 && step_at < duration) {
+        return bad(
+            "step-time",
+            format!("expected 0 <= step time < the duration ({duration} s), got {step_at}"),
+        );
+    }
+    let at = (step_at / timing.ts).round() as usize;
+    let total = evaluated + timing.tail_samples();
+    let signal = (0..total)
+        .map(|k| if k < at { offset } else { offset + amplitude })
+        .collect();
+    Ok(with_lead_in(
+        signal,
+        evaluated,
+        timing,
+        0,
+        format!("step {amplitude} um from {offset} um at {step_at} s"),
+    ))
+}
+
+/// Step-tracking figures of a measured step (docs/responses.md §4).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct StepTracking {
+    /// The step figures of `(y - offset)/amplitude` from the step on, towards
+    /// the measured final value (mean of the last 10 % of the evaluated part).
+    pub info: crate::lti::response::StepInfo,
+    /// The target minus the measured final value, in the reference's units
+    /// (the error `r - y` left once the step has settled).
+    pub steady_state_error: f64,
+}
+
+/// The step figures of `measurement` for a [`step`] reference whose step is
+/// at sample `step_index`, evaluated up to `end`: times from the step,
+/// values normalised by the step (`1` = the target), the final value the
+/// mean of the last 10 % of samples (a measured trace has no DC gain).
+pub fn step_tracking(
+    measurement: &[f64],
+    ts: f64,
+    step_index: usize,
+    end: usize,
+    offset: f64,
+    amplitude: f64,
+) -> Result<StepTracking, crate::lti::response::NoStepInfo> {
+    let y: Vec<f64> = measurement[step_index..end]
+        .iter()
+        .map(|v| (v - offset) / amplitude)
+        .collect();
+    let t: Vec<f64> = (0..y.len()).map(|k| k as f64 * ts).collect();
+    let tail = &y[y.len() - (y.len() / 10).max(1)..];
+    let y_final = tail.iter().sum::<f64>() / tail.len() as f64;
+    let mut info = crate::lti::response::step_info(&t, &y, y_final)?;
+    info.steady_state_error = 1.0 - y_final;
+    Ok(StepTracking {
+        info,
+        steady_state_error: amplitude * (1.0 - y_final),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn step_holds_the_offset_then_the_target() {
+        let timing = ReferenceTiming::default();
+        let r = step(2.0, 7.0, 0.01, 0.05, &timing).unwrap();
+        let from = r.evaluate_from;
+        assert_eq!(r.samples[from], 7.0);
+        assert_eq!(r.samples[from + 99], 7.0);
+        assert_eq!(r.samples[from + 100], 9.0);
+        assert_eq!(*r.samples.last().unwrap(), 9.0);
+        assert!(step(0.0, 7.0, 0.01, 0.05, &timing).is_err());
+        assert!(step(1.0, 7.0, 0.06, 0.05, &timing).is_err());
+        // A first-order lag 1 - 0.9^k towards 1: final 1, no overshoot.
+        let y: Vec<f64> = (0..500)
+            .map(|k| 7.0 + 2.0 * (1.0 - 0.9f64.powi(k)))
+            .collect();
+        let m = step_tracking(&y, 1e-4, 0, 500, 7.0, 2.0).unwrap();
+        assert!(m.steady_state_error.abs() < 1e-9);
+        assert_eq!(m.info.overshoot, 0.0);
+        // 10 % at k = 1 (1 - 0.9), 90 % at k = 22 (0.9^22 = 0.098).
+        assert!((m.info.rise_time.unwrap() - 21e-4).abs() < 1e-12);
+    }
 
     #[test]
     fn lead_in_is_smooth_and_reaches_the_start() {

@@ -3,7 +3,8 @@
 //! such as an H2 / H-infinity / mixsyn design), optionally followed by
 //! hysteresis compensation feedforward (`hc`) and the ZPETC reference
 //! pre-filter (`zpec`): `pid`, `pid+hc`, `pid+zpec`, `pid+hc+zpec`, `ss`,
-//! `ss+hc`, `ss+zpec`, `ss+hc+zpec`.
+//! `ss+hc`, `ss+zpec`, `ss+hc+zpec`; or feedforward only, without a
+//! feedback stage: `hc`, `zpec`, `hc+zpec`.
 
 /// The feedback controller of a composite controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -12,10 +13,12 @@ pub enum FeedbackKind {
     Pid,
     /// A discrete state-space controller (`state_space` block).
     StateSpace,
+    /// None: a feedforward-only controller (`no_feedback` block).
+    None,
 }
 
-/// Which stages a composite controller has. There is always exactly one
-/// feedback controller.
+/// Which stages a composite controller has: at most one feedback
+/// controller, and at least one stage.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Stages {
     /// The feedback controller.
@@ -27,7 +30,7 @@ pub struct Stages {
 }
 
 /// The forms `--controller` accepts, in order.
-pub const VALID_STAGE_STRINGS: [&str; 8] = [
+pub const VALID_STAGE_STRINGS: [&str; 11] = [
     "pid",
     "pid+hc",
     "pid+zpec",
@@ -36,6 +39,9 @@ pub const VALID_STAGE_STRINGS: [&str; 8] = [
     "ss+hc",
     "ss+zpec",
     "ss+hc+zpec",
+    "hc",
+    "zpec",
+    "hc+zpec",
 ];
 
 /// Why a stage string is not understood.
@@ -86,14 +92,12 @@ impl Stages {
             }
         }
         if ranks.first() != Some(&0) {
-            return Err(StageError {
-                message: format!("{text:?} must start with the feedback stage \"pid\" or \"ss\""),
-            });
+            feedback = FeedbackKind::None;
         }
         if ranks.windows(2).any(|w| w[0] >= w[1]) {
             return Err(StageError {
                 message: format!(
-                    "stages in {text:?} are repeated or out of order (one of pid or ss, then hc, then zpec)"
+                    "stages in {text:?} are repeated or out of order (pid or ss if any, then hc, then zpec)"
                 ),
             });
         }
@@ -106,9 +110,12 @@ impl Stages {
 
     /// The canonical spelling.
     pub fn name(&self) -> &'static str {
-        let i = usize::from(self.hysteresis_compensation)
-            + 2 * usize::from(self.zpetc)
-            + 4 * usize::from(self.feedback == FeedbackKind::StateSpace);
+        let i = usize::from(self.hysteresis_compensation) + 2 * usize::from(self.zpetc);
+        if self.feedback == FeedbackKind::None {
+            // Feedforward only ("" cannot be parsed: there is no empty controller).
+            return ["", "hc", "zpec", "hc+zpec"][i];
+        }
+        let i = i + 4 * usize::from(self.feedback == FeedbackKind::StateSpace);
         [
             "pid",
             "pid+hc",
@@ -137,7 +144,11 @@ mod tests {
             FeedbackKind::StateSpace
         );
         let e = Stages::parse("hc+pid").unwrap_err();
-        assert!(e.to_string().contains("must start"), "{e}");
+        assert!(e.to_string().contains("out of order"), "{e}");
+        assert_eq!(
+            Stages::parse("hc+zpetc").unwrap().feedback,
+            FeedbackKind::None
+        );
         assert!(e.to_string().contains("pid+hc+zpec"), "{e}");
         assert!(e.to_string().contains("ss+hc+zpec"), "{e}");
         assert!(

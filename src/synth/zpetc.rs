@@ -139,6 +139,36 @@ pub enum ZpetcError {
     /// no DC and unit-DC normalisation is impossible.
     #[error("the plant has a zero at z = 1 (no DC gain); ZPETC cannot have unit DC gain")]
     ZeroAtDc,
+    /// The closed loop has a pole on or outside the unit circle: a
+    /// feedforward filter cannot make an unstable loop track.
+    #[error(
+        "the closed loop is unstable: pole {pole} has |z| = {magnitude}; ZPETC inverts a stable closed loop, stabilise the loop (or re-identify it) first"
+    )]
+    UnstablePlant {
+        /// The pole of largest magnitude, written `re+imj`.
+        pole: String,
+        /// Its magnitude.
+        magnitude: f64,
+    },
+    /// Cancelling a zero this close to the unit circle puts a filter pole
+    /// there: the filter's gain near that frequency is about `1/(1 - |z|)`.
+    #[error(
+        "rho = {rho} would cancel the zero {zero} (|z| = {magnitude}, {distance:.1e} from the unit circle): the filter would have a pole there and a gain near {gain:.1e}; use rho below {limit}"
+    )]
+    CancelsNearUnitCircle {
+        /// The rho given.
+        rho: f64,
+        /// The zero, written `re+imj`.
+        zero: String,
+        /// Its magnitude.
+        magnitude: f64,
+        /// `1 - |z|`.
+        distance: f64,
+        /// `1 / (1 - |z|)`.
+        gain: f64,
+        /// The largest magnitude a cancelled zero may have.
+        limit: f64,
+    },
     /// The anticausal series did not reach its tolerance within `max_terms`.
     #[error(
         "the series inverse of the zeros outside radius {min_radius} needs more than {max_terms} terms to reach {tolerance:e}; raise the radius or the term limit"
@@ -199,6 +229,49 @@ fn damping_ratio(z: c64) -> f64 {
         return 0.0;
     }
     -r.ln() / ln.norm()
+}
+
+/// The largest magnitude of a zero ZPETC cancels: beyond it the cancelling
+/// filter pole sits within 1e-6 of the unit circle, a gain above 1e6 at
+/// that zero's frequency (the filter's numbers then mean nothing).
+pub const MAX_CANCELLED_MAGNITUDE: f64 = 1.0 - 1e-6;
+
+fn fmt_z(z: c64) -> String {
+    format!("{}{:+}j", z.re, z.im)
+}
+
+/// Refuses a closed loop with a pole on or outside the unit circle.
+fn check_stable(g: &DiscreteTf) -> Result<(), ZpetcError> {
+    let worst = g
+        .poles()?
+        .into_iter()
+        .max_by(|a, b| a.norm().total_cmp(&b.norm()));
+    match worst {
+        Some(p) if p.norm() >= 1.0 => Err(ZpetcError::UnstablePlant {
+            pole: fmt_z(p),
+            magnitude: p.norm(),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Refuses to cancel a zero within 1e-6 of the unit circle.
+fn check_cancellations(zeros: &[ClassifiedZero], rho: f64) -> Result<(), ZpetcError> {
+    let near = zeros
+        .iter()
+        .filter(|z| z.status == ZeroStatus::Cancelled && z.magnitude > MAX_CANCELLED_MAGNITUDE)
+        .max_by(|a, b| a.magnitude.total_cmp(&b.magnitude));
+    match near {
+        Some(z) => Err(ZpetcError::CancelsNearUnitCircle {
+            rho,
+            zero: fmt_z(z.zero),
+            magnitude: z.magnitude,
+            distance: 1.0 - z.magnitude,
+            gain: 1.0 / (1.0 - z.magnitude),
+            limit: MAX_CANCELLED_MAGNITUDE,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Splits the zeros of `g` per `params`.
@@ -263,7 +336,9 @@ pub fn design(g: &DiscreteTf, params: &ZpetcParams) -> Result<Zpetc, ZpetcError>
             si.tolerance
         )));
     }
+    check_stable(g)?;
     let zeros = classify_zeros(g, params)?;
+    check_cancellations(&zeros, params.rho)?;
     let b0 = g.num().coeffs()[0];
     let a_c = g.den();
     let with_status = |wanted: &dyn Fn(ZeroStatus) -> bool| -> Vec<c64> {
@@ -499,6 +574,45 @@ mod tests {
         assert!(check.max_phase_error_rad < 1e-9, "{check:?}");
         assert!((check.dc_gain - 1.0).abs() < 1e-12);
         assert!(check.max_magnitude_error < 1e-9);
+    }
+
+    #[test]
+    fn unstable_closed_loop_refused_with_its_pole() {
+        // Pole at 1.5 (and a double pole at 1: marginal is refused too).
+        for den in [vec![1.0, -1.5], vec![1.0, -2.0, 1.0]] {
+            let g = DiscreteTf::new(vec![1.0, -0.5], den, 1, 1e-3).unwrap();
+            match design(&g, &ZpetcParams::default()) {
+                Err(ZpetcError::UnstablePlant { magnitude, .. }) => assert!(magnitude >= 1.0),
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn cancelling_a_zero_at_the_unit_circle_is_refused() {
+        // Zero at 1 - 1e-12: rho = 1 would cancel it with a filter pole
+        // there (DC gain ~1e12); rho below the limit keeps it uncancelled.
+        let g = DiscreteTf::new(vec![1.0, -(1.0 - 1e-12)], vec![1.0, -0.5], 1, 1e-3).unwrap();
+        let one = ZpetcParams {
+            rho: 1.0,
+            ..Default::default()
+        };
+        match design(&g, &one) {
+            Err(e @ ZpetcError::CancelsNearUnitCircle { .. }) => {
+                let text = e.to_string();
+                assert!(text.contains("rho = 1"), "{text}");
+                assert!(text.contains("1.0e12"), "{text}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // A zero just inside the limit is still cancelled, and the filter
+        // gain stays below 1/(1 - MAX_CANCELLED_MAGNITUDE).
+        let r = MAX_CANCELLED_MAGNITUDE - 1e-9;
+        let g = DiscreteTf::new(vec![1.0, -r], vec![1.0, -0.5], 1, 1e-3).unwrap();
+        let z = design(&g, &one).unwrap();
+        assert_eq!(z.zeros[0].status, ZeroStatus::Cancelled);
+        let dc = z.response_at_omega(0.0).norm();
+        assert!(dc < 1.0 / (1.0 - MAX_CANCELLED_MAGNITUDE), "{dc}");
     }
 
     #[test]

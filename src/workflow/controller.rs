@@ -123,6 +123,24 @@ impl SsController {
         }
     }
 
+    /// Poles of a continuous controller beyond the Nyquist frequency of
+    /// `ts` (`|s| > pi / ts`), each with its frequency in Hz: no
+    /// discretisation at `ts` reproduces them (Tustin folds them towards
+    /// `z = -1`, ZOH aliases them), so the emitted controller differs from
+    /// the designed one there. Empty for a discrete controller.
+    pub fn poles_beyond_nyquist(sys: &StateSpace, ts: f64) -> Vec<(crate::lti::c64, f64)> {
+        if sys.is_discrete() || ts.is_nan() || ts <= 0.0 {
+            return Vec::new();
+        }
+        let nyquist_rad = std::f64::consts::PI / ts;
+        sys.poles()
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|p| p.norm() > nyquist_rad)
+            .map(|p| (p, p.norm() / (2.0 * std::f64::consts::PI)))
+            .collect()
+    }
+
     /// The feedback block of `sys` at sample time `ts`, discretised when
     /// continuous (`source` names `sys` in messages).
     pub fn block(
@@ -152,7 +170,7 @@ impl SsController {
             .map_err(|e| StepError::input(format!("{source}: {e}")))?;
         if block.order() > MAX_SS_ORDER {
             return Err(StepError::input(format!(
-                "{source}: {} states, the runtime takes at most {MAX_SS_ORDER} (MAX_SS_ORDER); reduce it first (mixsyn's order setting, fts mixsyn --order N)",
+                "{source}: {} states, the runtime takes at most {MAX_SS_ORDER} (MAX_SS_ORDER); reduce it first (mixsyn's order setting)",
                 block.order(),
             )));
         }

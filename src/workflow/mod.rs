@@ -10,15 +10,25 @@
 //! deserialises into the same type, so a key means what the flag means.
 
 pub mod controller;
+pub mod convert;
+pub mod identify;
+mod identify_hysteresis;
+pub mod response;
 pub mod robust;
+pub mod zpetc;
 
 pub use controller::{
     AntiWindup, ControllerInputs, ControllerReport, Discretisation, SsController,
+};
+pub use identify::{
+    ArxStruct, IdentifyArx, IdentifyHysteresis, IdentifyIv, IdentifyOe, LinearInputs, LinearReport,
+    Prepared, SelectionRuleChoice, StructReport,
 };
 pub use robust::{
     C2d, C2dMethodChoice, C2dReport, H2, H2Report, Hinf, HinfReport, Mixsyn, MixsynInputs,
     MixsynReport, Weight, WeightReport, WeightShape,
 };
+pub use zpetc::{DesignZpetc, ZpetcReport};
 
 /// `[re, im]` pairs, the JSON form of complex numbers in reports.
 pub fn complex_pairs<'a>(
@@ -83,6 +93,57 @@ impl StepError {
     }
 }
 
+/// A message with the settings it names written as the front end calls
+/// them: library messages write a setting as `` `key` `` (its manifest
+/// key); `name` turns the key into `--key` or `'key'`.
+pub fn render_settings(message: &str, name: impl Fn(&str) -> String) -> String {
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(open) = rest.find('`') {
+        let Some(len) = rest[open + 1..].find('`') else {
+            break;
+        };
+        let key = &rest[open + 1..open + 1 + len];
+        out.push_str(&rest[..open]);
+        if !key.is_empty() && key.bytes().all(|b| b.is_ascii_lowercase() || b == b'_') {
+            out.push_str(&name(key));
+        } else {
+            out.push_str(&rest[open..open + len + 2]);
+        }
+        rest = &rest[open + len + 2..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// Deserialises a count (`operators = 10`), refusing anything but a
+/// non-negative whole number with a message that says so.
+pub(crate) fn whole_number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    struct Whole;
+    impl serde::de::Visitor<'_> for Whole {
+        type Value = usize;
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("a non-negative whole number")
+        }
+        fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<usize, E> {
+            usize::try_from(v)
+                .map_err(|_| E::invalid_value(serde::de::Unexpected::Unsigned(v), &self))
+        }
+        fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<usize, E> {
+            usize::try_from(v)
+                .map_err(|_| E::invalid_value(serde::de::Unexpected::Signed(v), &self))
+        }
+    }
+    d.deserialize_any(Whole)
+}
+
+/// [`whole_number`] for an optional count (absent: `None`).
+pub(crate) fn some_whole_number<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<Option<usize>, D::Error> {
+    whole_number(d).map(Some)
+}
+
 /// Settings that can be checked before any input is read.
 pub trait Validate {
     /// Checks the settings alone.
@@ -98,5 +159,43 @@ pub(crate) fn positive(field: &'static str, x: f64) -> Result<f64, StepError> {
             field,
             format!("expected a positive number, got {x}"),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_in_messages_are_named_as_the_front_end_calls_them() {
+        let m = "data.csv: no time column; give `ts` SECONDS or `max_iterations`";
+        assert_eq!(
+            render_settings(m, |k| format!("--{}", k.replace('_', "-"))),
+            "data.csv: no time column; give --ts SECONDS or --max-iterations"
+        );
+        assert_eq!(
+            render_settings(m, |k| format!("'{k}'")),
+            "data.csv: no time column; give 'ts' SECONDS or 'max_iterations'"
+        );
+        // Not a key (spaces, capitals, unmatched): left as written.
+        for m in ["use `fts identify oe`", "`A` and `", "a ` b"] {
+            assert_eq!(render_settings(m, |_| "X".into()), m);
+        }
+    }
+
+    #[derive(Debug, serde::Deserialize)]
+    struct Count {
+        #[serde(deserialize_with = "whole_number")]
+        n: usize,
+    }
+
+    #[test]
+    fn counts_are_whole_numbers() {
+        let n: Count = toml::from_str("n = 7").unwrap();
+        assert_eq!(n.n, 7);
+        for bad in ["n = -1", "n = \"five\"", "n = 1.5"] {
+            let e = toml::from_str::<Count>(bad).unwrap_err().to_string();
+            assert!(e.contains("non-negative whole number"), "{bad}: {e}");
+        }
     }
 }

@@ -85,8 +85,9 @@ impl WeightShape {
 }
 
 /// `fts weight`: a first-order performance weight (continuous `fts.ss/1`).
-/// `shape` is required; `m`, `w0`, `a` go with `ws`/`wt`, `dc`, `freq`,
-/// `mag`, `hf` with `makeweight`.
+/// `shape` is required; `m`, `w0` (or `w0_rad`), `a` go with `ws`/`wt`,
+/// `dc`, `freq` (or `freq_rad`), `mag`, `hf` with `makeweight`.
+/// Frequencies are in Hz; the `_rad` forms take rad/s.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Weight {
@@ -94,14 +95,18 @@ pub struct Weight {
     pub shape: Option<WeightShape>,
     /// Peak sensitivity / gain M (ws, wt).
     pub m: Option<f64>,
-    /// Corner frequency w0, rad/s (ws, wt).
+    /// Corner frequency, Hz (ws, wt).
     pub w0: Option<f64>,
+    /// Corner frequency, rad/s (ws, wt), instead of `w0`.
+    pub w0_rad: Option<f64>,
     /// Low/high-frequency gain parameter A (ws, wt).
     pub a: Option<f64>,
     /// makeweight: DC gain.
     pub dc: Option<f64>,
-    /// makeweight: frequency (rad/s) where the gain is `mag`.
+    /// makeweight: frequency, Hz, where the gain is `mag`.
     pub freq: Option<f64>,
+    /// makeweight: that frequency in rad/s, instead of `freq`.
+    pub freq_rad: Option<f64>,
     /// makeweight: gain at `freq`.
     pub mag: Option<f64>,
     /// makeweight: high-frequency gain.
@@ -115,16 +120,37 @@ impl Weight {
         })
     }
 
-    /// The parameters the shape needs, in order, each checked positive.
+    /// A frequency given in Hz (`hz`) or rad/s (`rad`), in rad/s; which of
+    /// the two settings was used, for messages.
+    fn rad_per_s(
+        hz: (&'static str, Option<f64>),
+        rad: (&'static str, Option<f64>),
+    ) -> Result<(&'static str, Option<f64>), StepError> {
+        match (hz.1, rad.1) {
+            (Some(_), Some(_)) => Err(StepError::setting(
+                rad.0,
+                format!("give {} (Hz) or {} (rad/s), not both", hz.0, rad.0),
+            )),
+            (Some(f), None) => Ok((hz.0, Some(positive(hz.0, f)? * std::f64::consts::TAU))),
+            (None, Some(w)) => Ok((rad.0, Some(w))),
+            (None, None) => Ok((hz.0, None)),
+        }
+    }
+
+    /// The parameters the shape needs, in order, each checked positive
+    /// (frequencies in rad/s, as the weight formulas take them).
     fn params(&self) -> Result<Vec<f64>, StepError> {
         let shape = self.shape()?;
         let needed: [(&'static str, Option<f64>); 4] = match shape {
-            WeightShape::Ws | WeightShape::Wt => {
-                [("m", self.m), ("w0", self.w0), ("a", self.a), ("", None)]
-            }
+            WeightShape::Ws | WeightShape::Wt => [
+                ("m", self.m),
+                Self::rad_per_s(("w0", self.w0), ("w0_rad", self.w0_rad))?,
+                ("a", self.a),
+                ("", None),
+            ],
             WeightShape::Makeweight => [
                 ("dc", self.dc),
-                ("freq", self.freq),
+                Self::rad_per_s(("freq", self.freq), ("freq_rad", self.freq_rad))?,
                 ("mag", self.mag),
                 ("hf", self.hf),
             ],

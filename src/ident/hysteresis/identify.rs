@@ -79,6 +79,15 @@ impl Default for IdentifyParams {
 }
 
 impl IdentifyParams {
+    /// The solver as recorded in a model file: `ls`, `ls-invertible` or `gd`.
+    pub fn method_name(&self) -> &'static str {
+        match (self.method, self.invertible) {
+            (Method::Gd, _) => "gd",
+            (Method::Ls, true) => "ls-invertible",
+            (Method::Ls, false) => "ls",
+        }
+    }
+
     /// The operator form actually used.
     pub fn operator_form(&self) -> PlayOperator {
         self.operator.unwrap_or(match self.kind {
@@ -259,7 +268,7 @@ impl Regressor {
         if self.cbrt {
             // [Li21] Eq. 4: real, sign-preserving cube root.
             for (o, x) in columns[j][..rows].iter_mut().zip(u) {
-                *o = x.cbrt();
+                *o = crate::runtime::cbrt(*x);
             }
             j += 1;
         }
@@ -458,7 +467,7 @@ where
         None => {
             if params.operators == 0 {
                 return Err(IdentifyError::InvalidParams(
-                    "at least one play operator is needed".into(),
+                    "operators: at least one play operator is needed, got 0".into(),
                 ));
             }
             Vec::new()
@@ -474,6 +483,16 @@ where
         return Err(IdentifyError::InvalidParams(
             "MPI-deadzone needs at least one dead-zone operator".into(),
         ));
+    }
+    // A model file holds at most this many (docs/formats.md bounds); the
+    // regression's memory grows with samples times operators.
+    let max = crate::io::hysteresis_json::MAX_OPERATORS;
+    for (name, n) in [("operators", n_ops), ("dead_zone_operators", dz_ops)] {
+        if n > max {
+            return Err(IdentifyError::InvalidParams(format!(
+                "{name}: {n} is beyond the largest accepted, {max}"
+            )));
+        }
     }
     let unknowns = params.offset as usize
         + (params.kind == ModelKind::MpiCbrt) as usize
@@ -835,7 +854,12 @@ mod tests {
             };
             let phi = reg.matrix(&u);
             assert!(phi.col(0).iter().all(|&v| v == 1.0));
-            assert!(phi.col(1).iter().zip(&u).all(|(a, b)| *a == b.cbrt()));
+            assert!(
+                phi.col(1)
+                    .iter()
+                    .zip(&u)
+                    .all(|(a, b)| *a == fts_runtime::cbrt(*b))
+            );
             let mut want = vec![0.0; u.len()];
             for (i, &r) in reg.thresholds.iter().enumerate() {
                 play_into(op, r, &u, &mut want);

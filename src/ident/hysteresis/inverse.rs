@@ -18,12 +18,12 @@ use super::operators::PlayOperator;
 pub enum InverseError {
     /// Only classical PI models have the closed form.
     #[error(
-        "the analytic inverse needs a classical PI model; this one is '{0}' (identify the inverse directly with --inverse)"
+        "the analytic inverse needs a classical PI model; this one is '{0}' (identify the inverse directly instead: the `inverse` setting)"
     )]
     NotPi(String),
     /// The formula is for the symmetric play.
     #[error(
-        "the analytic inverse needs the symmetric play (play-symmetric); this model uses play-lower (identify the inverse directly with --inverse)"
+        "the analytic inverse needs the symmetric play (play-symmetric); this model uses play-lower (identify the inverse directly instead: the `inverse` setting)"
     )]
     NotSymmetric,
     /// `r_0` must be 0 (otherwise the loop has flat pieces after reversals).
@@ -31,7 +31,7 @@ pub enum InverseError {
     FirstThreshold(f64),
     /// A partial sum of the weights is not positive.
     #[error(
-        "partial sum W_{index} = {value} of the weights is not positive: the model is not invertible (identify with --invertible)"
+        "partial sum W_{index} = {value} of the weights is not positive: the model is not invertible (identify with the `invertible` setting)"
     )]
     NotInvertible {
         /// Index of the first bad partial sum.

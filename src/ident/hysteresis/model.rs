@@ -224,7 +224,7 @@ impl HysteresisModel {
             None => v,
         };
         // [Li21] Eq. 4: the cube-root term (cbrt_gain is 0 for other kinds).
-        self.offset + self.cbrt_gain * x.cbrt() + out
+        self.offset + self.cbrt_gain * crate::runtime::cbrt(x) + out
     }
 
     /// Runs the model over a signal from the demagnetised state.
@@ -271,7 +271,7 @@ impl HysteresisModel {
                         .sum(),
                     None => v,
                 };
-                *o = self.offset + self.cbrt_gain * xk.cbrt() + stage;
+                *o = self.offset + self.cbrt_gain * crate::runtime::cbrt(xk) + stage;
             }
         }
         out

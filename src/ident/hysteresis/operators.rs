@@ -70,10 +70,11 @@ impl PlayOperator {
 }
 
 /// One-sided dead-zone operator of [Tang17] Eq. 41: `S_d[v] = max(v - d, 0)`
-/// for `d > 0` and the identity `S_0[v] = v`.
+/// for `d > 0` and the identity `S_0[v] = v`: the runtime's own function,
+/// so that identification, simulation and the real-time loop agree bit for bit.
 #[inline(always)]
 pub fn dead_zone(d: f64, v: f64) -> f64 {
-    if d == 0.0 { v } else { (v - d).max(0.0) }
+    crate::runtime::dead_zone(d, v)
 }
 
 /// The uniform threshold grid `r_i = i/n * max_abs`, `i = 0..n-1` (docs/math.md §1.1;

@@ -1,0 +1,537 @@
+/* fts_runtime.c: the fts controller step in C99; see fts_runtime.h.
+ *
+ * Every function mirrors its namesake in crates/fts-runtime/src/lib.rs
+ * operation for operation (same sums in the same order, same comparisons),
+ * which is what makes the commands bit-identical to the Rust step. Keep the
+ * two in step: tests/c_runtime.rs compares them over 1e5-sample traces. */
+#include "fts_runtime.h"
+
+#include <stdint.h>
+
+/* Only freestanding headers (no math.h, no string.h): the runtime builds
+ * for bare-metal targets without a C library. Bit patterns go through a
+ * union, which C99 defines (6.5.2.3) and C++ compilers support. */
+typedef union {
+    double f;
+    uint64_t i;
+} fts_bits;
+
+static uint64_t bits_of(double x)
+{
+    fts_bits b;
+    b.f = x;
+    return b.i;
+}
+
+static double from_bits(uint64_t i)
+{
+    fts_bits b;
+    b.i = i;
+    return b.f;
+}
+
+/* Exponent all ones: infinity or NaN. */
+static int is_finite(double x)
+{
+    return ((bits_of(x) >> 52) & 0x7ffu) != 0x7ffu;
+}
+
+static int is_nan(double x)
+{
+    return !is_finite(x) && (bits_of(x) & 0xfffffffffffffull) != 0;
+}
+
+double fts_infinity(void)
+{
+    return from_bits((uint64_t)0x7ff0000000000000ull);
+}
+
+/* The cube root, the Rust crate's `cbrt` (FreeBSD s_cbrt.c as in musl,
+ * error < 0.667 ulp), operation for operation: the C library's cbrt differs
+ * between platforms, this one gives the same bits everywhere. */
+static double fts_cbrt(double x)
+{
+    static const uint32_t B1 = 715094163u; /* (1023 - 1023/3 - 0.03306235651) * 2^20 */
+    static const uint32_t B2 = 696219795u; /* (1023 - 1023/3 - 54/3 - 0.03306235651) * 2^20 */
+    static const double P0 = 1.87595182427177009643;   /* 0x3ffe03e6 0f61e692 */
+    static const double P1 = -1.88497979543377169875;  /* 0xbffe28e0 92f02420 */
+    static const double P2 = 1.621429720105354466140;  /* 0x3ff9f160 4a49d6c2 */
+    static const double P3 = -0.758397934778766047437; /* 0xbfe844cb bee751d9 */
+    static const double P4 = 0.145996192886612446982;  /* 0x3fc2b000 d4e4edd7 */
+    static const double two54 = 18014398509481984.0;   /* 2^54 */
+    uint64_t ui;
+    uint32_t hx;
+    double t, r, s, w;
+    ui = bits_of(x);
+    hx = (uint32_t)(ui >> 32) & 0x7fffffffu;
+    if (hx >= 0x7ff00000u) {
+        return x + x; /* NaN, infinities */
+    }
+    if (hx < 0x00100000u) {
+        t = x * two54; /* subnormals */
+        ui = bits_of(t);
+        hx = (uint32_t)(ui >> 32) & 0x7fffffffu;
+        if (hx == 0) {
+            return x; /* +-0 */
+        }
+        hx = hx / 3 + B2;
+    } else {
+        hx = hx / 3 + B1;
+    }
+    ui &= (uint64_t)1 << 63;
+    ui |= (uint64_t)hx << 32;
+    t = from_bits(ui);
+    r = (t * t) * (t / x);
+    t = t * ((P0 + r * (P1 + r * P2)) + ((r * r) * r) * (P3 + r * P4));
+    ui = (bits_of(t) + 0x80000000u) & (uint64_t)0xffffffffc0000000ull;
+    t = from_bits(ui);
+    s = t * t;
+    r = x / s;
+    w = t + t;
+    r = (r - t) / (w + r);
+    return t + t * r;
+}
+
+/* Length in 1..=cap and every value finite, then copy (Rust copy_into). */
+static fts_status copy_into(const double *src, size_t len, double *dst, size_t cap)
+{
+    size_t i;
+    if (len == 0 || len > cap || src == NULL) {
+        return FTS_ERR_BAD_LENGTH;
+    }
+    for (i = 0; i < len; ++i) {
+        if (!is_finite(src[i])) {
+            return FTS_ERR_NON_FINITE;
+        }
+    }
+    for (i = 0; i < len; ++i) {
+        dst[i] = src[i];
+    }
+    return FTS_OK;
+}
+
+static void zero(double *v, size_t len)
+{
+    size_t i;
+    for (i = 0; i < len; ++i) {
+        v[i] = 0.0;
+    }
+}
+
+#define FTS_CHECK(expr, name)                                                                      \
+    do {                                                                                           \
+        fts_status s_ = (expr);                                                                    \
+        if (s_ != FTS_OK) {                                                                        \
+            *field = (name);                                                                       \
+            return s_;                                                                             \
+        }                                                                                          \
+    } while (0)
+
+#define FTS_FAIL(status, name)                                                                     \
+    do {                                                                                           \
+        *field = (name);                                                                           \
+        return (status);                                                                           \
+    } while (0)
+
+static fts_status finite_or(double v)
+{
+    return is_finite(v) ? FTS_OK : FTS_ERR_NON_FINITE;
+}
+
+static fts_status init_zpetc(fts_controller *c, const fts_zpetc_spec *z, const char **field)
+{
+    double num[FTS_MAX_FILTER_LEN];
+    double den[FTS_MAX_FILTER_LEN];
+    double a0;
+    size_t i;
+    FTS_CHECK(copy_into(z->num, z->num_len, num, FTS_MAX_FILTER_LEN), "zpetc.num");
+    FTS_CHECK(copy_into(z->den, z->den_len, den, FTS_MAX_FILTER_LEN), "zpetc.den");
+    if (den[0] == 0.0) {
+        FTS_FAIL(FTS_ERR_INVALID, "zpetc.den");
+    }
+    /* Normalised by a0 exactly as the Rust block (and lti::TdfFilter). */
+    a0 = den[0];
+    c->has_zpetc = 1;
+    c->preview = z->preview;
+    c->order = (z->num_len > z->den_len ? z->num_len : z->den_len) - 1;
+    zero(c->zb, FTS_MAX_FILTER_LEN);
+    zero(c->za, FTS_MAX_FILTER_LEN);
+    for (i = 0; i < z->num_len; ++i) {
+        c->zb[i] = num[i] / a0;
+    }
+    for (i = 0; i < z->den_len; ++i) {
+        c->za[i] = den[i] / a0;
+    }
+    return FTS_OK;
+}
+
+static fts_status init_hysteresis(fts_controller *c, const fts_hysteresis_spec *h,
+                                  const char **field)
+{
+    FTS_CHECK(copy_into(h->thresholds, h->thresholds_len, c->thresholds, FTS_MAX_OPERATORS),
+              "hysteresis.thresholds");
+    FTS_CHECK(copy_into(h->weights, h->weights_len, c->weights, FTS_MAX_OPERATORS),
+              "hysteresis.weights");
+    if (h->weights_len != h->thresholds_len) {
+        FTS_FAIL(FTS_ERR_LENGTH_MISMATCH, "hysteresis.weights");
+    }
+    FTS_CHECK(finite_or(h->cbrt_gain), "hysteresis.cbrt_gain");
+    FTS_CHECK(finite_or(h->offset), "hysteresis.offset");
+    FTS_CHECK(finite_or(h->input_offset), "hysteresis.input_offset");
+    c->n_dead_zones = 0;
+    if (h->dead_zone_thresholds_len != 0 || h->dead_zone_weights_len != 0) {
+        FTS_CHECK(copy_into(h->dead_zone_thresholds, h->dead_zone_thresholds_len,
+                            c->dz_thresholds, FTS_MAX_DEAD_ZONES),
+                  "hysteresis.dead_zone.thresholds");
+        FTS_CHECK(copy_into(h->dead_zone_weights, h->dead_zone_weights_len, c->dz_weights,
+                            FTS_MAX_DEAD_ZONES),
+                  "hysteresis.dead_zone.weights");
+        if (h->dead_zone_weights_len != h->dead_zone_thresholds_len) {
+            FTS_FAIL(FTS_ERR_LENGTH_MISMATCH, "hysteresis.dead_zone.weights");
+        }
+        c->n_dead_zones = h->dead_zone_thresholds_len;
+    }
+    c->has_hysteresis = 1;
+    c->form = h->form;
+    c->n_operators = h->thresholds_len;
+    c->cbrt_gain = h->cbrt_gain;
+    c->offset = h->offset;
+    c->input_offset = h->input_offset;
+    return FTS_OK;
+}
+
+static fts_status init_pid(fts_controller *c, const fts_pid_spec *p, int filtered,
+                           const char **field)
+{
+    FTS_CHECK(finite_or(p->kp), "pid.kp");
+    FTS_CHECK(finite_or(p->ki), "pid.ki");
+    FTS_CHECK(finite_or(p->kd), "pid.kd");
+    FTS_CHECK(finite_or(p->output_min), "pid.output_min");
+    FTS_CHECK(finite_or(p->output_max), "pid.output_max");
+    if (p->output_min >= p->output_max) {
+        FTS_FAIL(FTS_ERR_INVALID, "pid.output_min");
+    }
+    if (filtered) {
+        FTS_CHECK(finite_or(p->derivative_pole), "pid.derivative_pole");
+        if (!(p->derivative_pole >= 0.0 && p->derivative_pole < 1.0)) {
+            FTS_FAIL(FTS_ERR_INVALID, "pid.derivative_pole");
+        }
+    }
+    c->pid = *p;
+    if (!filtered) {
+        c->pid.derivative_pole = 0.0;
+    }
+    return FTS_OK;
+}
+
+static fts_status all_finite(const double *v, size_t len)
+{
+    size_t i;
+    for (i = 0; i < len; ++i) {
+        if (!is_finite(v[i])) {
+            return FTS_ERR_NON_FINITE;
+        }
+    }
+    return FTS_OK;
+}
+
+static fts_status init_ss(fts_controller *c, const fts_ss_spec *k, const char **field)
+{
+    size_t i, j, n = k->n;
+    if (n > FTS_MAX_SS_ORDER) {
+        FTS_FAIL(FTS_ERR_ORDER_TOO_HIGH, "state_space.a");
+    }
+    if (n > 0 && (k->a == NULL || k->b == NULL || k->c == NULL)) {
+        FTS_FAIL(FTS_ERR_LENGTH_MISMATCH, "state_space.a");
+    }
+    FTS_CHECK(all_finite(k->a, n * n), "state_space.a");
+    FTS_CHECK(all_finite(k->b, n), "state_space.b");
+    FTS_CHECK(all_finite(k->c, n), "state_space.c");
+    FTS_CHECK(finite_or(k->d), "state_space.d");
+    /* Infinite limits mean "no limit"; NaN is refused. */
+    if (is_nan(k->output_min) || (!is_finite(k->output_min) && k->output_min > 0.0)) {
+        FTS_FAIL(FTS_ERR_NON_FINITE, "state_space.output_min");
+    }
+    if (is_nan(k->output_max) || (!is_finite(k->output_max) && k->output_max < 0.0)) {
+        FTS_FAIL(FTS_ERR_NON_FINITE, "state_space.output_max");
+    }
+    if (k->output_min >= k->output_max) {
+        FTS_FAIL(FTS_ERR_INVALID, "state_space.output_min");
+    }
+    c->nx = n;
+    for (i = 0; i < FTS_MAX_SS_ORDER; ++i) {
+        zero(c->ss_a[i], FTS_MAX_SS_ORDER);
+    }
+    zero(c->ss_b, FTS_MAX_SS_ORDER);
+    zero(c->ss_c, FTS_MAX_SS_ORDER);
+    for (i = 0; i < n; ++i) {
+        for (j = 0; j < n; ++j) {
+            c->ss_a[i][j] = k->a[i * n + j];
+        }
+        c->ss_b[i] = k->b[i];
+        c->ss_c[i] = k->c[i];
+    }
+    c->ss_d = k->d;
+    c->ss_min = k->output_min;
+    c->ss_max = k->output_max;
+    c->conditional_update = k->conditional_update != 0;
+    return FTS_OK;
+}
+
+fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **field)
+{
+    const char *unused = NULL;
+    if (field == NULL) {
+        field = &unused;
+    }
+    *field = NULL;
+    ctl->has_zpetc = 0;
+    ctl->preview = 0;
+    ctl->order = 0;
+    ctl->has_hysteresis = 0;
+    ctl->feedback = FTS_FEEDBACK_NONE;
+    if (spec->zpetc != NULL) {
+        fts_status s = init_zpetc(ctl, spec->zpetc, field);
+        if (s != FTS_OK) {
+            return s;
+        }
+    }
+    if (spec->hysteresis != NULL) {
+        fts_status s = init_hysteresis(ctl, spec->hysteresis, field);
+        if (s != FTS_OK) {
+            return s;
+        }
+    }
+    switch (spec->feedback) {
+    case FTS_FEEDBACK_NONE:
+        break;
+    case FTS_FEEDBACK_PID:
+    case FTS_FEEDBACK_PID_FILTERED: {
+        fts_status s =
+            init_pid(ctl, &spec->pid, spec->feedback == FTS_FEEDBACK_PID_FILTERED, field);
+        if (s != FTS_OK) {
+            return s;
+        }
+        break;
+    }
+    case FTS_FEEDBACK_STATE_SPACE: {
+        fts_status s = init_ss(ctl, &spec->ss, field);
+        if (s != FTS_OK) {
+            return s;
+        }
+        break;
+    }
+    default:
+        FTS_FAIL(FTS_ERR_INVALID, "feedback");
+    }
+    ctl->feedback = spec->feedback;
+    fts_reset(ctl);
+    return FTS_OK;
+}
+
+void fts_reset(fts_controller *ctl)
+{
+    zero(ctl->zstate, FTS_MAX_FILTER_LEN);
+    zero(ctl->play, FTS_MAX_OPERATORS);
+    ctl->integral = 0.0;
+    ctl->derivative = 0.0;
+    ctl->previous_measurement = 0.0;
+    ctl->started = 0;
+    zero(ctl->x, FTS_MAX_SS_ORDER);
+}
+
+size_t fts_preview(const fts_controller *ctl)
+{
+    return ctl->has_zpetc ? ctl->preview : 0;
+}
+
+/* Transposed direct form II (Rust tdf2_step). */
+static double tdf2_step(fts_controller *c, double x)
+{
+    size_t i, n = c->order;
+    double y;
+    if (n == 0) {
+        return c->zb[0] * x;
+    }
+    y = c->zb[0] * x + c->zstate[0];
+    for (i = 0; i + 1 < n; ++i) {
+        c->zstate[i] = c->zb[i + 1] * x + c->zstate[i + 1] - c->za[i + 1] * y;
+    }
+    c->zstate[n - 1] = c->zb[n] * x - c->za[n] * y;
+    return y;
+}
+
+/* max(lower, min(upper, previous)) with the Rust comparisons (signed zeros included). */
+static double play(double upper, double lower, double previous)
+{
+    double clipped = upper < previous ? upper : previous;
+    return lower > clipped ? lower : clipped;
+}
+
+static double dead_zone(double d, double v)
+{
+    double t;
+    if (d == 0.0) {
+        return v;
+    }
+    t = v - d;
+    return t > 0.0 ? t : 0.0;
+}
+
+/* The inverse hysteresis model (Rust hysteresis_step). */
+static double hysteresis_step(fts_controller *c, double u)
+{
+    double x = u - c->input_offset;
+    double v = 0.0;
+    double out;
+    size_t i, n = c->n_operators;
+    if (c->form == FTS_PLAY_LOWER) {
+        for (i = 0; i < n; ++i) {
+            c->play[i] = play(x + 0.0, x - c->thresholds[i], c->play[i]);
+            v += c->weights[i] * c->play[i];
+        }
+    } else {
+        for (i = 0; i < n; ++i) {
+            c->play[i] = play(x + c->thresholds[i], x - c->thresholds[i], c->play[i]);
+            v += c->weights[i] * c->play[i];
+        }
+    }
+    if (c->n_dead_zones == 0) {
+        out = v;
+    } else {
+        /* -0.0 is the additive identity, as in Rust's Iterator::sum. */
+        out = -0.0;
+        for (i = 0; i < c->n_dead_zones; ++i) {
+            out += c->dz_weights[i] * dead_zone(c->dz_thresholds[i], v);
+        }
+    }
+    return c->offset + c->cbrt_gain * fts_cbrt(x) + out;
+}
+
+/* f64::clamp: NaN passes through. */
+static double clamp(double v, double lo, double hi)
+{
+    if (v < lo) {
+        v = lo;
+    }
+    if (v > hi) {
+        v = hi;
+    }
+    return v;
+}
+
+/* The [Li21] Eq. 5 PID and its filtered-derivative form (Rust pid_step,
+ * pid_filtered_step): conditional-integration anti-windup. */
+static double pid_step(fts_controller *c, double reference, double measurement,
+                       double feedforward)
+{
+    const fts_pid_spec *p = &c->pid;
+    double error = reference - measurement;
+    double previous = c->started ? c->previous_measurement : measurement;
+    double derivative, candidate, unclamped, command;
+    int winding_up;
+    if (c->feedback == FTS_FEEDBACK_PID_FILTERED) {
+        derivative = p->derivative_pole * c->derivative + p->kd * (measurement - previous);
+        c->derivative = derivative;
+    } else {
+        derivative = p->kd * (measurement - previous);
+    }
+    c->previous_measurement = measurement;
+    c->started = 1;
+    candidate = c->integral + p->ki * error;
+    unclamped = feedforward + p->kp * error + candidate - derivative;
+    command = clamp(unclamped, p->output_min, p->output_max);
+    winding_up = (unclamped > p->output_max && error > 0.0) ||
+                 (unclamped < p->output_min && error < 0.0);
+    if (!winding_up) {
+        c->integral = candidate;
+    }
+    return command;
+}
+
+/* v = C x + D e from the states before the update, then x <- A x + B e unless
+ * held by the conditional update (Rust ss_step). */
+static double ss_step(fts_controller *c, double error, double feedforward)
+{
+    double next[FTS_MAX_SS_ORDER];
+    double cx = 0.0, unclamped, command;
+    size_t i, j, n = c->nx;
+    int hold = 0;
+    for (j = 0; j < n; ++j) {
+        cx += c->ss_c[j] * c->x[j];
+    }
+    unclamped = feedforward + (cx + c->ss_d * error);
+    command = clamp(unclamped, c->ss_min, c->ss_max);
+    for (i = 0; i < n; ++i) {
+        double acc = 0.0;
+        for (j = 0; j < n; ++j) {
+            acc += c->ss_a[i][j] * c->x[j];
+        }
+        next[i] = acc + c->ss_b[i] * error;
+    }
+    if (c->conditional_update && (unclamped > c->ss_max || unclamped < c->ss_min)) {
+        double cnext = 0.0;
+        for (i = 0; i < n; ++i) {
+            cnext += c->ss_c[i] * next[i];
+        }
+        hold = (unclamped > c->ss_max && cnext > cx) || (unclamped < c->ss_min && cnext < cx);
+    }
+    if (!hold) {
+        for (i = 0; i < n; ++i) {
+            c->x[i] = next[i];
+        }
+    }
+    return command;
+}
+
+double fts_step_traced(fts_controller *ctl, double reference_ahead, double measurement,
+                       double *filtered, double *feedforward)
+{
+    double rf = ctl->has_zpetc ? tdf2_step(ctl, reference_ahead) : reference_ahead;
+    double uff = ctl->has_hysteresis ? hysteresis_step(ctl, rf) : 0.0;
+    double u;
+    switch (ctl->feedback) {
+    case FTS_FEEDBACK_PID:
+    case FTS_FEEDBACK_PID_FILTERED:
+        u = pid_step(ctl, rf, measurement, uff);
+        break;
+    case FTS_FEEDBACK_STATE_SPACE:
+        u = ss_step(ctl, rf - measurement, uff);
+        break;
+    case FTS_FEEDBACK_NONE:
+    default:
+        u = ctl->has_hysteresis ? uff : rf;
+        break;
+    }
+    if (filtered != NULL) {
+        *filtered = rf;
+    }
+    if (feedforward != NULL) {
+        *feedforward = uff;
+    }
+    return u;
+}
+
+double fts_step(fts_controller *ctl, double reference_ahead, double measurement)
+{
+    return fts_step_traced(ctl, reference_ahead, measurement, NULL, NULL);
+}
+
+const char *fts_status_text(fts_status status)
+{
+    switch (status) {
+    case FTS_OK:
+        return "ok";
+    case FTS_ERR_BAD_LENGTH:
+        return "empty or beyond the runtime's capacity";
+    case FTS_ERR_ORDER_TOO_HIGH:
+        return "more states than FTS_MAX_SS_ORDER";
+    case FTS_ERR_LENGTH_MISMATCH:
+        return "length does not match its partner list";
+    case FTS_ERR_NON_FINITE:
+        return "contains a non-finite number";
+    case FTS_ERR_INVALID:
+        return "invalid value";
+    }
+    return "unknown status";
+}

@@ -1,0 +1,195 @@
+/* fts_runtime.h: the fts controller step in C99, the twin of the Rust crate
+ * fts-runtime (crates/fts-runtime/src/lib.rs). Written by `fts emit --format c`
+ * beside fts_controller.h (the coefficients); see docs/formats.md "C runtime".
+ *
+ * Per sample k, in signal order ([Li21] Fig. 5):
+ *   r_f  = ZPETC num/den on r(k + preview)          (r_f = r without ZPETC)
+ *   u_ff = inverse hysteresis of r_f                 (0 without the block)
+ *   u    = clamp(u_ff + feedback(r_f - x), min, max) (PID, filtered PID or
+ *          state space; without feedback: u_ff with a hysteresis block, else r_f)
+ *
+ * Fixed capacity, no malloc, no globals: all state lives in the caller's
+ * fts_controller. The arithmetic is the Rust step's, operation for operation;
+ * compile without floating-point contraction (-ffp-contract=off; never
+ * -ffast-math) and the commands are bit-identical to fts simulate's on any
+ * IEEE-754 double target (the cube root is the runtime's own, not the C
+ * library's). Only freestanding headers are used: no C library is needed.
+ */
+#ifndef FTS_RUNTIME_H
+#define FTS_RUNTIME_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Capacities, the Rust crate's. Override them (identically in every
+ * translation unit) to shrink fts_controller on small targets. */
+#ifndef FTS_MAX_FILTER_LEN
+#define FTS_MAX_FILTER_LEN 512
+#endif
+#ifndef FTS_MAX_OPERATORS
+#define FTS_MAX_OPERATORS 64
+#endif
+#ifndef FTS_MAX_DEAD_ZONES
+#define FTS_MAX_DEAD_ZONES 16
+#endif
+#ifndef FTS_MAX_SS_ORDER
+#define FTS_MAX_SS_ORDER 16
+#endif
+
+/* Why a specification cannot be loaded (the Rust RuntimeError). */
+typedef enum fts_status {
+    FTS_OK = 0,
+    FTS_ERR_BAD_LENGTH = 1,      /* a list is empty or beyond its capacity */
+    FTS_ERR_ORDER_TOO_HIGH = 2,  /* more states than FTS_MAX_SS_ORDER */
+    FTS_ERR_LENGTH_MISMATCH = 3, /* two partner lists differ in length */
+    FTS_ERR_NON_FINITE = 4,      /* NaN or infinity */
+    FTS_ERR_INVALID = 5          /* den[0] = 0, unordered limits, pole outside [0, 1) */
+} fts_status;
+
+typedef enum fts_play_form {
+    FTS_PLAY_LOWER = 0,    /* F = max(x - r, min(x, F_prev))      [Li21] Eq. 3 */
+    FTS_PLAY_SYMMETRIC = 1 /* F = max(x - r, min(x + r, F_prev))  [Tang17] Eq. 37-39 */
+} fts_play_form;
+
+typedef enum fts_feedback_kind {
+    FTS_FEEDBACK_NONE = 0,         /* feedforward only */
+    FTS_FEEDBACK_PID = 1,          /* [Li21] Eq. 5, gains per sample */
+    FTS_FEEDBACK_PID_FILTERED = 2, /* the same with a filtered derivative */
+    FTS_FEEDBACK_STATE_SPACE = 3   /* v = C x + D e; x <- A x + B e */
+} fts_feedback_kind;
+
+/* ZPETC pre-filter: ascending powers of z^-1, den[0] != 0. */
+typedef struct fts_zpetc_spec {
+    size_t preview;
+    const double *num;
+    size_t num_len;
+    const double *den;
+    size_t den_len;
+} fts_zpetc_spec;
+
+/* Inverse hysteresis: u_ff = offset + cbrt_gain cbrt(x) + Out[sum_i w_i F_i[x]],
+ * x = r_f - input_offset; Out is the identity without dead zones, else
+ * sum_j g_j S_dj[.] with S_d[v] = max(v - d, 0) (d != 0), S_0[v] = v. */
+typedef struct fts_hysteresis_spec {
+    fts_play_form form;
+    const double *thresholds;
+    size_t thresholds_len;
+    const double *weights;
+    size_t weights_len;
+    double cbrt_gain;
+    double offset;
+    double input_offset;
+    const double *dead_zone_thresholds; /* may be NULL with length 0 */
+    size_t dead_zone_thresholds_len;
+    const double *dead_zone_weights;
+    size_t dead_zone_weights_len;
+} fts_hysteresis_spec;
+
+/* PID on e = r_f - x, derivative on the measurement x:
+ *   d(k) = derivative_pole d(k-1) + kd (x(k) - x(k-1))   (pole 0 for FTS_FEEDBACK_PID)
+ *   u = clamp(u_ff + kp e + I(k-1) + ki e - d(k)); I keeps I(k-1) + ki e unless
+ *   the command is saturated with e pushing further out. */
+typedef struct fts_pid_spec {
+    double kp;
+    double ki;
+    double kd;
+    double derivative_pole; /* FTS_FEEDBACK_PID_FILTERED only, in [0, 1) */
+    double output_min;
+    double output_max;
+} fts_pid_spec;
+
+/* State-space controller, SISO, e in, v out: a is n x n row-major, b n x 1,
+ * c 1 x n. Limits may be -fts_infinity() / fts_infinity() (no limit). */
+typedef struct fts_ss_spec {
+    size_t n;
+    const double *a;
+    const double *b;
+    const double *c;
+    double d;
+    double output_min;
+    double output_max;
+    int conditional_update; /* hold x while saturated and C (x+ - x) points further out */
+} fts_ss_spec;
+
+/* A whole controller; NULL blocks are absent. */
+typedef struct fts_spec {
+    const fts_zpetc_spec *zpetc;
+    const fts_hysteresis_spec *hysteresis;
+    fts_feedback_kind feedback;
+    fts_pid_spec pid;   /* FTS_FEEDBACK_PID and FTS_FEEDBACK_PID_FILTERED */
+    fts_ss_spec ss;     /* FTS_FEEDBACK_STATE_SPACE */
+} fts_spec;
+
+/* A loaded controller with its state: the caller owns it (static storage or
+ * stack; it is about 20 KB with the default capacities). */
+typedef struct fts_controller {
+    int has_zpetc;
+    size_t preview;
+    size_t order;
+    double zb[FTS_MAX_FILTER_LEN];
+    double za[FTS_MAX_FILTER_LEN];
+    double zstate[FTS_MAX_FILTER_LEN];
+
+    int has_hysteresis;
+    fts_play_form form;
+    size_t n_operators;
+    double thresholds[FTS_MAX_OPERATORS];
+    double weights[FTS_MAX_OPERATORS];
+    double play[FTS_MAX_OPERATORS];
+    double cbrt_gain;
+    double offset;
+    double input_offset;
+    size_t n_dead_zones;
+    double dz_thresholds[FTS_MAX_DEAD_ZONES];
+    double dz_weights[FTS_MAX_DEAD_ZONES];
+
+    fts_feedback_kind feedback;
+    fts_pid_spec pid;
+    double integral;
+    double derivative;
+    double previous_measurement;
+    int started;
+
+    size_t nx;
+    double ss_a[FTS_MAX_SS_ORDER][FTS_MAX_SS_ORDER];
+    double ss_b[FTS_MAX_SS_ORDER];
+    double ss_c[FTS_MAX_SS_ORDER];
+    double ss_d;
+    double ss_min;
+    double ss_max;
+    int conditional_update;
+    double x[FTS_MAX_SS_ORDER];
+} fts_controller;
+
+/* Checks and copies the coefficients; the controller starts at rest. On an
+ * error *field (when field is not NULL) names the offending list, e.g.
+ * "zpetc.den", as the Rust runtime does, and ctl is unusable. */
+fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **field);
+
+/* Back to rest: filter, operators, integrator, derivative and states cleared. */
+void fts_reset(fts_controller *ctl);
+
+/* Samples of reference look-ahead the caller must supply. */
+size_t fts_preview(const fts_controller *ctl);
+
+/* One command: reference_ahead is r(k + preview), measurement is x(k). */
+double fts_step(fts_controller *ctl, double reference_ahead, double measurement);
+
+/* The same, with the intermediate signals r_f and u_ff (either pointer may be NULL). */
+double fts_step_traced(fts_controller *ctl, double reference_ahead, double measurement,
+                       double *filtered, double *feedforward);
+
+/* +infinity, for state-space limits that are absent (-fts_infinity() below). */
+double fts_infinity(void);
+
+/* A short English name of a status, e.g. "non-finite coefficient". */
+const char *fts_status_text(fts_status status);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* FTS_RUNTIME_H */

@@ -1,0 +1,301 @@
+//! `fts response`, the conversion commands and `fts simulate --reference
+//! step` from the outside: results, files, bounds and exit codes.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn json_out(cmd: &mut Command) -> Value {
+    let out = cmd
+        .arg("--json")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    serde_json::from_slice(&out).expect("one JSON object on stdout")
+}
+
+const SECOND_ORDER: &str = r#"{"format": "fts.tf/1", "var": "s", "num": [9], "den": [1, 1.8, 9]}"#;
+const MIMO: &str = r#"{"format": "fts.ss/1", "ts": null,
+  "a": [[-1, 0.5, 0], [-0.5, -2, 1], [0, 0, -3]], "b": [[1, 0], [0.3, 1], [0, 2]],
+  "c": [[1, 0, 0.5], [0.2, 1, 0]], "d": [[0, 0], [0.1, 0]]}"#;
+
+#[test]
+fn step_of_a_second_order_system_has_the_closed_form_overshoot() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(dir.path(), "g.json", SECOND_ORDER);
+    let csv = dir.path().join("s.csv");
+    let v = json_out(
+        fts()
+            .args(["response", "step"])
+            .arg(&g)
+            .args(["--duration", "10", "--points", "100001", "--csv"])
+            .arg(&csv),
+    );
+    let info = &v["channels"][0]["step_info"];
+    // zeta = 0.3: overshoot 100 exp(-pi zeta / sqrt(1 - zeta^2)) = 37.2326 %.
+    let os = 100.0 * (-std::f64::consts::PI * 0.3 / (1.0f64 - 0.09).sqrt()).exp();
+    assert!(
+        (info["overshoot"].as_f64().unwrap() - os).abs() < 1e-4,
+        "{info}"
+    );
+    assert_eq!(info["steady_state"].as_f64().unwrap(), 1.0);
+    assert_eq!(v["samples"], 100001);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("t,y\n0,0\n"));
+    assert_eq!(text.lines().count(), 100002);
+}
+
+#[test]
+fn closed_loop_with_pid_gains_and_with_a_controller_file_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(
+        dir.path(),
+        "g.json",
+        r#"{"format": "fts.tf/1", "var": "s", "num": [1], "den": [1, 4, 3]}"#,
+    );
+    // 4 + 3/s = (4 s + 3)/s.
+    let k = write(
+        dir.path(),
+        "k.json",
+        r#"{"format": "fts.tf/1", "var": "s", "num": [4, 3], "den": [1, 0]}"#,
+    );
+    let a = json_out(fts().args(["response", "step"]).arg(&g).args([
+        "--kp",
+        "4",
+        "--ki",
+        "3",
+        "--duration",
+        "10",
+    ]));
+    let b = json_out(
+        fts()
+            .args(["response", "step"])
+            .arg(&g)
+            .arg("--controller")
+            .arg(&k)
+            .args(["--duration", "10"]),
+    );
+    assert_eq!(a["closed_loop"], true);
+    let (x, y) = (
+        &a["channels"][0]["step_info"],
+        &b["channels"][0]["step_info"],
+    );
+    for key in ["rise_time", "settling_time", "overshoot", "peak"] {
+        let (p, q) = (x[key].as_f64().unwrap(), y[key].as_f64().unwrap());
+        assert!(
+            (p - q).abs() <= 1e-9 * p.abs().max(1.0),
+            "{key}: {p} vs {q}"
+        );
+    }
+    // Integral action: no steady-state error.
+    assert!(x["steady_state_error"].as_f64().unwrap().abs() < 1e-12);
+}
+
+#[test]
+fn unstable_system_is_written_but_has_no_figures_and_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(
+        dir.path(),
+        "u.json",
+        r#"{"format": "fts.tf/1", "var": "s", "num": [1], "den": [1, -1]}"#,
+    );
+    let csv = dir.path().join("u.csv");
+    fts()
+        .args(["response", "step"])
+        .arg(&g)
+        .args(["--duration", "2", "--csv"])
+        .arg(&csv)
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains("unstable: no final value"))
+        .stderr(predicate::str::contains("unstable"));
+    assert!(std::fs::read_to_string(&csv).unwrap().lines().count() == 2002);
+}
+
+#[test]
+fn sizes_are_bounded_and_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(dir.path(), "g.json", SECOND_ORDER);
+    let li21 = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/li21-closed-loop.json");
+    for (sys, args, culprit) in [
+        (&g, vec!["--points", "2000000"], "--points"),
+        (&g, vec!["--points", "1"], "--points"),
+        (&g, vec!["--duration", "-1"], "--duration"),
+        (&li21, vec!["--duration", "1e6"], "--duration"),
+        (&li21, vec!["--points", "100"], "--points"),
+    ] {
+        fts()
+            .args(["response", "step"])
+            .arg(sys)
+            .args(&args)
+            .assert()
+            .code(2)
+            .stderr(predicate::str::starts_with(format!(
+                "fts: error: {culprit}"
+            )));
+    }
+}
+
+#[test]
+fn mimo_to_tf_writes_one_readable_file_per_channel() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = write(dir.path(), "m.json", MIMO);
+    let out = dir.path().join("m-tf.json");
+    let v = json_out(
+        fts()
+            .arg("convert")
+            .arg(&m)
+            .args(["--to", "tf", "-o"])
+            .arg(&out),
+    );
+    assert_eq!(v["channels"].as_array().unwrap().len(), 4);
+    for (i, j) in [(1, 1), (1, 2), (2, 1), (2, 2)] {
+        let p = dir.path().join(format!("m-tf.y{i}u{j}.json"));
+        // Each channel file is a model the other commands read: its step's
+        // final value is the channel's DC gain, as in the MIMO response.
+        let one = json_out(
+            fts()
+                .args(["response", "step"])
+                .arg(&p)
+                .args(["--duration", "30"]),
+        );
+        let all = json_out(
+            fts()
+                .args(["response", "step"])
+                .arg(&m)
+                .args(["--duration", "30"]),
+        );
+        let ch = all["channels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["output"] == i && c["input"] == j)
+            .unwrap()
+            .clone();
+        let (a, b) = (
+            one["channels"][0]["step_info"]["steady_state"]
+                .as_f64()
+                .unwrap(),
+            ch["step_info"]["steady_state"].as_f64().unwrap(),
+        );
+        assert!((a - b).abs() < 1e-9, "y{i}u{j}: {a} vs {b}");
+    }
+}
+
+#[test]
+fn conversions_refuse_what_they_cannot_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let li21 = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/li21-closed-loop.json");
+    fts()
+        .arg("d2c")
+        .arg(&li21)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("negative real axis"));
+    let g = write(dir.path(), "g.json", SECOND_ORDER);
+    fts()
+        .arg("d2c")
+        .arg(&g)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("already continuous"));
+    let m = write(dir.path(), "m.json", MIMO);
+    fts()
+        .arg("balred")
+        .arg(&m)
+        .args(["--order", "5"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::starts_with("fts: error: --order"));
+    let u = write(
+        dir.path(),
+        "u.json",
+        r#"{"format": "fts.tf/1", "var": "s", "num": [1], "den": [1, -1]}"#,
+    );
+    fts()
+        .arg("balred")
+        .arg(&u)
+        .args(["--order", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("unstable"));
+}
+
+#[test]
+fn c2d_then_d2c_gives_the_model_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(dir.path(), "g.json", SECOND_ORDER);
+    let gd = dir.path().join("gd.json");
+    let gc = dir.path().join("gc.json");
+    fts()
+        .arg("c2d")
+        .arg(&g)
+        .args(["--ts", "0.01", "-o"])
+        .arg(&gd)
+        .assert()
+        .success();
+    fts()
+        .arg("d2c")
+        .arg(&gd)
+        .arg("-o")
+        .arg(&gc)
+        .assert()
+        .success();
+    let z = json_out(fts().arg("zpk").arg(&gc));
+    let poles = z["channels"][0]["poles"].as_array().unwrap();
+    // s^2 + 1.8 s + 9: -0.9 +- j sqrt(8.19).
+    for p in poles {
+        assert!((p[0].as_f64().unwrap() + 0.9).abs() < 1e-9, "{p}");
+        assert!(
+            (p[1].as_f64().unwrap().abs() - 8.19f64.sqrt()).abs() < 1e-9,
+            "{p}"
+        );
+    }
+    assert!((z["channels"][0]["gain"].as_f64().unwrap() - 9.0).abs() < 1e-8);
+}
+
+#[test]
+fn simulate_step_reports_step_figures() {
+    let v = json_out(fts().args([
+        "simulate",
+        "--controller",
+        "pid",
+        "--reference",
+        "step",
+        "--amplitude",
+        "2",
+    ]));
+    let step = &v["step"];
+    assert!(step["info"]["rise_time"].as_f64().unwrap() > 0.0, "{step}");
+    assert!(
+        step["steady_state_error"].as_f64().unwrap().abs() < 0.05,
+        "{step}"
+    );
+    assert_eq!(v["reference"], "step 2 um from 7 um at 0.01 s");
+    fts()
+        .args([
+            "simulate",
+            "--controller",
+            "pid",
+            "--reference",
+            "step",
+            "--step-time",
+            "1",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("step-time"));
+}

@@ -1,0 +1,302 @@
+//! The command line and the pipeline run the same library steps: for each
+//! step kind, `fts <command> ... -o OUT` and a one-step manifest with the
+//! same settings write byte-identical files, and a failing step exits with
+//! the same code from both.
+//!
+//! Add a kind by adding a row to `CASES` (and to `FAILURES`).
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn fts() -> Command {
+    Command::cargo_bin("fts").unwrap()
+}
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// One step kind: the command (its data file is `data.<ext>` in the
+/// working folder, its output `cli.<ext>`), the manifest table's settings
+/// (besides `kind`, `data` and `out`), and the record it reads.
+struct Case {
+    kind: &'static str,
+    command: &'static [&'static str],
+    settings: &'static str,
+    record: &'static str,
+}
+
+const DRYER: &str = "data/daisy-hairdryer/dryer.dat";
+const PIEZO: &str = "data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv";
+
+const CASES: &[Case] = &[
+    Case {
+        kind: "arx",
+        command: &[
+            "identify",
+            "arx",
+            "--ts",
+            "0.08",
+            "--detrend",
+            "mean",
+            "--split",
+            "0.5",
+            "--na",
+            "2",
+            "--nb",
+            "2",
+            "--nk",
+            "3",
+        ],
+        settings: "ts = 0.08\ndetrend = \"mean\"\nsplit = 0.5\nna = 2\nnb = 2\nnk = 3\n",
+        record: DRYER,
+    },
+    Case {
+        kind: "arx",
+        command: &[
+            "identify",
+            "arx",
+            "--ts",
+            "0.08",
+            "--detrend",
+            "linear",
+            "--na",
+            "4",
+            "--nb",
+            "2",
+            "--nk",
+            "3",
+            "--refine-oe",
+        ],
+        settings: "ts = 0.08\ndetrend = \"linear\"\nna = 4\nnb = 2\nnk = 3\nrefine_oe = true\n",
+        record: DRYER,
+    },
+    Case {
+        kind: "arx",
+        command: &[
+            "identify", "arx", "--ts", "0.08", "--split", "0.6", "--auto", "--rule", "aic",
+        ],
+        settings: "ts = 0.08\nsplit = 0.6\nauto = true\nrule = \"aic\"\n",
+        record: DRYER,
+    },
+    Case {
+        kind: "oe",
+        command: &[
+            "identify",
+            "oe",
+            "--ts",
+            "0.08",
+            "--detrend",
+            "mean",
+            "--nb",
+            "2",
+            "--nf",
+            "2",
+            "--nk",
+            "3",
+            "--start-estimate",
+            "arx",
+            "--initial",
+            "zero",
+            "--max-iterations",
+            "20",
+        ],
+        settings: "ts = 0.08\ndetrend = \"mean\"\nnb = 2\nnf = 2\nnk = 3\nstart_estimate = \"arx\"\ninitial = \"zero\"\nmax_iterations = 20\n",
+        record: DRYER,
+    },
+    Case {
+        kind: "hysteresis",
+        command: &[
+            "identify",
+            "hysteresis",
+            "--no-header",
+            "--input-col",
+            "4",
+            "--output-col",
+            "3",
+            "--start",
+            "16286",
+            "--end",
+            "40000",
+            "--model",
+            "pi",
+            "--operators",
+            "6",
+            "--invertible",
+            "--inverse",
+            "--output-unit",
+            "nm",
+        ],
+        settings: "no_header = true\ninput_col = 4\noutput_col = 3\nstart = 16286\nend = 40000\nmodel = \"pi\"\noperators = 6\ninvertible = true\ninverse = true\noutput_unit = \"nm\"\n",
+        record: PIEZO,
+    },
+    Case {
+        kind: "hysteresis",
+        command: &[
+            "identify",
+            "hysteresis",
+            "--no-header",
+            "--input-col",
+            "4",
+            "--output-col",
+            "3",
+            "--start",
+            "16286",
+            "--end",
+            "30000",
+            "--method",
+            "gd",
+            "--max-iters",
+            "25",
+            "--no-offset",
+        ],
+        settings: "no_header = true\ninput_col = 4\noutput_col = 3\nstart = 16286\nend = 30000\nmethod = \"gd\"\nmax_iters = 25\noffset = false\n",
+        record: PIEZO,
+    },
+];
+
+fn extension(record: &str) -> &str {
+    Path::new(record)
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("csv")
+}
+
+/// Runs the command and the one-step manifest in a fresh folder; returns
+/// the two output files' bytes.
+fn both(case: &Case) -> (Vec<u8>, Vec<u8>) {
+    let d = tempfile::tempdir().unwrap();
+    let data = format!("data.{}", extension(case.record));
+    std::fs::copy(repo(case.record), d.path().join(&data)).unwrap();
+    let mut cli = fts();
+    cli.current_dir(d.path())
+        .args(&case.command[..2])
+        .arg(&data)
+        .args(&case.command[2..])
+        .args(["-o", "cli.json"]);
+    cli.assert().success();
+    let manifest = format!(
+        "[step.one]\nkind = \"{}\"\ndata = \"{data}\"\nout = \"built.json\"\n{}",
+        case.kind, case.settings
+    );
+    std::fs::write(d.path().join("fts.toml"), manifest).unwrap();
+    fts().current_dir(d.path()).arg("build").assert().success();
+    let read = |name: &str| std::fs::read(d.path().join(name)).unwrap();
+    (read("cli.json"), read("built.json"))
+}
+
+#[test]
+fn command_and_one_step_manifest_write_identical_files() {
+    for case in CASES {
+        let (cli, built) = both(case);
+        assert!(!cli.is_empty(), "{}: empty output", case.kind);
+        assert!(
+            cli == built,
+            "{} {:?}: the command and the manifest differ\n--- command\n{}\n--- manifest\n{}",
+            case.kind,
+            case.command,
+            String::from_utf8_lossy(&cli),
+            String::from_utf8_lossy(&built)
+        );
+    }
+}
+
+/// A failing step: the same code from the command line and `fts build`,
+/// and both messages name the culprit.
+struct Failure {
+    kind: &'static str,
+    command: &'static [&'static str],
+    settings: &'static str,
+    record: &'static str,
+    code: i32,
+    culprit: &'static str,
+}
+
+const CONSTANT: &str = "t,u,y\n0,1.5,0\n1,1.5,1\n2,1.5,2\n3,1.5,3\n4,1.5,4\n5,1.5,5\n6,1.5,6\n7,1.5,0\n8,1.5,1\n9,1.5,2\n10,1.5,3\n11,1.5,4\n";
+
+const FAILURES: &[Failure] = &[
+    Failure {
+        kind: "arx",
+        command: &["identify", "arx", "--na", "2", "--nb", "2", "--nk", "1"],
+        settings: "na = 2\nnb = 2\nnk = 1\n",
+        record: CONSTANT,
+        code: 2,
+        culprit: "input is constant",
+    },
+    Failure {
+        kind: "arx",
+        command: &[
+            "identify", "arx", "--ts", "0.5", "--na", "2", "--nb", "2", "--nk", "1",
+        ],
+        settings: "ts = 0.5\nna = 2\nnb = 2\nnk = 1\n",
+        record: CONSTANT,
+        code: 2,
+        culprit: "ts",
+    },
+    Failure {
+        kind: "oe",
+        command: &["identify", "oe", "--nb", "0", "--nf", "1", "--nk", "1"],
+        settings: "nb = 0\nnf = 1\nnk = 1\n",
+        record: CONSTANT,
+        code: 2,
+        culprit: "nb must be at least 1",
+    },
+    Failure {
+        kind: "hysteresis",
+        command: &["identify", "hysteresis", "--method", "gd", "--invertible"],
+        settings: "method = \"gd\"\ninvertible = true\n",
+        record: CONSTANT,
+        code: 2,
+        culprit: "invertib",
+    },
+    Failure {
+        kind: "hysteresis",
+        command: &["identify", "hysteresis", "--thresholds", "2,1"],
+        settings: "thresholds = [2, 1]\n",
+        record: CONSTANT,
+        code: 2,
+        culprit: "thresholds",
+    },
+];
+
+#[test]
+fn a_failing_step_exits_with_the_same_code_from_both_front_ends() {
+    for f in FAILURES {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("data.csv"), f.record).unwrap();
+        let cli = fts()
+            .current_dir(d.path())
+            .args(&f.command[..2])
+            .arg("data.csv")
+            .args(&f.command[2..])
+            .args(["-o", "cli.json"])
+            .assert()
+            .code(f.code)
+            .get_output()
+            .clone();
+        let manifest = format!(
+            "[step.one]\nkind = \"{}\"\ndata = \"data.csv\"\nout = \"built.json\"\n{}",
+            f.kind, f.settings
+        );
+        std::fs::write(d.path().join("fts.toml"), manifest).unwrap();
+        let built = fts()
+            .current_dir(d.path())
+            .arg("build")
+            .assert()
+            .code(f.code)
+            .get_output()
+            .clone();
+        for (front, out) in [("command", &cli), ("build", &built)] {
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                err.contains(f.culprit),
+                "{} {:?} ({front}): {err:?} does not name {:?}",
+                f.kind,
+                f.command,
+                f.culprit
+            );
+        }
+        assert!(!d.path().join("cli.json").exists());
+        assert!(!d.path().join("built.json").exists());
+    }
+}
