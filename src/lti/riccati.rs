@@ -197,11 +197,30 @@ pub fn care_g(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>) -> Result<RiccatiSolutio
     care_g_scaled(a, g, q, 0.0)
 }
 
+/// The Hamiltonian as given first; balanced only when that fails. Balancing
+/// is a general (not symplectic) similarity: on well-scaled problems it can
+/// blur the eigenvalues near the imaginary axis that the H-infinity
+/// bisection decides on, so it is kept for the badly scaled ones it rescues.
 fn care_g_scaled(
     a: &Mat<f64>,
     g: &Mat<f64>,
     q: &Mat<f64>,
     scale: f64,
+) -> Result<RiccatiSolution, RiccatiError> {
+    care_g_hamiltonian(a, g, q, scale, false).or_else(|e| match e {
+        RiccatiError::NoStabilizing(_) | RiccatiError::Schur(_) => {
+            care_g_hamiltonian(a, g, q, scale, true).map_err(|_| e)
+        }
+        e => Err(e),
+    })
+}
+
+fn care_g_hamiltonian(
+    a: &Mat<f64>,
+    g: &Mat<f64>,
+    q: &Mat<f64>,
+    scale: f64,
+    balance: bool,
 ) -> Result<RiccatiSolution, RiccatiError> {
     let n = check_square(a, &[(g, "G"), (q, "Q")])?;
     if n == 0 {
@@ -214,14 +233,18 @@ fn care_g_scaled(
             residual_floor: 0.0,
         });
     }
-    // The Hamiltonian, balanced by an exact diagonal similarity `D^-1 H D`
-    // (Parlett & Reinsch): badly scaled problems (cheap control, `G` ~ 1e16
-    // beside `A` ~ 1) otherwise lose their slow eigenvalues to the rounding
-    // errors of the large entries. Its stable subspace is `D` times the
-    // balanced one.
+    // The Hamiltonian, if asked balanced by an exact diagonal similarity
+    // `D^-1 H D` (Parlett & Reinsch): badly scaled problems (cheap control,
+    // `G` ~ 1e16 beside `A` ~ 1) otherwise lose their slow eigenvalues to the
+    // rounding errors of the large entries. Its stable subspace is `D` times
+    // the balanced one.
     let h0 = block2(a, &(-g), &(-q), &(-tr(a)));
     let empty = Mat::<f64>::zeros(2 * n, 0);
-    let scales = balancing_scales(&h0, &empty, &tr(&empty));
+    let scales = if balance {
+        balancing_scales(&h0, &empty, &tr(&empty))
+    } else {
+        vec![1.0; 2 * n]
+    };
     let h = Mat::from_fn(2 * n, 2 * n, |i, j| h0[(i, j)] * scales[j] / scales[i]);
     let hn = fro(&h);
     // Ordered real Schur form of the Hamiltonian, stable eigenvalues first.
