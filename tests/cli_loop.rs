@@ -225,9 +225,9 @@ fn mixsyn_example_controller() {
     let pm = v["phase_margin"]["phase_margin_deg"].as_f64().unwrap();
     let f = v["phase_margin"]["freq_hz"].as_f64().unwrap();
     assert!(
-        (pm - 89.38).abs() < 0.01 && (f - 987.2).abs() < 0.1,
+        (pm - 90.00).abs() < 0.01 && (f - 1006.5).abs() < 0.1,
         "{pm} {f}"
     );
     let mm = v["modulus_margin"]["value"].as_f64().unwrap();
-    assert!((mm - 0.990).abs() < 1e-3, "{mm}");
+    assert!((mm - 1.000).abs() < 1e-3, "{mm}");
 }

@@ -55,7 +55,7 @@ pub struct SynthArgs {
     /// Largest gamma tried before the problem is declared infeasible (H-inf only).
     #[arg(long, default_value_t = Hinf::default().gamma_max)]
     gamma_max: f64,
-    /// The controller is built for gamma_opt * (1 + BACKOFF) (H-inf only).
+    /// The controller is built for the bisection bound * (1 + BACKOFF) (H-inf only).
     #[arg(long, default_value_t = Hinf::default().backoff)]
     backoff: f64,
 }
@@ -88,6 +88,12 @@ pub fn run_hinf(args: SynthArgs) -> anyhow::Result<()> {
     let p = read_system(&args.generalized)?;
     let source = args.generalized.display().to_string();
     let report = step.run(&p, &source).map_err(step_error)?;
+    // The summary carries the warnings; JSON output repeats them on stderr.
+    if args.json {
+        for w in report.warnings() {
+            eprintln!("fts: warning: {w}");
+        }
+    }
     write_system(args.output.as_deref(), &report.result.k)?;
     print_report(&report, args.json)
 }
@@ -218,9 +224,13 @@ pub struct MixsynArgs {
     #[arg(long, default_value_t = Mixsyn::default().tol)]
     tol: f64,
     /// Reduce the controller to this many states by balanced truncation
-    /// (the closed loop is re-checked with the reduced controller).
+    /// (the closed loop is re-checked with the reduced controller; refused,
+    /// exit 1, when its H-inf norm exceeds 1.1 times the full controller's).
     #[arg(long, value_name = "N", value_parser = parse_order)]
     order: Option<usize>,
+    /// Accept a reduced controller (--order) whatever its degradation.
+    #[arg(long)]
+    allow_degradation: bool,
 }
 
 /// `--order`: at least one state (a static gain is not a reduction of a
@@ -268,6 +278,7 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
         eps: args.eps,
         tol: args.tol,
         order: args.order,
+        allow_degradation: args.allow_degradation,
     };
     step.validate().map_err(step_error)?;
     let g = read_system(&args.plant)?;
@@ -291,8 +302,14 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
             source: &source,
         })
         .map_err(step_error)?;
-    if let Some(note) = report.reduction_note() {
-        eprintln!("{note}");
+    // The summary carries the note and the warnings; JSON output repeats them on stderr.
+    if args.json {
+        if let Some(note) = report.reduction_note() {
+            eprintln!("{note}");
+        }
+        for w in report.hinf.warnings() {
+            eprintln!("fts: warning: {w}");
+        }
     }
     write_system(args.augmented.as_deref(), &report.augmented)?;
     write_system(args.output.as_deref(), report.controller())?;

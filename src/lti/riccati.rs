@@ -17,7 +17,7 @@ use super::accurate::Dd;
 use super::c64;
 use super::lyapunov::{MatEqError, dlyap, lyap};
 use super::schur::{SchurError, gen_schur, ordered_real_schur, quasi_triangular_eigenvalues};
-use super::ss::{block2, eigvals, fro, inv, tr};
+use super::ss::{balancing_scales, block2, eigvals, fro, inv, tr};
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use thiserror::Error;
@@ -197,11 +197,30 @@ pub fn care_g(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>) -> Result<RiccatiSolutio
     care_g_scaled(a, g, q, 0.0)
 }
 
+/// The Hamiltonian as given first; balanced only when that fails. Balancing
+/// is a general (not symplectic) similarity: on well-scaled problems it can
+/// blur the eigenvalues near the imaginary axis that the H-infinity
+/// bisection decides on, so it is kept for the badly scaled ones it rescues.
 fn care_g_scaled(
     a: &Mat<f64>,
     g: &Mat<f64>,
     q: &Mat<f64>,
     scale: f64,
+) -> Result<RiccatiSolution, RiccatiError> {
+    care_g_hamiltonian(a, g, q, scale, false).or_else(|e| match e {
+        RiccatiError::NoStabilizing(_) | RiccatiError::Schur(_) => {
+            care_g_hamiltonian(a, g, q, scale, true).map_err(|_| e)
+        }
+        e => Err(e),
+    })
+}
+
+fn care_g_hamiltonian(
+    a: &Mat<f64>,
+    g: &Mat<f64>,
+    q: &Mat<f64>,
+    scale: f64,
+    balance: bool,
 ) -> Result<RiccatiSolution, RiccatiError> {
     let n = check_square(a, &[(g, "G"), (q, "Q")])?;
     if n == 0 {
@@ -214,7 +233,19 @@ fn care_g_scaled(
             residual_floor: 0.0,
         });
     }
-    let h = block2(a, &(-g), &(-q), &(-tr(a)));
+    // The Hamiltonian, if asked balanced by an exact diagonal similarity
+    // `D^-1 H D` (Parlett & Reinsch): badly scaled problems (cheap control,
+    // `G` ~ 1e16 beside `A` ~ 1) otherwise lose their slow eigenvalues to the
+    // rounding errors of the large entries. Its stable subspace is `D` times
+    // the balanced one.
+    let h0 = block2(a, &(-g), &(-q), &(-tr(a)));
+    let empty = Mat::<f64>::zeros(2 * n, 0);
+    let scales = if balance {
+        balancing_scales(&h0, &empty, &tr(&empty))
+    } else {
+        vec![1.0; 2 * n]
+    };
+    let h = Mat::from_fn(2 * n, 2 * n, |i, j| h0[(i, j)] * scales[j] / scales[i]);
     let hn = fro(&h);
     // Ordered real Schur form of the Hamiltonian, stable eigenvalues first.
     let os = ordered_real_schur(&h, |l| l.re < 0.0).map_err(|e| match e {
@@ -235,7 +266,8 @@ fn care_g_scaled(
             "the Hamiltonian matrix has eigenvalues on the imaginary axis".into(),
         ));
     }
-    let mut x = subspace_solution_real(&os.q, n)?;
+    let z = Mat::from_fn(2 * n, 2 * n, |i, j| os.q[(i, j)] * scales[i]);
+    let mut x = subspace_solution_real(&z, n)?;
     let (mut res, mut rel, mut den) = care_residual(a, g, q, &x, scale);
     // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0,
     // continued while the (accurately evaluated) residual decreases, until it

@@ -185,6 +185,70 @@ pub fn sigma_max(m: &Mat<f64>) -> f64 {
 }
 
 /// Coefficients (descending powers) of `prod (s - r_i)`, real part kept.
+/// The diagonal `T` (powers of two) of [`StateSpace::balanced`]: the
+/// scaling `x = T z` that balances the off-diagonal row and column norms of
+/// `[A B; C 0]` (Parlett & Reinsch 1969; LAPACK `dgebal` without
+/// permutations). With empty `B`, `C` it balances the square matrix `A`.
+pub fn balancing_scales(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> Vec<f64> {
+    let n = a.nrows();
+    let mut a = a.clone();
+    let (mut b, mut c) = (b.clone(), c.clone());
+    let mut t = vec![1.0; n];
+    let radix = 2.0f64;
+    for _ in 0..100 {
+        let mut changed = false;
+        for i in 0..n {
+            let mut cn = 0.0;
+            let mut rn = 0.0;
+            for k in 0..n {
+                if k != i {
+                    cn += a[(k, i)].abs();
+                    rn += a[(i, k)].abs();
+                }
+            }
+            for k in 0..c.nrows() {
+                cn += c[(k, i)].abs();
+            }
+            for k in 0..b.ncols() {
+                rn += b[(i, k)].abs();
+            }
+            if cn == 0.0 || rn == 0.0 {
+                continue;
+            }
+            let (c0, r0) = (cn, rn);
+            let mut f = 1.0;
+            while cn < rn / radix {
+                cn *= radix;
+                rn /= radix;
+                f *= radix;
+            }
+            while cn >= rn * radix {
+                cn /= radix;
+                rn *= radix;
+                f /= radix;
+            }
+            if cn + rn < 0.95 * (c0 + r0) {
+                changed = true;
+                t[i] *= f;
+                for k in 0..n {
+                    a[(k, i)] *= f;
+                    a[(i, k)] /= f;
+                }
+                for k in 0..c.nrows() {
+                    c[(k, i)] *= f;
+                }
+                for k in 0..b.ncols() {
+                    b[(i, k)] /= f;
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    t
+}
+
 pub fn poly_from_roots(roots: &[c64]) -> Vec<f64> {
     let mut p = vec![c64::new(1.0, 0.0)];
     for r in roots {
@@ -585,57 +649,18 @@ impl StateSpace {
     /// behaviour is unchanged; badly scaled plants (e.g. a weight with gain
     /// 1e3 on a plant with gain 1e5) become tractable for the Riccati solvers.
     pub fn balanced(&self) -> Self {
-        let n = self.nx();
+        let t = balancing_scales(&self.a, &self.b, &self.c);
         let mut s = self.clone();
-        let radix = 2.0f64;
-        for _ in 0..100 {
-            let mut changed = false;
-            for i in 0..n {
-                let mut c = 0.0;
-                let mut r = 0.0;
-                for k in 0..n {
-                    if k != i {
-                        c += s.a[(k, i)].abs();
-                        r += s.a[(i, k)].abs();
-                    }
-                }
-                for k in 0..s.ny() {
-                    c += s.c[(k, i)].abs();
-                }
-                for k in 0..s.nu() {
-                    r += s.b[(i, k)].abs();
-                }
-                if c == 0.0 || r == 0.0 {
-                    continue;
-                }
-                let (c0, r0) = (c, r);
-                let mut f = 1.0;
-                while c < r / radix {
-                    c *= radix;
-                    r /= radix;
-                    f *= radix;
-                }
-                while c >= r * radix {
-                    c /= radix;
-                    r *= radix;
-                    f /= radix;
-                }
-                if c + r < 0.95 * (c0 + r0) {
-                    changed = true;
-                    for k in 0..n {
-                        s.a[(k, i)] *= f;
-                        s.a[(i, k)] /= f;
-                    }
-                    for k in 0..s.ny() {
-                        s.c[(k, i)] *= f;
-                    }
-                    for k in 0..s.nu() {
-                        s.b[(i, k)] /= f;
-                    }
-                }
+        for (i, &f) in t.iter().enumerate() {
+            for k in 0..self.nx() {
+                s.a[(k, i)] *= f;
+                s.a[(i, k)] /= f;
             }
-            if !changed {
-                break;
+            for k in 0..s.ny() {
+                s.c[(k, i)] *= f;
+            }
+            for k in 0..s.nu() {
+                s.b[(i, k)] /= f;
             }
         }
         s

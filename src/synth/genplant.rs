@@ -169,6 +169,19 @@ impl Partition {
     /// conditioning (Karagoz18 X: `||C1 B2|| = 5.7e7`, radius 1.6e5, weight 0.36).
     /// Returns the weights used (`None`: not needed).
     pub fn regularise(&mut self, eps: f64) -> (Option<f64>, Option<f64>) {
+        self.regularise_with(eps, false)
+    }
+
+    /// [`Self::regularise`], and with `small_too` also when `D12` / `D21`
+    /// have full rank but a smallest singular value below that weight: a
+    /// tiny control weight on a high-gain plant (`W2 = 1e-4` on a gain of
+    /// 2e4) is a cheap-control problem whose controller pole, about
+    /// `||C1 B2|| / sigma_min(D12)`, lies 1e10 times beyond the plant's
+    /// modes, where no `f64` realisation keeps the slow closed-loop poles.
+    /// The added channel only adds outputs (inputs), so any controller's
+    /// closed-loop norm on the original plant is at most its norm on the
+    /// regularised one (docs/robust.md, "Conditioning").
+    pub fn regularise_with(&mut self, eps: f64, small_too: bool) -> (Option<f64>, Option<f64>) {
         let (n, m2, p2) = (self.n(), self.m2(), self.p2());
         let tol = 1e-12;
         let radius = eigvals(&self.a)
@@ -176,8 +189,12 @@ impl Partition {
             .unwrap_or(0.0)
             .max(1e-300);
         let floor = |markov: f64| (markov / (1e3 * radius)).max(eps);
-        let r12 = (rank(&self.d12, tol) < m2).then(|| floor(fro(&(&self.c1 * &self.b2))));
-        let r21 = (rank(&self.d21, tol) < p2).then(|| floor(fro(&(&self.c2 * &self.b1))));
+        let needs =
+            |d: &Mat<f64>, k: usize, e: f64| rank(d, tol) < k || (small_too && sigma_min(d) < e);
+        let f12 = floor(fro(&(&self.c1 * &self.b2)));
+        let f21 = floor(fro(&(&self.c2 * &self.b1)));
+        let r12 = needs(&self.d12, m2, f12).then_some(f12);
+        let r21 = needs(&self.d21, p2, f21).then_some(f21);
         if let Some(e) = r12 {
             self.c1 = vcat(&self.c1, &Mat::zeros(m2, n));
             self.d11 = vcat(&self.d11, &Mat::zeros(m2, self.m1()));
@@ -190,6 +207,16 @@ impl Partition {
         }
         (r12, r21)
     }
+}
+
+/// Smallest singular value (0 for an empty matrix).
+fn sigma_min(m: &Mat<f64>) -> f64 {
+    if m.nrows() == 0 || m.ncols() == 0 {
+        return 0.0;
+    }
+    m.singular_values()
+        .map(|s| s.into_iter().fold(f64::INFINITY, f64::min))
+        .unwrap_or(0.0)
 }
 
 fn smin(m: &Mat<c64>) -> f64 {

@@ -54,18 +54,23 @@ impl Default for HinfOptions {
 pub struct HinfResult {
     /// The controller (`u = K y`).
     pub k: StateSpace,
-    /// The gamma the controller was built for: `gamma_opt (1 + backoff)`.
+    /// The one gamma: the H-infinity norm of `F_l(P, K)` on the *original*
+    /// plant with the controller returned, recomputed (Bruinsma–Steinbuch on
+    /// the balanced closed loop, checked against a frequency sweep).
     pub gamma: f64,
-    /// The optimal gamma estimate: the smallest feasible level of the bisection.
-    pub gamma_opt: f64,
+    /// Diagnostic: the level the central controller was built for,
+    /// `bisection_bound (1 + backoff)`, on the synthesis problem
+    /// (regularised, if `regularised` says so).
+    pub design_level: f64,
+    /// Diagnostic: the smallest level the bisection found feasible on the
+    /// synthesis problem.
+    pub bisection_bound: f64,
     /// Closed loop `F_l(P, K)` on the *original* plant.
     pub closed_loop: StateSpace,
     /// Its poles.
     pub poles: Vec<c64>,
     /// Whether it is stable.
     pub stable: bool,
-    /// Its H-infinity norm, recomputed (Bruinsma–Steinbuch).
-    pub achieved: f64,
     /// Relative residuals of the X and Y Riccati equations.
     pub x_residual: f64,
     pub y_residual: f64,
@@ -76,6 +81,25 @@ pub struct HinfResult {
     pub regularised: (Option<f64>, Option<f64>),
     /// Bisection steps.
     pub iterations: usize,
+}
+
+impl HinfResult {
+    /// Modulus of the controller's fastest pole, rad/s (0 for a static gain);
+    /// for a discrete controller, of its continuous (bilinear) equivalent.
+    pub fn controller_fastest_pole(&self) -> f64 {
+        fastest_pole(&self.k)
+    }
+}
+
+/// Modulus of the fastest pole in rad/s (continuous equivalent when discrete).
+pub fn fastest_pole(sys: &StateSpace) -> f64 {
+    let cont = match sys.ts {
+        None => Ok(sys.clone()),
+        Some(ts) => bilinear_to_continuous(sys, 2.0 / ts),
+    };
+    cont.and_then(|c| c.poles())
+        .map(|p| p.iter().fold(0.0f64, |a, z| a.max(z.norm())))
+        .unwrap_or(f64::INFINITY)
 }
 
 /// The central controller and residuals at one gamma, or why it is infeasible.
@@ -238,7 +262,7 @@ fn feasible(p: &Partition, pss: &StateSpace, gamma: f64) -> Result<AtGamma, Synt
 }
 
 /// H-infinity synthesis: bisection on gamma, central controller at the
-/// smallest feasible gamma found.
+/// smallest feasible gamma found, verified on the original plant.
 pub fn hinfsyn(
     plant: &StateSpace,
     nmeas: usize,
@@ -253,40 +277,61 @@ pub fn hinfsyn(
     };
     let p0 = Partition::new(&cont.balanced(), nmeas, ncon)?;
     p0.check_stabilisable()?;
-    // Singular problems (D12 / D21 rank deficient) are regularised with a
-    // weight eps. The true optimum gamma(eps) is nondecreasing in eps, while a
-    // too small eps makes the Riccati tests fail through ill-conditioning and
-    // *overestimates* gamma. So try eps, 10 eps, ... (at most 1e6 eps) and keep
-    // the smallest gamma, stopping once gamma clearly grows again.
-    let mut probe = p0.clone();
-    if probe.regularise(opts.eps) == (None, None) {
-        return hinfsyn_regularised(plant, &p0, opts);
+    // Singular problems (D12 / D21 rank deficient) and cheap-control ones
+    // (full rank but tiny, docs/robust.md "Conditioning") are regularised with
+    // a weight eps. The true optimum gamma(eps) is nondecreasing in eps, while
+    // a too small eps makes the Riccati tests fail through ill-conditioning
+    // and *overestimates* gamma. So try eps, 10 eps, ... (at most 1e6 eps) and
+    // keep the controller with the smallest closed-loop norm on the original
+    // plant, stopping once it clearly grows again. A problem with full-rank
+    // D12 / D21 is first tried as it is.
+    if p0.clone().regularise_with(opts.eps, true) == (None, None) {
+        return hinfsyn_regularised(plant, &p0, opts, false);
     }
-    let mut best: Option<HinfResult> = None;
+    // Candidates in order of increasing weight.
+    let mut found: Vec<HinfResult> = Vec::new();
     let mut last_err = None;
+    let mut keep = |r: Result<HinfResult, SynthError>, found: &mut Vec<HinfResult>| match r {
+        Ok(r) if r.stable => {
+            let min = found.iter().map(|b| b.gamma).fold(f64::INFINITY, f64::min);
+            let grew = r.gamma > min * (1.0 + 1e-3);
+            found.push(r);
+            Ok(grew)
+        }
+        Ok(_) => Ok(false),
+        // A weight whose controller fails verification is skipped like an infeasible one.
+        Err(e @ (SynthError::Infeasible(_) | SynthError::Numerical(_))) => {
+            last_err = Some(e);
+            Ok(false)
+        }
+        Err(e) => Err(e),
+    };
+    if p0.clone().regularise(opts.eps) == (None, None) {
+        keep(hinfsyn_regularised(plant, &p0, opts, false), &mut found)?;
+    }
     let mut eps = opts.eps / 10.0;
     let mut previous = None;
     for _ in 0..7 {
         eps *= 10.0;
         // Skip weights that the conditioning floor maps to one already tried.
-        let weights = p0.clone().regularise(eps);
+        let weights = p0.clone().regularise_with(eps, true);
         if previous == Some(weights) {
             continue;
         }
         previous = Some(weights);
-        match hinfsyn_regularised(plant, &p0, HinfOptions { eps, ..opts }) {
-            Ok(r) if r.stable => match &best {
-                Some(b) if r.gamma >= b.gamma => {
-                    if r.gamma > b.gamma * (1.0 + 1e-3) {
-                        break;
-                    }
-                }
-                _ => best = Some(r),
-            },
-            Ok(_) => {}
-            // A weight whose controller fails verification is skipped like an infeasible one.
-            Err(e @ (SynthError::Infeasible(_) | SynthError::Numerical(_))) => last_err = Some(e),
-            Err(e) => return Err(e),
+        let o = HinfOptions { eps, ..opts };
+        if keep(hinfsyn_regularised(plant, &p0, o, true), &mut found)? {
+            break;
+        }
+    }
+    // The smallest level wins (the first, i.e. the smallest weight, on ties).
+    let mut best: Option<HinfResult> = None;
+    for r in found {
+        if best
+            .as_ref()
+            .is_none_or(|b| r.design_level < b.design_level)
+        {
+            best = Some(r);
         }
     }
     best.ok_or_else(|| {
@@ -298,9 +343,14 @@ fn hinfsyn_regularised(
     plant: &StateSpace,
     p0: &Partition,
     opts: HinfOptions,
+    regularise: bool,
 ) -> Result<HinfResult, SynthError> {
     let mut p = p0.clone();
-    let regularised = p.regularise(opts.eps);
+    let regularised = if regularise {
+        p.regularise_with(opts.eps, true)
+    } else {
+        (None, None)
+    };
     let norm: Normalised = normalise(&p)?;
     let pss = norm.p.to_ss()?;
     let lo0 = gamma_lower(&norm.p);
@@ -419,12 +469,12 @@ fn hinfsyn_regularised(
             } = built;
             return Ok(HinfResult {
                 k,
-                gamma,
-                gamma_opt,
+                gamma: achieved,
+                design_level: gamma,
+                bisection_bound: gamma_opt,
                 closed_loop,
                 poles,
                 stable,
-                achieved,
                 x_residual: at.xres,
                 y_residual: at.yres,
                 residual_floor: at.floor,
@@ -466,8 +516,12 @@ fn finish(
 ) -> Result<Built, SynthError> {
     let kc = denormalise(&at.k, norm, &p0.d22)?;
     // Back to discrete time if needed.
+    // Balanced (an exact powers-of-two similarity): the central controller
+    // of a cheap-control problem has poles near 1e8 rad/s beside 0.2 rad/s,
+    // and its raw realisation is too badly scaled for a Tustin
+    // discretisation's `(I - A ts/2)^-1`.
     let k = match plant.ts {
-        None => kc,
+        None => kc.balanced(),
         Some(ts) => bilinear_to_discrete(&kc, 2.0 / ts, ts)
             .map_err(|e| SynthError::Numerical(e.to_string()))?,
     };
@@ -481,9 +535,7 @@ fn finish(
         .is_stable()
         .map_err(|e| SynthError::Numerical(e.to_string()))?;
     let achieved = if stable {
-        hinf_norm(&closed_loop, 1e-8)
-            .map(|x| x.0)
-            .unwrap_or(f64::INFINITY)
+        closed_loop_norm(&closed_loop)
     } else {
         f64::INFINITY
     };
@@ -494,4 +546,32 @@ fn finish(
         stable,
         achieved,
     })
+}
+
+/// The H-infinity norm of a stable closed loop, recomputed independently of
+/// the synthesis: Bruinsma–Steinbuch on the balanced realisation (stiff
+/// loops, poles from 1e-2 to 1e11 rad/s, keep their slow modes), then a log
+/// sweep of 2000 points over the pole range, which can only raise it (a
+/// missed peak is never reported as a lower norm).
+pub fn closed_loop_norm(cl: &StateSpace) -> f64 {
+    let bal = cl.balanced();
+    let Ok((bs, _)) = hinf_norm(&bal, 1e-8) else {
+        return f64::INFINITY;
+    };
+    let poles = bal.poles().unwrap_or_default();
+    let (lo, hi) = poles
+        .iter()
+        .map(|z| z.norm())
+        .filter(|&w| w > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(l, h), w| (l.min(w), h.max(w)));
+    if !(lo.is_finite() && hi > 0.0) {
+        return bs;
+    }
+    let (a, b) = ((lo / 100.0).log10(), (hi * 100.0).log10());
+    let nyquist = bal.ts.map(|t| std::f64::consts::PI / t);
+    (0..2000)
+        .map(|i| 10f64.powf(a + (b - a) * i as f64 / 1999.0))
+        .filter(|w| nyquist.is_none_or(|n| *w <= n))
+        .map(|w| bal.sigma_at(w))
+        .fold(bs, f64::max)
 }

@@ -7,11 +7,10 @@ use crate::io::ss_json;
 use crate::lti::balred::balred;
 use crate::lti::c2d::{C2dMethod, c2d};
 use crate::lti::c64;
-use crate::lti::norms::hinf_norm;
 use crate::lti::ss::StateSpace;
 use crate::synth::genplant::SynthError;
 use crate::synth::h2::{H2Result, h2syn};
-use crate::synth::hinf::{HinfOptions, HinfResult, hinfsyn};
+use crate::synth::hinf::{HinfOptions, HinfResult, closed_loop_norm, fastest_pole, hinfsyn};
 use crate::synth::mixsyn::mixsyn;
 use crate::synth::weights;
 use serde::{Deserialize, Serialize, Serializer};
@@ -250,7 +249,7 @@ pub struct Hinf {
     pub tol: f64,
     /// Largest gamma tried before the problem is declared infeasible; default 1e8.
     pub gamma_max: f64,
-    /// The controller is built for gamma_opt * (1 + backoff); default 1e-4.
+    /// The controller is built for the bisection bound * (1 + backoff); default 1e-5.
     pub backoff: f64,
 }
 
@@ -288,6 +287,7 @@ impl Hinf {
             result,
             eps: self.eps,
             tol: self.tol,
+            plant_fastest_pole: fastest_pole(p),
         })
     }
 }
@@ -342,9 +342,46 @@ pub struct HinfReport {
     pub eps: f64,
     /// The `tol` setting used.
     pub tol: f64,
+    /// Modulus of the generalised plant's fastest pole, rad/s.
+    pub plant_fastest_pole: f64,
 }
 
+/// A controller pole this many times faster than the plant's fastest mode
+/// is reported as a warning (it is beyond anything the plant model covers).
+pub const FAST_POLE_RATIO: f64 = 100.0;
+
 impl HinfReport {
+    /// What the user should know about the controller: regularisation and
+    /// controller poles far beyond the plant's modes.
+    pub fn warnings(&self) -> Vec<String> {
+        let r = &self.result;
+        let mut w = Vec::new();
+        if let Some(e) = r.regularised.0 {
+            w.push(format!(
+                "the control channel was regularised: a weight {e:.3e} on u was added to the \
+                 performance outputs (D12 rank deficient, or its smallest singular value below \
+                 the conditioning floor); gamma is the norm on the original plant"
+            ));
+        }
+        if let Some(e) = r.regularised.1 {
+            w.push(format!(
+                "the measurement channel was regularised: a sensor-noise weight {e:.3e} was \
+                 added (D21 rank deficient, or its smallest singular value below the \
+                 conditioning floor); gamma is the norm on the original plant"
+            ));
+        }
+        let (fk, fp) = (r.controller_fastest_pole(), self.plant_fastest_pole);
+        if fk > FAST_POLE_RATIO * fp.max(f64::MIN_POSITIVE) {
+            w.push(format!(
+                "the controller's fastest pole, {fk:.3e} rad/s, is {:.0} times the plant's \
+                 fastest mode ({fp:.3e} rad/s): a cheap-control pole far beyond the model; \
+                 reduce the controller's order or raise the control weight",
+                fk / fp.max(f64::MIN_POSITIVE)
+            ));
+        }
+        w
+    }
+
     fn to_value(&self) -> Value {
         let r = &self.result;
         let mut v = synthesis_value(
@@ -355,9 +392,11 @@ impl HinfReport {
             (r.regularised, self.eps),
         );
         v["gamma"] = json!(r.gamma);
-        v["gamma_opt"] = json!(r.gamma_opt);
-        v["achieved_hinf_norm"] = json!(r.achieved);
-        v["bisection"] = json!({"rtol": self.tol, "iterations": r.iterations});
+        v["bisection"] = json!({"rtol": self.tol, "iterations": r.iterations,
+            "bound": r.bisection_bound, "design_level": r.design_level});
+        v["controller_fastest_pole_rad_s"] = json!(r.controller_fastest_pole());
+        v["plant_fastest_pole_rad_s"] = json!(self.plant_fastest_pole);
+        v["warnings"] = json!(self.warnings());
         v
     }
 }
@@ -368,27 +407,20 @@ impl fmt::Display for HinfReport {
         let r = &self.result;
         writeln!(
             f,
-            "gamma            {:.8} (controller level; optimum estimate {:.8})\nachieved ||Tzw|| {:.8} (recomputed, Bruinsma-Steinbuch)\nclosed loop      {} (poles: {})\ncontroller       {} states\nRiccati residual X {:.1e}, Y {:.1e}",
+            "gamma            {:.8} (||Tzw||_inf of the returned controller, recomputed)\nclosed loop      {} (poles: {})\ncontroller       {} states, fastest pole {:.3e} rad/s (plant {:.3e} rad/s)\nbisection        bound {:.8}, controller built for {:.8} (diagnostics)\nRiccati residual X {:.1e}, Y {:.1e}",
             r.gamma,
-            r.gamma_opt,
-            r.achieved,
             stability(r.stable),
             poles_summary(&r.poles),
             r.k.nx(),
+            r.controller_fastest_pole(),
+            self.plant_fastest_pole,
+            r.bisection_bound,
+            r.design_level,
             r.x_residual,
             r.y_residual
         )?;
-        if let Some(e) = r.regularised.0 {
-            writeln!(
-                f,
-                "note: D12 lacks full column rank: regularised with a control weight {e:e} (eps u added to z)"
-            )?;
-        }
-        if let Some(e) = r.regularised.1 {
-            writeln!(
-                f,
-                "note: D21 lacks full row rank: regularised with a sensor-noise weight {e:e}"
-            )?;
+        for w in self.warnings() {
+            writeln!(f, "warning: {w}")?;
         }
         Ok(())
     }
@@ -491,7 +523,14 @@ pub struct Mixsyn {
     /// Reduce the controller to this many states by balanced truncation
     /// (the closed loop is re-checked); default: no reduction.
     pub order: Option<usize>,
+    /// Accept a reduced controller whose closed-loop norm exceeds the full
+    /// controller's by more than [`MAX_DEGRADATION`]; default false.
+    pub allow_degradation: bool,
 }
+
+/// A reduced controller may raise the closed-loop H-infinity norm by at most
+/// this factor over the full-order controller's, unless allowed.
+pub const MAX_DEGRADATION: f64 = 1.1;
 
 impl Default for Mixsyn {
     fn default() -> Self {
@@ -500,6 +539,7 @@ impl Default for Mixsyn {
             eps: h.eps,
             tol: h.tol,
             order: None,
+            allow_degradation: false,
         }
     }
 }
@@ -539,17 +579,20 @@ impl Mixsyn {
             hinf.options()?,
         )
         .map_err(|e| synth_err(inputs.source, e))?;
+        let plant_fastest_pole = fastest_pole(&augmented);
         let mut report = MixsynReport {
             augmented,
             hinf: HinfReport {
                 result,
                 eps: self.eps,
                 tol: self.tol,
+                plant_fastest_pole,
             },
             reduction: None,
         };
         if let Some(order) = self.order {
             report.reduce(order)?;
+            report.check_degradation(self.allow_degradation)?;
         }
         Ok(report)
     }
@@ -572,6 +615,10 @@ pub struct Reduction {
     pub hankel_singular_values: Vec<f64>,
     /// Bound on `||K - Kr||_inf`.
     pub error_bound: f64,
+    /// The closed-loop norm with the full-order controller.
+    pub full_gamma: f64,
+    /// `gamma (reduced) / full_gamma`; infinite when the reduced loop is unstable.
+    pub degradation: f64,
 }
 
 /// A mixed-sensitivity controller, its closed loop and the augmented plant.
@@ -595,7 +642,8 @@ impl MixsynReport {
         &self.hinf.result.k
     }
 
-    /// Replaces the controller by its balanced truncation and re-checks the loop.
+    /// Replaces the controller by its balanced truncation and re-checks the
+    /// loop: stability and the closed-loop norm, recomputed.
     fn reduce(&mut self, order: usize) -> Result<(), StepError> {
         let r = &mut self.hinf.result;
         let red = balred(&r.k, order).map_err(|e| StepError::setting("order", e.to_string()))?;
@@ -604,8 +652,8 @@ impl MixsynReport {
             .lft(&red.sys)
             .map_err(computation("reduced closed loop"))?;
         let stable = cl.is_stable().map_err(computation("reduced closed loop"))?;
-        let achieved = if stable {
-            hinf_norm(&cl, 1e-8).map(|x| x.0).unwrap_or(f64::INFINITY)
+        let gamma = if stable {
+            closed_loop_norm(&cl)
         } else {
             f64::INFINITY
         };
@@ -614,13 +662,40 @@ impl MixsynReport {
             order: red.sys.nx(),
             hankel_singular_values: red.hsv,
             error_bound: red.bound,
+            full_gamma: r.gamma,
+            degradation: gamma / r.gamma,
         });
         r.poles = cl.poles().map_err(computation("reduced closed loop"))?;
         r.k = red.sys;
         r.closed_loop = cl;
         r.stable = stable;
-        r.achieved = achieved;
+        r.gamma = gamma;
         Ok(())
+    }
+
+    /// Refuses a reduced controller that destabilises the loop or raises its
+    /// norm beyond [`MAX_DEGRADATION`] times the full controller's, unless allowed.
+    fn check_degradation(&self, allow: bool) -> Result<(), StepError> {
+        let Some(red) = &self.reduction else {
+            return Ok(());
+        };
+        if allow || red.degradation <= MAX_DEGRADATION {
+            return Ok(());
+        }
+        let what = if self.hinf.result.stable {
+            format!(
+                "raises the closed-loop H-inf norm from {:.6} to {:.6} ({:.3} times, more than \
+                 the {MAX_DEGRADATION} allowed)",
+                red.full_gamma, self.hinf.result.gamma, red.degradation
+            )
+        } else {
+            "does not stabilise the loop".to_string()
+        };
+        Err(StepError::computation(format!(
+            "the controller reduced from {} to {} states {what}; keep more states or allow the \
+             degradation",
+            red.full_order, red.order
+        )))
     }
 
     /// One line about the reduction, if there was one.
@@ -628,12 +703,14 @@ impl MixsynReport {
         let red = self.reduction.as_ref()?;
         let r = &self.hinf.result;
         Some(format!(
-            "reduced controller: {} -> {} states (||K - Kr||_inf <= {:.3e}); closed loop {}, ||Tzw|| = {:.6}",
+            "reduced controller: {} -> {} states (||K - Kr||_inf <= {:.3e}); closed loop {}, gamma {:.6} vs {:.6} at full order (degradation {:.4})",
             red.full_order,
             red.order,
             red.error_bound,
             stability(r.stable),
-            r.achieved
+            r.gamma,
+            red.full_gamma,
+            red.degradation
         ))
     }
 
@@ -646,7 +723,10 @@ impl MixsynReport {
             .collect();
         v["reduction"] = self.reduction.as_ref().map_or(Value::Null, |red| {
             json!({"order": red.order, "hankel_singular_values": red.hankel_singular_values,
-                "error_bound": red.error_bound, "full_order": red.full_order})
+                "error_bound": red.error_bound, "full_order": red.full_order,
+                "full_order_gamma": red.full_gamma,
+                "degradation": if red.degradation.is_finite() { json!(red.degradation) } else { Value::Null },
+                "max_degradation": MAX_DEGRADATION})
         });
         v
     }
@@ -656,6 +736,9 @@ serialize_via_value!(MixsynReport);
 impl fmt::Display for MixsynReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.hinf)?;
+        if let Some(note) = self.reduction_note() {
+            writeln!(f, "{note}")?;
+        }
         for w in GAIN_OMEGAS {
             writeln!(f, "|K(j{w})| = {:.6e}", self.controller().sigma_at(w))?;
         }
