@@ -633,8 +633,8 @@ pub struct MixsynReport {
     pub reduction: Option<Reduction>,
 }
 
-/// Frequencies (rad/s) at which the report gives the controller's gain.
-const GAIN_OMEGAS: [f64; 5] = [0.0, 1.0, 10.0, 100.0, 1000.0];
+/// Frequencies (Hz) at which the report gives the controller's gain.
+const GAIN_FREQS_HZ: [f64; 5] = [0.0, 1.0, 10.0, 100.0, 1000.0];
 
 impl MixsynReport {
     /// The controller.
@@ -717,9 +717,9 @@ impl MixsynReport {
     fn to_value(&self) -> Value {
         let mut v = self.hinf.to_value();
         let k = self.controller();
-        v["controller_gain"] = GAIN_OMEGAS
+        v["controller_gain"] = GAIN_FREQS_HZ
             .iter()
-            .map(|w| json!({"omega": w, "gain": k.sigma_at(*w)}))
+            .map(|f| json!({"freq_hz": f, "gain": k.sigma_at(std::f64::consts::TAU * f)}))
             .collect();
         v["reduction"] = self.reduction.as_ref().map_or(Value::Null, |red| {
             json!({"order": red.order, "hankel_singular_values": red.hankel_singular_values,
@@ -739,8 +739,9 @@ impl fmt::Display for MixsynReport {
         if let Some(note) = self.reduction_note() {
             writeln!(f, "{note}")?;
         }
-        for w in GAIN_OMEGAS {
-            writeln!(f, "|K(j{w})| = {:.6e}", self.controller().sigma_at(w))?;
+        for hz in GAIN_FREQS_HZ {
+            let gain = self.controller().sigma_at(std::f64::consts::TAU * hz);
+            writeln!(f, "|K| at {hz} Hz = {gain:.6e}")?;
         }
         Ok(())
     }
