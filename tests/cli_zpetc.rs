@@ -183,6 +183,15 @@ fn tf_info_continuous() {
         .assert()
         .success()
         .stdout(predicate::str::contains("continuous"));
+    // The default frequencies reach the 1 kHz the help promises.
+    let assert = fts()
+        .args(["tf", "info", "--json"])
+        .arg(&p)
+        .assert()
+        .success();
+    let v: serde_json::Value = serde_json::from_slice(&assert.get_output().stdout).unwrap();
+    let last = v["response"].as_array().unwrap().last().unwrap()["freq_hz"].as_f64();
+    assert_eq!(last, Some(1000.0), "{v}");
 }
 
 /// Each case: file content, expected message fragment.

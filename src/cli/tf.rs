@@ -54,13 +54,10 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
         TransferFunction::Continuous(_) => ("continuous", 1000.0),
     };
     let freqs = if args.freq.is_empty() {
+        // 0 Hz, then fractions of the top frequency up to the top itself
+        // (Nyquist for a discrete model, 1 kHz for a continuous one).
         let mut f = vec![0.0];
-        f.extend(
-            [0.01, 0.02, 0.05, 0.1, 0.2]
-                .iter()
-                .map(|r| r * top * 2.0)
-                .filter(|&f| f <= top),
-        );
+        f.extend([0.02, 0.04, 0.1, 0.2, 0.4, 1.0].iter().map(|r| r * top));
         f
     } else {
         args.freq.clone()
