@@ -11,19 +11,9 @@ import time
 
 import control
 import numpy as np
+from twenty_states import twenty_states
 
-n = 20
-A = np.zeros((n, n))
-for i in range(10):
-    w = 2 * np.pi * (50 + 100 * i)
-    s = -0.05 * w
-    k = 2 * i
-    A[k, k] = A[k + 1, k + 1] = s
-    A[k, k + 1] = w
-    A[k + 1, k] = -w
-B = np.ones((n, 1))
-C = np.array([[1.0 if j % 2 == 0 else 0.5 for j in range(n)]])
-G = control.ss(A, B, C, np.zeros((1, 1)))
+G = twenty_states()
 K = control.tf([0.2, 100.0], [1.0, 0.0])
 f = np.logspace(0, 4, 1000)
 omega = 2 * np.pi * f

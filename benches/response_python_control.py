@@ -10,19 +10,9 @@ import time
 
 import control
 import numpy as np
+from twenty_states import twenty_states
 
-n = 20
-A = np.zeros((n, n))
-for i in range(10):
-    w = 2 * np.pi * (50 + 100 * i)
-    s = -0.05 * w
-    k = 2 * i
-    A[k, k] = A[k + 1, k + 1] = s
-    A[k, k + 1] = w
-    A[k + 1, k] = -w
-B = np.ones((n, 1))
-C = np.array([[1.0 if j % 2 == 0 else 0.5 for j in range(n)]])
-sys = control.ss(A, B, C, np.zeros((1, 1)))
+sys = twenty_states()
 T = np.linspace(0.0, 0.1, 100_000)
 
 times = []

@@ -15,11 +15,11 @@ use crate::ident::freq::{FreqError, FreqResponse, WelchParams, welch};
 use crate::io::plot::{Series, stacked_charts_svg};
 use crate::io::tf_json;
 use crate::lti::Bode;
-use crate::workflow::Validate;
 use crate::workflow::identify::{
     ArxStruct, IdentifyArx, IdentifyIv, IdentifyOe, InitialChoice, LinearInputs, LinearProgress,
     LinearReport, OeStartChoice, Prepared, RecordSettings, SelectionRuleChoice,
 };
+use crate::workflow::{StepError, Validate};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 
@@ -350,11 +350,7 @@ pub fn run(cmd: IdentifyLinear) -> anyhow::Result<()> {
             let step = a.step();
             step.validate().map_err(step_error)?;
             let inputs = a.data.inputs()?;
-            let bar = progress_bar();
-            let report = step
-                .run_observed(inputs, &mut |p| show(&bar, p))
-                .map_err(step_error)?;
-            bar.finish_and_clear();
+            let report = observed(|observe| step.run_observed(inputs, observe))?;
             if let Some(s) = &report.details.selection {
                 eprintln!(
                     "structure selection over {} candidates chose {} (rule {})",
@@ -367,11 +363,7 @@ pub fn run(cmd: IdentifyLinear) -> anyhow::Result<()> {
             let step = a.step();
             step.validate().map_err(step_error)?;
             let inputs = a.data.inputs()?;
-            let bar = progress_bar();
-            let report = step
-                .run_observed(inputs, &mut |p| show(&bar, p))
-                .map_err(step_error)?;
-            bar.finish_and_clear();
+            let report = observed(|observe| step.run_observed(inputs, observe))?;
             finish(&report, &a.out)
         }
         IdentifyLinear::Iv(a) => {
@@ -389,6 +381,16 @@ fn progress_bar() -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(0);
     bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
     bar
+}
+
+/// Runs a step with its progress shown on a bar, cleared once it is done.
+fn observed<R>(
+    run: impl FnOnce(&mut dyn FnMut(LinearProgress)) -> Result<R, StepError>,
+) -> anyhow::Result<R> {
+    let bar = progress_bar();
+    let report = run(&mut |p| show(&bar, p)).map_err(step_error)?;
+    bar.finish_and_clear();
+    Ok(report)
 }
 
 fn show(bar: &indicatif::ProgressBar, p: LinearProgress) {
@@ -411,11 +413,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
     let step = a.step();
     step.validate().map_err(step_error)?;
     let inputs = a.data.inputs()?;
-    let bar = progress_bar();
-    let report = step
-        .run_observed(inputs, &mut |p| show(&bar, p))
-        .map_err(step_error)?;
-    bar.finish_and_clear();
+    let report = observed(|observe| step.run_observed(inputs, observe))?;
     if let Some(path) = &a.out {
         write_atomic(
             path,
@@ -557,18 +555,12 @@ impl EmpiricalCurves {
             if trusted {
                 last_phase = Some(phase);
             }
-            let (keep, drop) = (
-                if trusted {
-                    (mag, phase)
-                } else {
-                    (f64::NAN, f64::NAN)
-                },
-                if trusted {
-                    (f64::NAN, f64::NAN)
-                } else {
-                    (mag, phase)
-                },
-            );
+            let none = (f64::NAN, f64::NAN);
+            let (keep, drop) = if trusted {
+                ((mag, phase), none)
+            } else {
+                (none, (mag, phase))
+            };
             c.freq.push(f);
             c.mag_trusted.push(keep.0);
             c.phase_trusted.push(keep.1);
