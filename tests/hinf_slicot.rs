@@ -28,13 +28,12 @@ use fts::synth::hinf::HinfOptions;
 use fts::synth::mixsyn::{augw, mixsyn};
 use serde::Deserialize;
 
-/// Cases fts does not meet yet (docs/robust.md, "SLICOT comparison").
-const KNOWN: &[(&str, &str)] = &[(
-    "first-order k=1, w2=0.0001",
-    "fts's controller achieves 1.12798, 1% above SLICOT's controller (1.11711); \
-     fts's reported gamma 1.128008 is 2.4e-5 above the recomputed norm (the \
-     sweep raised it: conservative, not optimistic)",
-)];
+/// Cases fts does not meet yet, with the reason (docs/robust.md, "SLICOT
+/// comparison"). None today: the last two (a cheap-control controller
+/// 1 % above SLICOT's, and gamma rising as W2 shrinks) went when the
+/// verification accepted controllers within twice the backoff of the
+/// bisection bound.
+const KNOWN: &[(&str, &str)] = &[];
 
 #[derive(Deserialize)]
 struct Case {
@@ -122,11 +121,14 @@ fn mixed_sensitivity_gamma_matches_slicot_and_is_achieved() {
         assert!(cl.is_stable().unwrap(), "{}: closed loop unstable", c.name);
         let (bs, _) = hinf_norm(&cl.balanced(), 1e-9).unwrap();
         let peak = sweep_peak(&cl);
-        let claim = (r.gamma / bs - 1.0).abs();
+        // A sampled singular value is a true lower bound: where it exceeds
+        // the Hamiltonian's answer, the latter missed the peak.
+        let recomputed = bs.max(peak);
+        let claim = (r.gamma / recomputed - 1.0).abs();
         worst_claim = worst_claim.max(claim);
         if claim.is_nan() || claim >= 1e-6 {
             failures.push(format!(
-                "{}: reported {} vs recomputed {bs}",
+                "{}: reported {} vs recomputed {recomputed}",
                 c.name, r.gamma
             ));
         }
@@ -229,19 +231,5 @@ fn gamma_does_not_grow_as_the_control_weight_shrinks() {
     for r in &rises {
         println!("{r}");
     }
-    let known = |r: &String| KNOWN_RISES.iter().any(|n| r.starts_with(&format!("{n}:")));
-    assert!(rises.iter().all(known), "unexpected rises: {rises:#?}");
-    assert_eq!(
-        rises.len(),
-        KNOWN_RISES.len(),
-        "a known rise is gone: {rises:#?}"
-    );
+    assert!(rises.is_empty(), "gamma rises as W2 shrinks: {rises:#?}");
 }
-
-/// Where fts's gamma rises (by 9e-4) as W2 shrinks, on the plant with gain
-/// 1e6: the cheap-control regularisation picks a weight whose level is
-/// 1.118034 where the larger W2 reached 1.117029 (docs/robust.md).
-const KNOWN_RISES: &[&str] = &[
-    "second-order k=1e+06, w2=0.01",
-    "second-order k=1e+06, w2=1e-06",
-];

@@ -107,13 +107,15 @@ proptest! {
         let p = StateSpace::new(a, b, c, d, None).unwrap();
         if let Ok(r) = hinfsyn(&p, 1, 1, HinfOptions::default()) {
             prop_assert!(r.stable);
-            // hinfsyn verifies its controller to 1e-6 relative; 1e-8 is the
-            // tolerance of the norm computation itself.
-            let excess = r.gamma / r.design_level - 1.0;
-            if excess > 0.0 {
-                eprintln!("HINF-EXCESS {excess:e} at gamma {:e}", r.design_level);
-            }
-            prop_assert!(r.gamma <= r.design_level * (1.0 + 1e-6 + 1e-8), "{} > {}", r.gamma, r.design_level);
+            // hinfsyn accepts a controller that achieves its level to 1e-6
+            // (relative) or lies within twice the backoff of the bisection
+            // bound (level = bound (1 + backoff)); 1e-8 is the tolerance of
+            // the norm computation itself.
+            let backoff = r.design_level / r.bisection_bound - 1.0;
+            let limit = (r.design_level * (1.0 + 1e-6))
+                .max(r.bisection_bound * (1.0 + 2.0 * backoff))
+                * (1.0 + 1e-8);
+            prop_assert!(r.gamma <= limit, "{} > {limit} (level {})", r.gamma, r.design_level);
             prop_assert!(within("hinf x", r.x_residual, r.residual_floor)
                 && within("hinf y", r.y_residual, r.residual_floor),
                 "{} {} floor {} at gamma {}", r.x_residual, r.y_residual, r.residual_floor, r.gamma);

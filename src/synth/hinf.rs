@@ -60,7 +60,9 @@ pub struct HinfResult {
     pub gamma: f64,
     /// Diagnostic: the level the central controller was built for,
     /// `bisection_bound (1 + backoff)`, on the synthesis problem
-    /// (regularised, if `regularised` says so).
+    /// (regularised, if `regularised` says so). `gamma` is at most
+    /// `design_level (1 + 1e-6)` or `bisection_bound (1 + 2 backoff)`,
+    /// whichever is larger (docs/robust.md, "Verified H-inf controllers").
     pub design_level: f64,
     /// Diagnostic: the smallest level the bisection found feasible on the
     /// synthesis problem.
@@ -324,13 +326,11 @@ pub fn hinfsyn(
             break;
         }
     }
-    // The smallest level wins (the first, i.e. the smallest weight, on ties).
+    // The smallest achieved norm wins (the first, i.e. the smallest weight,
+    // on ties).
     let mut best: Option<HinfResult> = None;
     for r in found {
-        if best
-            .as_ref()
-            .is_none_or(|b| r.design_level < b.design_level)
-        {
+        if best.as_ref().is_none_or(|b| r.gamma < b.gamma) {
             best = Some(r);
         }
     }
@@ -428,7 +428,8 @@ fn hinfsyn_regularised(
     let gamma_opt = hi;
     // Build the controller at gamma_opt (1 + backoff) and verify it on the
     // original plant: closed loop stable and its recomputed H-inf norm within
-    // VERIFY_RTOL of the level it was built for. Near the optimum the central
+    // VERIFY_RTOL of the level it was built for, or within twice the backoff
+    // of gamma_opt. Near the optimum the central
     // controller depends on `(I - Y X / gamma^2)^-1`, so on nearly singular
     // problems (gamma_opt in the 1e5..1e7 range, X and Y huge) it can miss
     // the level by 1e-4 and more; then back off ten times further and
@@ -458,7 +459,13 @@ fn hinfsyn_regularised(
             }
         };
         let built = finish(plant, &norm, p0, &at)?;
-        let ok = built.stable && built.achieved <= gamma * (1.0 + VERIFY_RTOL);
+        // Accepted when it achieves its own level, or lies within twice the
+        // backoff of the bisection bound: on cheap-control problems the
+        // central controller near the optimum misses its level by 1e-6..1e-4
+        // while still beating every controller built further back (the
+        // reported gamma is the achieved norm either way).
+        let target = (gamma * (1.0 + VERIFY_RTOL)).max(gamma_opt * (1.0 + 2.0 * backoff));
+        let ok = built.stable && built.achieved <= target;
         if ok {
             let Built {
                 k,
