@@ -49,6 +49,21 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
     let zeros = g.zeros()?;
     let poles = g.poles()?;
     let stable = g.is_stable()?;
+    // The verdict is exact on the stored coefficients; say so where the
+    // computed poles (clustered: accurate to about eps^(1/k)) suggest
+    // otherwise.
+    let by_roots = match &g {
+        TransferFunction::Discrete(_) => poles.iter().all(|p| p.norm() < 1.0),
+        TransferFunction::Continuous(_) => poles.iter().all(|p| p.re < 0.0),
+    };
+    let disagreement = (stable != by_roots).then(|| {
+        format!(
+            "the exact test on the stored denominator says {}, the computed poles below say {}: \
+             clustered poles are computed to about eps^(1/k) for a k-fold pole; the exact verdict holds",
+            if stable { "stable" } else { "unstable" },
+            if by_roots { "stable" } else { "unstable" }
+        )
+    });
     let (kind, top) = match &g {
         TransferFunction::Discrete(d) => ("discrete", d.nyquist_hz()),
         TransferFunction::Continuous(_) => ("continuous", 1000.0),
@@ -91,6 +106,9 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
         obj.insert("zeros".into(), complex_pairs(&zeros));
         obj.insert("dc_gain".into(), json!(g.dc_gain()));
         obj.insert("stable".into(), json!(stable));
+        if let Some(note) = &disagreement {
+            obj.insert("stability_note".into(), json!(note));
+        }
         obj.insert(
             "response".into(),
             serde_json::Value::Array(
@@ -120,6 +138,9 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
     }
     let plane = if kind == "discrete" { "|z|" } else { "|s|" };
     say!("poles ({}):", if stable { "stable" } else { "UNSTABLE" });
+    if let Some(note) = &disagreement {
+        say!("  note: {note}");
+    }
     for p in &poles {
         say!("  {:<26} {plane} = {:.6}", fmt_complex(*p), p.norm());
     }

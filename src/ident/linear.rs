@@ -168,6 +168,10 @@ impl PolyModel {
         if self.na() == 0 {
             return true;
         }
+        // Exact on the stored coefficients (crate::lti::stability).
+        if let Some(verdict) = crate::lti::stability::schur_stable(&self.a) {
+            return verdict;
+        }
         match crate::lti::Poly::new(self.a.clone()).z_roots() {
             Ok(r) => r.iter().all(|p| p.norm() < 1.0),
             Err(_) => false,

@@ -15,6 +15,7 @@ pub mod riccati;
 pub mod roots;
 pub mod schur;
 pub mod ss;
+pub mod stability;
 pub mod tf;
 
 /// Complex double, the same type faer uses (`faer::c64`).

@@ -67,6 +67,18 @@ pub struct GenSchur {
     pub z: Mat<c64>,
 }
 
+/// faer's QZ parameters with the blocked (multishift, aggressive early
+/// deflation) path switched off. From dimension 75 (faer's default
+/// `blocking_threshold`) the blocked path stalls on the pencils fts builds
+/// (a random 75x75 `(A, I)`: 80 times slower than 74x74); the unblocked
+/// double-shift sweep is O(n^3) at every size fts handles.
+fn unblocked_qz(params: GeneralizedSchurParams) -> GeneralizedSchurParams {
+    GeneralizedSchurParams {
+        blocking_threshold: usize::MAX,
+        ..params
+    }
+}
+
 fn cplx(m: &Mat<f64>) -> Mat<c64> {
     Mat::from_fn(m.nrows(), m.ncols(), |i, j| c64::new(m[(i, j)], 0.0))
 }
@@ -104,7 +116,7 @@ pub fn gen_schur(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
     let mut z = Mat::<c64>::identity(n, n);
     // Step 2: Hessenberg-triangular reduction, then QZ iterations.
     let hparams: gen_hessenberg::GeneralizedHessenbergParams = faer::auto!(c64);
-    let sparams: GeneralizedSchurParams = faer::auto!(c64);
+    let sparams = unblocked_qz(faer::auto!(c64));
     let req = StackReq::any_of(&[
         gen_hessenberg::generalized_hessenberg_scratch::<c64>(n, hparams),
         qz_cplx::hessenberg_to_qz_scratch::<c64>(n, Par::Seq, sparams),
@@ -679,7 +691,7 @@ pub fn real_schur(a: &Mat<f64>) -> Result<RealSchur, SchurError> {
     let mut q = Mat::<f64>::identity(n, n);
     let mut z = Mat::<f64>::identity(n, n);
     let hparams: gen_hessenberg::GeneralizedHessenbergParams = faer::auto!(f64);
-    let sparams: GeneralizedSchurParams = faer::auto!(f64);
+    let sparams = unblocked_qz(faer::auto!(f64));
     let req = StackReq::any_of(&[
         gen_hessenberg::generalized_hessenberg_scratch::<f64>(n, hparams),
         qz_real::hessenberg_to_qz_scratch::<f64>(n, Par::Seq, sparams),

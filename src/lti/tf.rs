@@ -145,8 +145,14 @@ impl DiscreteTf {
         self.den.z_roots()
     }
 
-    /// All poles strictly inside the unit circle.
+    /// All poles strictly inside the unit circle, decided exactly on the
+    /// stored coefficients (Schur–Cohn, [`super::stability`]); computed
+    /// root moduli only beyond its degree limit. Clustered poles make the
+    /// computed moduli unreliable (`eps^(1/k)` for a `k`-fold pole).
     pub fn is_stable(&self) -> Result<bool, RootsError> {
+        if let Some(verdict) = super::stability::schur_stable(self.den.coeffs()) {
+            return Ok(verdict);
+        }
         Ok(self.poles()?.iter().all(|p| p.norm() < 1.0))
     }
 
@@ -324,8 +330,13 @@ impl ContinuousTf {
         roots_descending(&self.den)
     }
 
-    /// All poles in the open left half plane.
+    /// All poles in the open left half plane, decided exactly on the stored
+    /// coefficients (Routh, [`super::stability`]); computed roots only
+    /// beyond its degree limit.
     pub fn is_stable(&self) -> Result<bool, RootsError> {
+        if let Some(verdict) = super::stability::hurwitz_stable(&self.den) {
+            return Ok(verdict);
+        }
         Ok(self.poles()?.iter().all(|p| p.re < 0.0))
     }
 

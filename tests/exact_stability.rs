@@ -1,0 +1,93 @@
+//! Stability verdicts on clustered discrete poles against 200-digit roots
+//! of the stored coefficients (issue #19, item 2). The reference verdicts
+//! were made once by `tests/data/stability/gen_clusters.py` (numpy's float
+//! expansion of `(z - r)^k`, roots by mpmath at 200 digits); no Python is
+//! needed here.
+
+use assert_cmd::Command;
+use fts::lti::stability::schur_stable;
+use fts::lti::{DiscreteTf, Poly};
+use serde::Deserialize;
+
+#[derive(Deserialize)]
+struct Case {
+    root: f64,
+    multiplicity: usize,
+    den: Vec<f64>,
+    max_modulus: f64,
+    stable: bool,
+}
+
+#[derive(Deserialize)]
+struct Cases {
+    cases: Vec<Case>,
+}
+
+fn cases() -> Vec<Case> {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/stability/clusters.json"
+    );
+    serde_json::from_str::<Cases>(&std::fs::read_to_string(path).unwrap())
+        .unwrap()
+        .cases
+}
+
+#[test]
+fn clustered_poles_get_the_verdict_of_their_stored_coefficients() {
+    let cases = cases();
+    assert!(cases.len() >= 20);
+    let (mut unstable, mut roots_wrong) = (0, 0);
+    for c in &cases {
+        let name = format!("(z - {})^{}", c.root, c.multiplicity);
+        assert_eq!(
+            schur_stable(&c.den),
+            Some(c.stable),
+            "{name}: |z|max {}",
+            c.max_modulus
+        );
+        let g = DiscreteTf::new(vec![1.0], c.den.clone(), 0, 1e-3).unwrap();
+        assert_eq!(g.is_stable().unwrap(), c.stable, "{name}");
+        // How often the computed roots alone would have answered wrongly.
+        let by_roots = Poly::new(c.den.clone())
+            .z_roots()
+            .unwrap()
+            .iter()
+            .all(|z| z.norm() < 1.0);
+        roots_wrong += usize::from(by_roots != c.stable);
+        unstable += usize::from(!c.stable);
+    }
+    println!(
+        "{} cases, {unstable} unstable as stored; computed root moduli wrong on {roots_wrong}",
+        cases.len()
+    );
+    assert!(unstable >= 4);
+}
+
+#[test]
+fn tf_info_says_unstable_and_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cluster.json");
+    let den = &cases()
+        .into_iter()
+        .find(|c| c.root == 0.99 && c.multiplicity == 8)
+        .unwrap()
+        .den;
+    let doc = serde_json::json!({
+        "format": "fts.tf/1", "var": "z^-1", "ts": 1e-3, "delay": 0, "num": [1.0], "den": den
+    });
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let out = Command::cargo_bin("fts")
+        .unwrap()
+        .args(["tf", "info"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("poles (UNSTABLE)"), "{text}");
+    assert!(
+        text.contains("the exact test on the stored denominator says unstable"),
+        "{text}"
+    );
+}
