@@ -55,13 +55,17 @@ pub fn c2d(sys: &StateSpace, ts: f64, method: C2dMethod) -> Result<StateSpace, S
                 None => 2.0 / ts,
                 Some(w) => {
                     if !(w.is_finite() && w > 0.0 && w * ts < std::f64::consts::PI) {
-                        return Err(SsError::BadSampleTime(ts));
+                        return Err(SsError::BadPrewarp {
+                            w,
+                            nyquist: std::f64::consts::PI / ts,
+                        });
                     }
                     w / (w * ts / 2.0).tan()
                 }
             };
             let i = Mat::<f64>::identity(n, n);
-            let e = inv(&(&i - &(&sys.a * (1.0 / alpha)))).ok_or(SsError::IllPosed)?;
+            let e = inv(&(&i - &(&sys.a * (1.0 / alpha))))
+                .ok_or_else(|| tustin_pole(sys, alpha, ts, prewarp))?;
             StateSpace::new(
                 &e * &(&i + &(&sys.a * (1.0 / alpha))),
                 &(&e * &sys.b) * (2.0 / alpha),
@@ -73,6 +77,27 @@ pub fn c2d(sys: &StateSpace, ts: f64, method: C2dMethod) -> Result<StateSpace, S
     }
 }
 
+/// The error for `I - A / alpha` singular: names the eigenvalue of `A`
+/// nearest `alpha` (where the bilinear map is undefined).
+fn tustin_pole(sys: &StateSpace, alpha: f64, ts: f64, prewarp: Option<f64>) -> SsError {
+    let nearest = crate::lti::ss::eigvals(&sys.a)
+        .ok()
+        .and_then(|ev| {
+            ev.into_iter().min_by(|x, y| {
+                let d = |z: &crate::lti::c64| (z - alpha).norm();
+                d(x).total_cmp(&d(y))
+            })
+        })
+        .unwrap_or(crate::lti::c64::new(alpha, 0.0));
+    SsError::TustinPole {
+        eigenvalue: format!("{}{:+}j", nearest.re, nearest.im),
+        alpha,
+        ts,
+        prewarp: prewarp.map_or(String::new(), |w| format!(", prewarped at {w} rad/s")),
+        or_prewarp: prewarp.map_or(String::new(), |_| " or prewarp frequency".into()),
+    }
+}
+
 /// Discrete system from a continuous one by `s = a (z-1)/(z+1)` with the
 /// symmetric `sqrt(2a)` split; the inverse of
 /// [`super::norms::bilinear_to_continuous`]. Norms and stability are preserved.
@@ -80,7 +105,7 @@ pub fn bilinear_to_discrete(sys: &StateSpace, alpha: f64, ts: f64) -> Result<Sta
     let n = sys.nx();
     let i = Mat::<f64>::identity(n, n);
     let a = &sys.a * (1.0 / alpha);
-    let e = inv(&(&i - &a)).ok_or(SsError::IllPosed)?;
+    let e = inv(&(&i - &a)).ok_or_else(|| tustin_pole(sys, alpha, ts, None))?;
     let r2 = (2.0 / alpha).sqrt();
     StateSpace::new(
         &e * &(&i + &a),
@@ -96,6 +121,28 @@ mod tests {
     use super::*;
     use crate::lti::c64;
     use crate::lti::norms::bilinear_to_continuous;
+
+    #[test]
+    fn tustin_at_an_eigenvalue_names_it() {
+        // 1/(s - 20), T = 0.1: 2/T = 20 is the eigenvalue.
+        let g = StateSpace::from_tf(&[1.0], &[1.0, -20.0], None).unwrap();
+        let e = c2d(&g, 0.1, C2dMethod::Tustin { prewarp: None }).unwrap_err();
+        let m = e.to_string();
+        assert!(matches!(e, SsError::TustinPole { .. }), "{m}");
+        assert!(
+            m.contains("eigenvalue at 20+0j") && m.contains("ts = 1e-1"),
+            "{m}"
+        );
+        let e = c2d(
+            &g,
+            0.1,
+            C2dMethod::Tustin {
+                prewarp: Some(40.0),
+            },
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("(0, pi/ts)"), "{e}");
+    }
 
     #[test]
     fn zoh_of_first_order() {

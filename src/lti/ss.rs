@@ -39,6 +39,35 @@ pub enum SsError {
     /// An eigenvalue computation failed to converge.
     #[error("eigenvalue iteration did not converge")]
     NoConvergence,
+    /// The bilinear (Tustin) map `s = alpha (z - 1)/(z + 1)` sends an
+    /// eigenvalue at (or within rounding of) `s = alpha` to `z = infinity`.
+    #[error(
+        "the Tustin map is undefined: A has an eigenvalue at {eigenvalue} rad/s, where the map \
+         s = {alpha:e} (z-1)/(z+1) puts z at infinity (ts = {ts:e} s{prewarp}); choose another \
+         sample time{or_prewarp}"
+    )]
+    TustinPole {
+        /// The eigenvalue, as `re+imj`.
+        eigenvalue: String,
+        /// `2/ts`, or the prewarped `w / tan(w ts / 2)`.
+        alpha: f64,
+        /// The sample time.
+        ts: f64,
+        /// `", prewarped at W rad/s"` or empty.
+        prewarp: String,
+        /// `" or prewarp frequency"` or empty.
+        or_prewarp: String,
+    },
+    /// A prewarp frequency outside `(0, pi/ts)`.
+    #[error(
+        "prewarp frequency must be in (0, pi/ts) = (0, {nyquist:e}) rad/s (below Nyquist), got {w}"
+    )]
+    BadPrewarp {
+        /// The frequency given, rad/s.
+        w: f64,
+        /// `pi / ts`, rad/s.
+        nyquist: f64,
+    },
 }
 
 /// A state-space system; `ts = None` for continuous time.

@@ -7,7 +7,7 @@ use crate::io::ss_json;
 use crate::lti::balred::balred;
 use crate::lti::c2d::{C2dMethod, c2d};
 use crate::lti::c64;
-use crate::lti::ss::StateSpace;
+use crate::lti::ss::{SsError, StateSpace};
 use crate::synth::genplant::SynthError;
 use crate::synth::h2::{H2Result, h2syn};
 use crate::synth::hinf::{HinfOptions, HinfResult, closed_loop_norm, fastest_pole, hinfsyn};
@@ -809,7 +809,11 @@ impl C2d {
                 "{source}: the system is already discrete"
             )));
         }
-        let system = c2d(sys, ts, method).map_err(computation(source))?;
+        let system = c2d(sys, ts, method).map_err(|e| match e {
+            // The sample time chosen is the culprit, not the computation.
+            SsError::TustinPole { .. } => StepError::setting("ts", format!("{source}: {e}")),
+            e => computation(source)(e),
+        })?;
         let poles = system.poles().map_err(computation(source))?;
         let stable = system.is_stable().map_err(computation(source))?;
         Ok(C2dReport {
