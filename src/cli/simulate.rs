@@ -49,7 +49,7 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "REF.csv", conflicts_with = "reference")]
     reference_file: Option<PathBuf>,
     /// Column of --reference-file (header name or 1-based index).
-    #[arg(long, default_value = "r")]
+    #[arg(long, default_value = "r", value_parser = super::columns::parse_column)]
     reference_column: String,
     /// Amplitude of the sine or sweep, um.
     #[arg(long, default_value_t = Simulate::default().amplitude)]
