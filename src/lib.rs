@@ -30,7 +30,7 @@
 //! | feedforward | [`DesignZpetc`] |
 //! | feedback | [`Weight`], [`Mixsyn`], [`Hinf`], [`H2`], [`C2d`], [`SsController`]; margins and sensitivities in [`lti::margins`] |
 //! | judging a design | [`workflow::response::Response`] (step/impulse, `stepinfo`), [`workflow::convert`] (tf/ss/zpk, minreal, balred, d2c) |
-//! | simulation | [`sim::closed_loop`] (any plant, the runtime's controller), [`sim::virtual_fts`] (the embedded virtual FTS), [`sim::experiment`] (the \[Li21\] study) |
+//! | simulation | [`Simulate`] (a tracking run: the runtime's controller from a coefficient file or stages, on the virtual FTS or a linear model; tracking and step figures, divergence named), [`sim::closed_loop`] (any plant, the runtime's controller), [`sim::virtual_fts`] (the embedded virtual FTS), [`sim::experiment`] (the \[Li21\] study) |
 //! | deployment | [`io::controller_file::ControllerFile`] (the `fts.controller/1` file and C header), [`runtime`] (the allocation-free step, `no_std`) |
 //!
 //! Underneath: [`lti`] (polynomials in `z^-1`, transfer functions, state
@@ -64,5 +64,5 @@ pub use lti::{ContinuousTf, DiscreteTf, Poly, StateSpace, TransferFunction};
 pub use runtime::RuntimeController;
 pub use workflow::{
     ArxStruct, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyIv, IdentifyOe,
-    Mixsyn, SsController, StepError, Validate, Weight,
+    Mixsyn, Simulate, SsController, StepError, Validate, Weight,
 };

@@ -299,3 +299,36 @@ fn simulate_step_reports_step_figures() {
         .code(2)
         .stderr(predicate::str::contains("step-time"));
 }
+
+/// The mixed-sensitivity controller of examples/mixsyn spans poles from
+/// 0.2 to 5e7 rad/s: its reduction reports the Hankel singular values and
+/// bound of the system (the near-integrator's 15808 among them), and its DC
+/// gain moves by no more than the bound.
+#[test]
+fn balred_of_the_mixsyn_controller_reports_a_true_bound() {
+    let k = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/mixsyn/K.json");
+    let dir = tempfile::tempdir().unwrap();
+    let kr = dir.path().join("kr.json");
+    let v = json_out(
+        fts()
+            .arg("balred")
+            .arg(&k)
+            .args(["--order", "3", "-o"])
+            .arg(&kr),
+    );
+    let hsv: Vec<f64> = serde_json::from_value(v["hankel_singular_values"].clone()).unwrap();
+    assert!((hsv[2] - 15808.44).abs() < 1.0, "{hsv:?}");
+    let bound = v["error_bound"].as_f64().unwrap();
+    assert!((bound - 2.0 * hsv[3]).abs() < 1e-9 * bound, "{v}");
+    let dc = |path: &Path| {
+        let text = std::fs::read_to_string(path).unwrap();
+        let sys = fts::io::ss_json::parse_system(&text, "k").unwrap();
+        sys.dc_gain().unwrap()[(0, 0)]
+    };
+    let (before, after) = (dc(&k), dc(&kr));
+    assert!(before.abs() > 3e4, "{before}");
+    assert!(
+        (before - after).abs() <= bound * (1.0 + 1e-5),
+        "{before} -> {after}, bound {bound}"
+    );
+}

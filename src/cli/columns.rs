@@ -30,6 +30,23 @@ pub struct LayoutArgs {
     pub time_jitter: f64,
 }
 
+/// A column option's value (`--input-col 4`, `--time-col t`, `--input-col
+/// data:4`): what is wrong with the value itself is refused here, so that
+/// the message names the option and the value (a 0 or negative index, a
+/// blank name); a column the file lacks is reported by the reader.
+pub fn parse_column(text: &str) -> Result<String, String> {
+    let trimmed = text.trim();
+    if trimmed.is_empty() {
+        return Err("expected a header name, a 1-based column index or a MAT variable".into());
+    }
+    if let Ok(i) = trimmed.parse::<i64>()
+        && i < 1
+    {
+        return Err(format!("column indices are 1-based; {i} is not a column"));
+    }
+    Ok(text.to_owned())
+}
+
 fn parse_delimiter(text: &str) -> Result<Delimiter, String> {
     Delimiter::from_name(text).ok_or_else(|| format!("expected one of {}", Delimiter::NAMES))
 }
@@ -64,13 +81,13 @@ impl LayoutArgs {
 #[derive(Debug, Clone, Args)]
 pub struct ColumnArgs {
     /// Input column: header name, 1-based index or MAT variable (default `u`, or column 1 without a header).
-    #[arg(long, value_name = "COL")]
+    #[arg(long, value_name = "COL", value_parser = parse_column)]
     pub input_col: Option<String>,
     /// Output column: header name, 1-based index or MAT variable (default `y`, or column 2 without a header).
-    #[arg(long, value_name = "COL")]
+    #[arg(long, value_name = "COL", value_parser = parse_column)]
     pub output_col: Option<String>,
     /// Time column (default: found by name, `t`, `time`, `time_ms`, `t [s]`, ...).
-    #[arg(long, value_name = "COL")]
+    #[arg(long, value_name = "COL", value_parser = parse_column)]
     pub time_col: Option<String>,
     #[command(flatten)]
     pub layout: LayoutArgs,

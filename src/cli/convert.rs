@@ -76,6 +76,9 @@ pub struct BalredArgs {
     /// States to keep.
     #[arg(long, value_name = "N")]
     order: usize,
+    /// Accept a reduction whose error exceeds the Hankel-singular-value bound (inaccurate Gramians).
+    #[arg(long)]
+    allow_degradation: bool,
     /// Write the reduced model (`fts.ss/1`) here.
     #[arg(short = 'o', long = "out", value_name = "OUT.json")]
     output: Option<PathBuf>,
@@ -178,6 +181,7 @@ pub fn run_minreal(args: MinrealArgs) -> anyhow::Result<()> {
 pub fn run_balred(args: BalredArgs) -> anyhow::Result<()> {
     let step = Balred {
         order: Some(args.order),
+        allow_degradation: args.allow_degradation,
     };
     step.validate().map_err(step_error)?;
     let source = args.input.display().to_string();

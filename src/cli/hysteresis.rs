@@ -40,10 +40,10 @@ pub struct ApplyArgs {
     #[arg(value_name = "DATA.csv")]
     data: PathBuf,
     /// Column that drives the model: header name, 1-based index or MAT variable.
-    #[arg(long, value_name = "COL", default_value = "u")]
+    #[arg(long, value_name = "COL", default_value = "u", value_parser = super::columns::parse_column)]
     input_col: String,
     /// Time column to copy to the output (default: found by name, `t`, `time_ms`, ...).
-    #[arg(long, value_name = "COL")]
+    #[arg(long, value_name = "COL", value_parser = super::columns::parse_column)]
     time_col: Option<String>,
     #[command(flatten)]
     layout: LayoutArgs,

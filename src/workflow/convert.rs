@@ -334,6 +334,9 @@ impl fmt::Display for MinrealReport {
 pub struct Balred {
     /// States to keep (required).
     pub order: Option<usize>,
+    /// Accept a reduction whose error on a dense frequency grid exceeds
+    /// the Hankel-singular-value bound (inaccurate Gramians); default false.
+    pub allow_degradation: bool,
 }
 
 impl Validate for Balred {
@@ -353,8 +356,13 @@ pub struct BalredReport {
     pub order_before: usize,
     /// Hankel singular values of the original (descending).
     pub hsv: Vec<f64>,
-    /// `||G - G_r||_inf <= 2 sum of the discarded Hankel singular values`.
+    /// `||G - G_r||_inf <= 2 sum of the discarded Hankel singular values`
+    /// (or, for an accepted untrusted reduction, the larger error found on
+    /// the frequency grid).
     pub bound: f64,
+    /// Whether the error found on a dense frequency grid stayed within
+    /// the Hankel-singular-value bound.
+    pub trusted: bool,
 }
 
 impl Balred {
@@ -375,11 +383,24 @@ impl Balred {
             )));
         }
         let red = convert::balred_any(&sys, order).map_err(ss_err(source))?;
+        if !red.trusted && !self.allow_degradation {
+            return Err(StepError::computation(format!(
+                "{source}: the reduction to {order} states cannot be trusted: its error reaches {:.6e} on a frequency grid, beyond the bound 2 sum(discarded Hankel singular values) = {:.6e} (the Gramians of this badly conditioned system are inaccurate); set `allow_degradation` to accept it",
+                red.grid_error, red.bound
+            )));
+        }
         Ok(BalredReport {
             system: red.sys,
             order_before: sys.nx(),
             hsv: red.hsv,
-            bound: red.bound,
+            // Within round-off of the bound when trusted; otherwise the
+            // bound is false and the error found is the honest figure.
+            bound: if red.trusted {
+                red.bound
+            } else {
+                red.bound.max(red.grid_error)
+            },
+            trusted: red.trusted,
         })
     }
 }
@@ -410,11 +431,19 @@ impl fmt::Display for BalredReport {
             };
             writeln!(f, "  {:>3}  {s:.6e}  {mark}", k + 1)?;
         }
-        writeln!(
-            f,
-            "error bound ||G - Gr||_inf <= 2 sum(discarded) = {:.6e}",
-            self.bound
-        )
+        if self.trusted {
+            writeln!(
+                f,
+                "error bound ||G - Gr||_inf <= 2 sum(discarded) = {:.6e}",
+                self.bound
+            )
+        } else {
+            writeln!(
+                f,
+                "warning: untrusted reduction (inaccurate Gramians): ||G - Gr||_inf >= {:.6e} on a frequency grid, beyond 2 sum(discarded)",
+                self.bound
+            )
+        }
     }
 }
 

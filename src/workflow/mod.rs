@@ -15,6 +15,7 @@ pub mod identify;
 mod identify_hysteresis;
 pub mod response;
 pub mod robust;
+pub mod simulate;
 pub mod zpetc;
 
 pub use controller::{
@@ -27,6 +28,9 @@ pub use identify::{
 pub use robust::{
     C2d, C2dMethodChoice, C2dReport, H2, H2Report, Hinf, HinfReport, Mixsyn, MixsynInputs,
     MixsynReport, Weight, WeightReport, WeightShape,
+};
+pub use simulate::{
+    ReferenceShape, SimController, SimPlant, Simulate, SimulateInputs, SimulateReport, StageModels,
 };
 pub use zpetc::{DesignZpetc, ZpetcReport};
 

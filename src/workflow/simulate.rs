@@ -1,0 +1,851 @@
+//! A closed-loop tracking run: what `fts simulate` does. The controller is
+//! the runtime's step, fed by a coefficient file or by one built from the
+//! `controller` stages exactly as `fts emit` builds it; the plant is the
+//! virtual FTS or a discrete linear model.
+
+use super::{AntiWindup, Discretisation, SsController, StepError, Validate};
+use crate::ident::excite::ExciteError;
+use crate::ident::hysteresis::HysteresisModel;
+use crate::io::controller_file::{ControllerFile, Feedback, Provenance, StateSpaceBlock};
+use crate::lti::DiscreteTf;
+use crate::lti::response::NoStepInfo;
+use crate::lti::ss::StateSpace;
+use crate::runtime::{PidSpec, RuntimeController};
+use crate::sim::experiment::{self, DEFAULT_PID, ExperimentParams, IdentifiedModels};
+use crate::sim::reference::{self, Reference, ReferenceTiming, StepTracking};
+use crate::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
+use crate::sim::{ModelPlant, Plant, closed_loop};
+use crate::synth::composite::{FeedbackKind, Stages};
+use crate::synth::zpetc::Zpetc;
+use serde::{Deserialize, Serialize, Serializer};
+use serde_json::json;
+use std::fmt;
+
+/// The shape of a generated reference.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReferenceShape {
+    /// A sine of `amplitude` at `freq`.
+    #[default]
+    Sine,
+    /// A chirp of `amplitude` from 0 to `f1`.
+    Sweep,
+    /// The five-leaved trajectory of \[Li21\] Eq. 13, scaled by `scale`.
+    FiveLeaf,
+    /// A step of `amplitude` from `offset` at `step_time`, with its
+    /// rise/settling time and overshoot.
+    Step,
+}
+
+/// Settings of a closed-loop tracking run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Simulate {
+    /// Controller stages: `pid`, `pid+hc`, `pid+zpec`, `pid+hc+zpec`, `ss`,
+    /// `ss+hc`, `ss+zpec`, `ss+hc+zpec`, or feedforward only (`hc`, `zpec`,
+    /// `hc+zpec`); default `pid+hc+zpec`, or `ss` with a state-space
+    /// controller.
+    pub controller: Option<String>,
+    /// Generated reference; default sine.
+    pub reference: ReferenceShape,
+    /// Amplitude of the sine, sweep or step, um; default 5.
+    pub amplitude: f64,
+    /// Sine frequency, Hz; default 100.
+    pub freq: f64,
+    /// Sweep end frequency, Hz; default 1000.
+    pub f1: f64,
+    /// Centre of the reference, um; default 7 (mid-stroke of the embedded
+    /// plant).
+    pub offset: f64,
+    /// Length of the reference, s; default: sine 20 periods and at least
+    /// 0.2 s, sweep 2 s, five-leaf 1 s, step 0.1 s.
+    pub duration: Option<f64>,
+    /// Time of the step into the evaluated part, s; default 0.01.
+    pub step_time: f64,
+    /// Scale of the five-leaved trajectory (Eq. 13 as printed spans
+    /// +-50 um); default 0.1.
+    pub scale: f64,
+    /// Noise seed of the plant; default the virtual FTS's own (1 for a
+    /// linear model).
+    pub seed: Option<u64>,
+    /// PID proportional gain, V/um; default \[Li21\]'s 0.02.
+    pub kp: f64,
+    /// PID integral gain per sample, V/um; default \[Li21\]'s 0.15.
+    pub ki: f64,
+    /// PID derivative gain per sample, V/um, on the measurement; default 0.
+    pub kd: f64,
+    /// Lowest command of a state-space controller, V; default the virtual
+    /// FTS amplifier's (none on a linear model).
+    pub output_min: Option<f64>,
+    /// Highest command of a state-space controller, V; default the virtual
+    /// FTS amplifier's (none on a linear model).
+    pub output_max: Option<f64>,
+    /// Discretisation of a continuous state-space controller; default tustin.
+    pub c2d: Discretisation,
+    /// Tustin prewarp frequency, Hz; default none.
+    pub prewarp: Option<f64>,
+    /// State handling of a state-space controller under saturation;
+    /// default conditional-update.
+    pub ss_anti_windup: AntiWindup,
+}
+
+impl Default for Simulate {
+    fn default() -> Self {
+        Self {
+            controller: None,
+            reference: ReferenceShape::Sine,
+            amplitude: 5.0,
+            freq: 100.0,
+            f1: 1000.0,
+            offset: 7.0,
+            duration: None,
+            step_time: 0.01,
+            scale: 0.1,
+            seed: None,
+            kp: DEFAULT_PID.kp,
+            ki: DEFAULT_PID.ki,
+            kd: 0.0,
+            output_min: None,
+            output_max: None,
+            c2d: Discretisation::Tustin,
+            prewarp: None,
+            ss_anti_windup: AntiWindup::ConditionalUpdate,
+        }
+    }
+}
+
+impl Validate for Simulate {
+    fn validate(&self) -> Result<(), StepError> {
+        if let Some(text) = &self.controller {
+            Stages::parse(text).map_err(|e| StepError::setting("controller", e.to_string()))?;
+        }
+        Ok(())
+    }
+}
+
+/// The plant a run drives.
+#[derive(Debug, Clone)]
+pub enum SimPlant {
+    /// The virtual FTS with these parameters
+    /// ([`VirtualFtsParams::default_plant`] is the embedded one); the
+    /// `seed` setting replaces theirs when given.
+    Virtual(VirtualFtsParams),
+    /// A discrete linear model, optionally behind a forward hysteresis model.
+    Model {
+        /// The linear part.
+        tf: DiscreteTf,
+        /// Forward hysteresis in front of it, if any.
+        hysteresis: Option<HysteresisModel>,
+        /// The model's name (a file path), for messages.
+        source: String,
+    },
+}
+
+/// Where the controller comes from.
+#[derive(Debug, Clone)]
+pub enum SimController {
+    /// A complete coefficient file, run as it is.
+    File {
+        /// The file.
+        file: ControllerFile,
+        /// Its name (a file path), for messages.
+        source: String,
+    },
+    /// Built from the `controller` stages as `fts emit` builds it; models
+    /// the stages need and that are not given are identified from the
+    /// virtual FTS (simulated measurements only).
+    Stages(StageModels),
+}
+
+/// The models a stage-built controller is made of, where given.
+#[derive(Debug, Clone, Default)]
+pub struct StageModels {
+    /// State-space feedback controller and its name (a file path).
+    pub ss: Option<(StateSpace, String)>,
+    /// Inverse hysteresis model for the HC feedforward.
+    pub hysteresis: Option<HysteresisModel>,
+    /// ZPETC pre-filter.
+    pub zpetc: Option<Zpetc>,
+    /// Version and input hashes recorded in the controller file.
+    pub provenance: Provenance,
+}
+
+/// What [`Simulate::run`] drives.
+#[derive(Debug, Clone)]
+pub struct SimulateInputs {
+    /// The plant.
+    pub plant: SimPlant,
+    /// The controller.
+    pub controller: SimController,
+    /// Reference samples at the controller rate and their description
+    /// (e.g. `reference r.csv`), replacing the `reference` setting.
+    pub reference_samples: Option<(Vec<f64>, String)>,
+}
+
+/// The amplifier limits of the PID and of a state-space controller on the
+/// virtual FTS: the embedded plant's when the plant is a linear model.
+fn amplifier_plant(plant: &SimPlant) -> VirtualFtsParams {
+    match plant {
+        SimPlant::Virtual(p) => p.clone(),
+        SimPlant::Model { .. } => VirtualFtsParams::default_plant(),
+    }
+}
+
+impl SimPlant {
+    /// The plant's sample time, s: the controller's too.
+    pub fn ts(&self) -> f64 {
+        match self {
+            SimPlant::Virtual(p) => p.ts,
+            SimPlant::Model { tf, .. } => tf.ts(),
+        }
+    }
+}
+
+impl Simulate {
+    /// Runs the loop.
+    pub fn run(&self, inputs: SimulateInputs) -> Result<SimulateReport, StepError> {
+        self.run_observed(inputs, &mut |_| {})
+    }
+
+    /// Runs the loop; `note` hears warnings and of the slow part
+    /// (identifying models).
+    pub fn run_observed(
+        &self,
+        inputs: SimulateInputs,
+        note: &mut dyn FnMut(&str),
+    ) -> Result<SimulateReport, StepError> {
+        self.validate()?;
+        let mut vparams = amplifier_plant(&inputs.plant);
+        if let Some(seed) = self.seed {
+            vparams.seed = seed;
+        }
+        let ts = inputs.plant.ts();
+        let model_plant = matches!(inputs.plant, SimPlant::Model { .. });
+        let (file, models) = match inputs.controller {
+            SimController::File { file, source } => (
+                checked_file(file, &source, ts)?,
+                format!("coefficient file {source}"),
+            ),
+            SimController::Stages(m) => self.controller(m, &vparams, ts, model_plant, note)?,
+        };
+        let from_file = inputs.reference_samples.is_some();
+        let reference = self.reference(inputs.reference_samples, ts, file.preview())?;
+        let trace = self.drive(inputs.plant, vparams, &file, &reference)?;
+        let step = (!from_file)
+            .then(|| self.step_figures(&trace, &reference))
+            .flatten();
+        Ok(SimulateReport::new(file, models, reference, trace, step))
+    }
+
+    /// Runs the file's controller on the plant along the reference.
+    fn drive(
+        &self,
+        plant: SimPlant,
+        vparams: VirtualFtsParams,
+        file: &ControllerFile,
+        reference: &Reference,
+    ) -> Result<closed_loop::Trace, StepError> {
+        match plant {
+            SimPlant::Virtual(_) => {
+                let mut plant = VirtualFts::new(vparams)
+                    .map_err(|e| StepError::input(format!("plant: {e}")))?;
+                run_on(&mut plant, file, reference, None)
+            }
+            SimPlant::Model {
+                tf,
+                hysteresis,
+                source,
+            } => {
+                let limits = file.command_limits();
+                let seed = self.seed.unwrap_or(1);
+                let mut plant = ModelPlant::new(&tf, hysteresis, limits, 0.0, seed)
+                    .map_err(|e| StepError::input(format!("{source}: {e}")))?;
+                run_on(&mut plant, file, reference, Some((&tf, &source)))
+            }
+        }
+    }
+
+    /// The stages asked for (default `pid+hc+zpec`, or `ss` with a
+    /// state-space controller).
+    fn stages(&self, with_ss: bool) -> Result<Stages, StepError> {
+        let default = if with_ss { "ss" } else { "pid+hc+zpec" };
+        Stages::parse(self.controller.as_deref().unwrap_or(default))
+            .map_err(|e| StepError::setting("controller", e.to_string()))
+    }
+
+    /// The PID gains, each finite, limited to the amplifier's range.
+    fn pid(&self, plant: &VirtualFtsParams) -> Result<PidSpec, StepError> {
+        for (name, value) in [("kp", self.kp), ("ki", self.ki), ("kd", self.kd)] {
+            if !value.is_finite() {
+                return Err(StepError::setting(
+                    name,
+                    format!("expected a finite gain, got {value}"),
+                ));
+            }
+        }
+        Ok(PidSpec {
+            kp: self.kp,
+            ki: self.ki,
+            kd: self.kd,
+            output_min: plant.amplifier.input_min_v,
+            output_max: plant.amplifier.input_max_v,
+        })
+    }
+
+    /// The coefficient file the stages describe, and a note on where its
+    /// models came from.
+    fn controller(
+        &self,
+        mut m: StageModels,
+        plant: &VirtualFtsParams,
+        ts: f64,
+        model_plant: bool,
+        note: &mut dyn FnMut(&str),
+    ) -> Result<(ControllerFile, String), StepError> {
+        let stages = self.stages(m.ss.is_some())?;
+        let block = self.feedback_block(stages, &m, plant, ts, model_plant)?;
+        if let Some((sys, source)) = &m.ss
+            && let Some(warning) = fast_poles_warning(sys, ts, source)
+        {
+            note(&warning);
+        }
+        let pid = self.pid(plant)?;
+        let mut origin = match &m.ss {
+            Some((_, source)) => format!("state-space controller {source}, models from files"),
+            None => String::from("models from files"),
+        };
+        let missing = (stages.hysteresis_compensation && m.hysteresis.is_none())
+            || (stages.zpetc && m.zpetc.is_none());
+        if missing {
+            if model_plant {
+                return Err(StepError::setting(
+                    "controller",
+                    format!(
+                        "`controller` {}: with `plant_tf`, give the models too (`hysteresis` for hc, `zpetc` or `closed_loop` for zpec)",
+                        stages.name()
+                    ),
+                ));
+            }
+            note(
+                "identifying HC and ZPETC models from the virtual FTS (simulated measurements only)...",
+            );
+            origin = identify_missing(&mut m, plant, pid)?;
+        }
+        let feedback = match (block, stages.feedback) {
+            (Some(k), _) => Feedback::StateSpace(k),
+            (None, FeedbackKind::None) => Feedback::None,
+            (None, _) => Feedback::Pid(pid),
+        };
+        let file = experiment::build_controller(
+            stages,
+            ts,
+            feedback,
+            m.hysteresis.as_ref(),
+            m.zpetc.as_ref(),
+            m.provenance,
+        )
+        .map_err(StepError::input)?;
+        Ok((file, origin))
+    }
+
+    /// The state-space feedback block, when the stages have one; checks
+    /// that the feedback asked for and the one given agree, and that a
+    /// ZPETC for a loop other than the PID one is given.
+    fn feedback_block(
+        &self,
+        stages: Stages,
+        m: &StageModels,
+        plant: &VirtualFtsParams,
+        ts: f64,
+        model_plant: bool,
+    ) -> Result<Option<StateSpaceBlock>, StepError> {
+        let name = stages.name();
+        let needs_zpetc = stages.zpetc && m.zpetc.is_none();
+        let bad = |message: String| Err(StepError::setting("controller", message));
+        match (stages.feedback, &m.ss) {
+            (FeedbackKind::Pid | FeedbackKind::None, Some(_)) => bad(format!(
+                "`controller` {name}: `ss` gives a state-space controller; use `controller` ss[+hc][+zpec]"
+            )),
+            (FeedbackKind::StateSpace, None) => bad(format!(
+                "`controller` {name}: needs the controller (`ss` K.json)"
+            )),
+            (FeedbackKind::StateSpace, Some(_)) if needs_zpetc => bad(format!(
+                "`controller` {name}: give the ZPETC of this loop (`zpetc` or `closed_loop`); the one fts identifies is for the PID loop"
+            )),
+            (FeedbackKind::None, None) if needs_zpetc => bad(format!(
+                "`controller` {name}: give the ZPETC of the loop it feeds (`zpetc` or `closed_loop`); the one fts identifies is for its PID loop"
+            )),
+            (FeedbackKind::StateSpace, Some((sys, source))) => {
+                let limits = if model_plant {
+                    (self.output_min, self.output_max)
+                } else {
+                    (
+                        self.output_min.or(Some(plant.amplifier.input_min_v)),
+                        self.output_max.or(Some(plant.amplifier.input_max_v)),
+                    )
+                };
+                self.ss_step(limits).block(sys, ts, source).map(Some)
+            }
+            (FeedbackKind::Pid | FeedbackKind::None, None) => Ok(None),
+        }
+    }
+
+    /// The state-space controller settings, with these command limits.
+    fn ss_step(&self, limits: (Option<f64>, Option<f64>)) -> SsController {
+        SsController {
+            ts: None,
+            c2d: self.c2d,
+            prewarp: self.prewarp,
+            ss_anti_windup: self.ss_anti_windup,
+            output_min: limits.0,
+            output_max: limits.1,
+        }
+    }
+
+    /// The reference at sample time `ts`; its tail covers the controller's
+    /// preview.
+    fn reference(
+        &self,
+        samples: Option<(Vec<f64>, String)>,
+        ts: f64,
+        preview: usize,
+    ) -> Result<Reference, StepError> {
+        let timing = ReferenceTiming {
+            ts,
+            ..ReferenceTiming::default()
+        }
+        .with_preview(preview);
+        if let Some((samples, label)) = samples {
+            return Ok(reference::from_samples(samples, &timing, label));
+        }
+        let excite = |e: ExciteError| StepError::setting(e.field, e.message);
+        match self.reference {
+            ReferenceShape::Sine => {
+                let duration = self.sine_duration()?;
+                reference::sine(self.amplitude, self.freq, self.offset, duration, &timing)
+            }
+            ReferenceShape::Sweep => reference::sweep(
+                self.amplitude,
+                0.0,
+                self.f1,
+                self.offset,
+                self.duration.unwrap_or(2.0),
+                &timing,
+            ),
+            ReferenceShape::Step => reference::step(
+                self.amplitude,
+                self.offset,
+                self.step_time,
+                self.duration.unwrap_or(0.1),
+                &timing,
+            ),
+            ReferenceShape::FiveLeaf => reference::five_leaf(
+                self.scale,
+                self.offset,
+                self.duration.unwrap_or(1.0),
+                &timing,
+            ),
+        }
+        .map_err(excite)
+    }
+
+    /// The sine's duration: as set, or 20 periods and at least 0.2 s.
+    fn sine_duration(&self) -> Result<f64, StepError> {
+        match self.duration {
+            Some(d) => Ok(d),
+            None if self.freq.is_finite() && self.freq > 0.0 => Ok((20.0 / self.freq).max(0.2)),
+            // Without a positive frequency there is no default duration,
+            // and the frequency is the culprit.
+            None => Err(StepError::setting(
+                "freq",
+                format!(
+                    "expected a positive frequency in Hz for a sine reference, got {} (or give `duration`)",
+                    self.freq
+                ),
+            )),
+        }
+    }
+
+    /// The step figures of a generated step reference (`None` for other
+    /// references).
+    fn step_figures(
+        &self,
+        trace: &closed_loop::Trace,
+        reference: &Reference,
+    ) -> Option<Result<StepTracking, NoStepInfo>> {
+        if self.reference != ReferenceShape::Step {
+            return None;
+        }
+        let at = reference.evaluate_from + (self.step_time / trace.ts).round() as usize;
+        Some(reference::step_tracking(
+            &trace.measurement,
+            trace.ts,
+            at,
+            reference.evaluate_to,
+            self.offset,
+            self.amplitude,
+        ))
+    }
+}
+
+/// The warning that a continuous controller has poles no discretisation at
+/// `ts` reproduces (beyond the Nyquist frequency), if it has.
+fn fast_poles_warning(sys: &StateSpace, ts: f64, source: &str) -> Option<String> {
+    let fast = SsController::poles_beyond_nyquist(sys, ts);
+    let (pole, hz) = fast.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(format!(
+        "warning: {source}: {} continuous pole(s) beyond the Nyquist frequency {} Hz of ts = {ts} s, the fastest {}{:+}j rad/s ({hz:.4e} Hz); the discretised controller does not reproduce them: sample faster or reduce the controller",
+        fast.len(),
+        0.5 / ts,
+        pole.re,
+        pole.im
+    ))
+}
+
+/// A coefficient file runs at the plant's sample time or not at all.
+fn checked_file(file: ControllerFile, source: &str, ts: f64) -> Result<ControllerFile, StepError> {
+    if (file.ts - ts).abs() > 1e-12 * ts {
+        return Err(StepError::input(format!(
+            "{source} field 'ts': {} s, but the plant runs at {ts} s",
+            file.ts
+        )));
+    }
+    Ok(file)
+}
+
+/// Identifies the models `m` lacks from the virtual FTS run with this PID
+/// (simulated measurements only); returns where they came from.
+fn identify_missing(
+    m: &mut StageModels,
+    plant: &VirtualFtsParams,
+    pid: PidSpec,
+) -> Result<String, StepError> {
+    let params = ExperimentParams {
+        plant: plant.clone(),
+        seed: plant.seed,
+        pid,
+        ..ExperimentParams::default()
+    };
+    let models = experiment::identify_models(&params, &mut |_| {})
+        .map_err(|e| StepError::computation(e.to_string()))?;
+    let origin = identified_origin(&models, &params);
+    m.hysteresis = m.hysteresis.take().or(Some(models.inverse.model));
+    m.zpetc = m.zpetc.take().or(Some(models.zpetc));
+    Ok(origin)
+}
+
+/// Where identified models came from, with their fit.
+fn identified_origin(models: &IdentifiedModels, params: &ExperimentParams) -> String {
+    format!(
+        "models identified from the virtual FTS: inverse {} fit {:.2} % rms, closed loop {} [{} {} {}] simulation fit {:.1} %",
+        models.inverse.model.kind.name(),
+        models.inverse.info.fit.rms_percent,
+        models.closed_loop.method,
+        params.orders.na,
+        params.orders.nb,
+        params.orders.nk,
+        models.closed_loop.arx_fit.simulation_percent
+    )
+}
+
+/// Runs the file's controller on `plant`; a diverging loop is an error
+/// naming when, which signal, and the likely cause.
+fn run_on<P: Plant>(
+    plant: &mut P,
+    file: &ControllerFile,
+    reference: &Reference,
+    plant_model: Option<(&DiscreteTf, &str)>,
+) -> Result<closed_loop::Trace, StepError> {
+    let mut rt = RuntimeController::new(&file.runtime_spec())
+        .map_err(|e| StepError::input(format!("controller: {e}")))?;
+    closed_loop::run(plant, &mut rt, &reference.samples)
+        .map_err(|d| StepError::computation(format!("{d}; {}", likely_cause(file, plant_model))))
+}
+
+/// Why a loop most likely diverged, from the stability of the models it is
+/// made of: an unstable ZPETC denominator runs away on its own; an unstable
+/// plant needs a controller that stabilises it; otherwise the feedback
+/// controller destabilises the plant.
+fn likely_cause(file: &ControllerFile, plant_model: Option<(&DiscreteTf, &str)>) -> String {
+    let unstable = |num: Vec<f64>, den: &[f64]| {
+        DiscreteTf::new(num, den.to_vec(), 0, file.ts).is_ok_and(|g| g.is_stable() == Ok(false))
+    };
+    if let Some(z) = &file.zpetc
+        && unstable(vec![1.0], &z.den)
+    {
+        return "likely cause: the ZPETC filter's denominator has a root outside the unit circle"
+            .into();
+    }
+    if let Some((g, source)) = plant_model
+        && g.is_stable() == Ok(false)
+    {
+        return format!(
+            "likely cause: the plant model {source} is unstable and the feedback controller does not stabilise it"
+        );
+    }
+    "likely cause: the feedback controller destabilises the plant (check the loop's margins)".into()
+}
+
+/// A tracking run: the controller run, the reference, the trace and its
+/// figures over the evaluated window.
+#[derive(Debug, Clone)]
+pub struct SimulateReport {
+    /// The coefficient file that ran.
+    pub file: ControllerFile,
+    /// Where its models came from.
+    pub models: String,
+    /// The reference, with its evaluated window.
+    pub reference: Reference,
+    /// Every signal of the loop, sample by sample.
+    pub trace: closed_loop::Trace,
+    /// Tracking figures over the evaluated window.
+    pub metrics: closed_loop::TrackingMetrics,
+    /// Step figures of a step reference (`None` for other references).
+    pub step: Option<Result<StepTracking, NoStepInfo>>,
+}
+
+impl SimulateReport {
+    fn new(
+        file: ControllerFile,
+        models: String,
+        reference: Reference,
+        trace: closed_loop::Trace,
+        step: Option<Result<StepTracking, NoStepInfo>>,
+    ) -> Self {
+        let metrics = closed_loop::metrics(&trace, reference.evaluated(), file.command_limits());
+        Self {
+            file,
+            models,
+            reference,
+            trace,
+            metrics,
+            step,
+        }
+    }
+
+    /// The time of each sample, s.
+    pub fn times(&self) -> Vec<f64> {
+        (0..self.trace.reference.len())
+            .map(|k| k as f64 * self.trace.ts)
+            .collect()
+    }
+
+    /// Where the evaluated window starts, s.
+    pub fn evaluated_from_s(&self) -> f64 {
+        self.metrics.start as f64 * self.trace.ts
+    }
+
+    /// The trace as CSV: `t, r, r_f, u_ff, u, y, e`.
+    pub fn trace_csv(&self) -> String {
+        let t = &self.trace;
+        crate::io::timeseries::write_csv(
+            &["t", "r", "r_f", "u_ff", "u", "y", "e"],
+            &[
+                &self.times(),
+                &t.reference,
+                &t.filtered_reference,
+                &t.feedforward,
+                &t.command,
+                &t.measurement,
+                &t.error(),
+            ],
+        )
+    }
+}
+
+impl Serialize for SimulateReport {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let m = &self.metrics;
+        json!({
+            "step": self.step.as_ref().map(|s| match s {
+                Ok(s) => json!(s),
+                Err(e) => json!({"no_step_info": e.to_string()}),
+            }),
+            "controller": self.file.stages_name(),
+            "reference": self.reference.label,
+            "max_abs_error": m.max_abs_error,
+            "rms_error": m.rms_error,
+            "max_error_percent": m.max_error_percent,
+            "amplitude": m.amplitude,
+            "evaluated_from_s": self.evaluated_from_s(),
+            "evaluated_samples": m.samples,
+            "saturated_samples": m.saturated_samples,
+            "preview": self.file.preview(),
+            "ts": self.trace.ts,
+            "models": self.models,
+        })
+        .serialize(s)
+    }
+}
+
+impl fmt::Display for SimulateReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = &self.metrics;
+        writeln!(
+            f,
+            "controller: {} ({})",
+            self.file.stages_name(),
+            self.models
+        )?;
+        writeln!(
+            f,
+            "reference: {}, evaluated from t = {:.3} s ({} samples; lead-in and settling excluded)",
+            self.reference.label,
+            self.evaluated_from_s(),
+            m.samples
+        )?;
+        writeln!(
+            f,
+            "tracking error: max {:.4} um, rms {:.4} um, max {:.2} % of the {:.3} um amplitude",
+            m.max_abs_error, m.rms_error, m.max_error_percent, m.amplitude
+        )?;
+        match &self.step {
+            Some(Ok(s)) => write_step(f, s)?,
+            Some(Err(e)) => writeln!(f, "step: no figures: {e}")?,
+            None => {}
+        }
+        if m.saturated_samples > 0 {
+            let (lo, hi) = self.file.command_limits();
+            writeln!(
+                f,
+                "warning: the command sat on its limits ({lo} .. {hi} V) for {} samples: the reference leaves the actuator's range or the loop overshoots",
+                m.saturated_samples
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The step figures' summary line.
+fn write_step(f: &mut fmt::Formatter<'_>, s: &StepTracking) -> fmt::Result {
+    let i = &s.info;
+    let ms =
+        |x: Option<f64>, none: &str| x.map_or(none.to_string(), |v| format!("{:.3} ms", v * 1e3));
+    writeln!(
+        f,
+        "step: rise (10-90 %) {}, settling (2 %) {}, overshoot {:.2} %, undershoot {:.2} %, steady-state error {:.4} um",
+        ms(i.rise_time, "not reached"),
+        ms(i.settling_time, "not settled"),
+        i.overshoot,
+        i.undershoot,
+        s.steady_state_error
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// \[Li21\] Eq. 11, the closed loop of PID + hysteresis compensation.
+    fn li21_closed_loop() -> DiscreteTf {
+        DiscreteTf::new(
+            vec![4.154, -9.631, 10.23, -5.511, 1.154],
+            vec![1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447],
+            5,
+            1e-4,
+        )
+        .unwrap()
+    }
+
+    fn on_model(tf: DiscreteTf, controller: SimController) -> SimulateInputs {
+        SimulateInputs {
+            plant: SimPlant::Model {
+                tf,
+                hysteresis: None,
+                source: "g.json".into(),
+            },
+            controller,
+            reference_samples: None,
+        }
+    }
+
+    #[test]
+    fn settings_deserialise_with_their_defaults() {
+        let s: Simulate = toml::from_str("").unwrap();
+        assert_eq!(s, Simulate::default());
+        let s: Simulate = toml::from_str("reference = \"five-leaf\"\nkp = 0.03").unwrap();
+        assert_eq!(s.reference, ReferenceShape::FiveLeaf);
+        assert_eq!(s.kp, 0.03);
+        assert!(toml::from_str::<Simulate>("amplitud = 3").is_err());
+        let bad = Simulate {
+            controller: Some("pid+magic".into()),
+            ..Simulate::default()
+        };
+        assert!(matches!(
+            bad.validate(),
+            Err(StepError::Input {
+                field: Some("controller"),
+                ..
+            })
+        ));
+    }
+
+    /// A feedforward-only ZPETC on the closed loop it inverts tracks
+    /// exactly (it cancels all of this loop's zeros and poles).
+    #[test]
+    fn zpetc_on_its_closed_loop_tracks_exactly() {
+        let g = li21_closed_loop();
+        let zpetc = crate::synth::zpetc::design(&g, &Default::default()).unwrap();
+        let step = Simulate {
+            controller: Some("zpec".into()),
+            ..Simulate::default()
+        };
+        let models = StageModels {
+            zpetc: Some(zpetc),
+            ..StageModels::default()
+        };
+        let report = step
+            .run(on_model(g, SimController::Stages(models)))
+            .unwrap();
+        assert_eq!(report.file.stages_name(), "zpec");
+        assert!(report.metrics.max_abs_error < 1e-9, "{report}");
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["controller"], "zpec");
+        assert!(
+            report
+                .to_string()
+                .starts_with("controller: zpec (models from files)\n")
+        );
+    }
+
+    /// A loop that runs away is a computation error naming when and why.
+    #[test]
+    fn a_diverging_loop_names_time_and_cause() {
+        let unstable = DiscreteTf::new(vec![0.1], vec![1.0, -1.05], 1, 1e-4).unwrap();
+        let step = Simulate {
+            controller: Some("pid".into()),
+            ..Simulate::default()
+        };
+        let e = step
+            .run(on_model(
+                unstable,
+                SimController::Stages(StageModels::default()),
+            ))
+            .unwrap_err();
+        let StepError::Computation(message) = e else {
+            panic!("{e:?}");
+        };
+        assert!(message.contains("diverged at t = "), "{message}");
+        assert!(
+            message.contains("plant model g.json is unstable"),
+            "{message}"
+        );
+    }
+
+    /// Models a stage needs must be given on a linear plant: there is no
+    /// virtual FTS to identify them from.
+    #[test]
+    fn missing_models_on_a_linear_plant_are_named() {
+        let step = Simulate {
+            controller: Some("pid+hc".into()),
+            ..Simulate::default()
+        };
+        let e = step
+            .run(on_model(
+                li21_closed_loop(),
+                SimController::Stages(StageModels::default()),
+            ))
+            .unwrap_err();
+        assert!(e.to_string().contains("`hysteresis` for hc"), "{e}");
+    }
+}
