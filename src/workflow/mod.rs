@@ -1,6 +1,7 @@
 //! Workflows as typed steps: one struct per command (`fts weight`,
-//! `fts mixsyn`, `fts hinf`, `fts h2`, `fts c2d`, the state-space feedback
-//! of `fts emit`), shared by the command line and the pipeline manifest.
+//! `fts mixsyn`, `fts hinf`, `fts h2`, `fts c2d`, `fts emit`,
+//! `fts virtual triangles|sweep`, ...), shared by the command line and the
+//! pipeline manifest.
 //!
 //! Each step is `serde::Deserialize` (unknown keys refused, missing keys
 //! take the [`Default`]), has `validate()` (settings alone) and `run(...)`
@@ -11,6 +12,7 @@
 
 pub mod controller;
 pub mod convert;
+pub mod experiment;
 pub mod identify;
 mod identify_hysteresis;
 pub mod response;
@@ -18,8 +20,10 @@ pub mod robust;
 pub mod zpetc;
 
 pub use controller::{
-    AntiWindup, ControllerInputs, ControllerReport, Discretisation, SsController,
+    AntiWindup, BuildController, BuildInputs, ControllerInputs, ControllerReport, Discretisation,
+    NoFeedback, PidForm, SsController,
 };
+pub use experiment::{VirtualRecord, VirtualSweep, VirtualTriangles};
 pub use identify::{
     ArxStruct, IdentifyArx, IdentifyHysteresis, IdentifyIv, IdentifyOe, LinearInputs, LinearReport,
     Prepared, SelectionRuleChoice, StructReport,
