@@ -16,7 +16,7 @@ use crate::lti::norms::{NormError, h2_norm, hinf_norm};
 use crate::lti::ss::StateSpace;
 use crate::workflow::robust::poles_summary;
 use crate::workflow::{
-    C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Validate, Weight, WeightShape,
+    C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Named, Validate, Weight, WeightShape,
 };
 use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
@@ -243,35 +243,6 @@ fn parse_order(text: &str) -> Result<usize, String> {
     }
 }
 
-/// A mixed-sensitivity weight must be continuous, stable and square with
-/// the plant's channel count (`ny` for Ws and Wt, `nu` for Wu); refused
-/// here, naming its file and option, before the plant is blamed.
-fn check_weight(path: &Path, option: &str, w: &StateSpace, size: usize) -> anyhow::Result<()> {
-    let file = path.display();
-    if w.is_discrete() {
-        return Err(bad(format!(
-            "{file}: the {option} weight is discrete; mixsyn weights are continuous (\"ts\": null)"
-        )));
-    }
-    if w.ny() != size || w.nu() != size {
-        return Err(bad(format!(
-            "{file}: the {option} weight is {}x{} (outputs x inputs); the plant needs {size}x{size}",
-            w.ny(),
-            w.nu()
-        )));
-    }
-    let poles = w
-        .poles()
-        .map_err(|e| bad(format!("{file}: the {option} weight's poles: {e}")))?;
-    if let Some(p) = poles.iter().find(|p| p.re >= 0.0) {
-        return Err(bad(format!(
-            "{file}: the {option} weight is unstable (pole at s = {}{:+}j); mixsyn weights must be stable",
-            p.re, p.im
-        )));
-    }
-    Ok(())
-}
-
 /// `fts mixsyn`.
 pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     let step = Mixsyn {
@@ -282,23 +253,19 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     };
     step.validate().map_err(step_error)?;
     let g = read_system(&args.plant)?;
-    let ws = read_system(&args.ws)?;
-    let wu = args.wu.as_deref().map(read_system).transpose()?;
-    let wt = args.wt.as_deref().map(read_system).transpose()?;
-    check_weight(&args.ws, "--ws", &ws, g.ny())?;
-    if let (Some(path), Some(w)) = (&args.wu, &wu) {
-        check_weight(path, "--wu", w, g.nu())?;
-    }
-    if let (Some(path), Some(w)) = (&args.wt, &wt) {
-        check_weight(path, "--wt", w, g.ny())?;
-    }
+    let named = |path: &Path| -> anyhow::Result<(StateSpace, String)> {
+        Ok((read_system(path)?, path.display().to_string()))
+    };
+    let ws = named(&args.ws)?;
+    let wu = args.wu.as_deref().map(named).transpose()?;
+    let wt = args.wt.as_deref().map(named).transpose()?;
     let source = args.plant.display().to_string();
     let report = step
         .run(MixsynInputs {
             plant: &g,
-            ws: &ws,
-            wu: wu.as_ref(),
-            wt: wt.as_ref(),
+            ws: Named::from(&ws),
+            wu: wu.as_ref().map(Named::from),
+            wt: wt.as_ref().map(Named::from),
             source: &source,
         })
         .map_err(step_error)?;

@@ -18,7 +18,7 @@ use crate::workflow::identify::HysteresisInputs;
 use crate::workflow::robust::MixsynReport;
 use crate::workflow::{
     BuildController, BuildInputs, DesignZpetc, LinearInputs, LinearReport, Mixsyn, MixsynInputs,
-    StepError,
+    Named, StepError,
 };
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
@@ -74,6 +74,7 @@ pub struct StepReport {
     /// Outcome.
     pub status: Status,
     /// Why it was (or would be) rebuilt: `never built`, `input data/sweep.csv changed`, ...
+    /// (`` `force` `` when every step was rebuilt on request).
     pub reasons: Vec<String>,
     /// Its outputs (manifest-relative).
     pub outputs: Vec<String>,
@@ -285,7 +286,7 @@ pub fn build(
     force: bool,
     observer: &mut dyn FnMut(Event<'_>),
 ) -> Result<Vec<StepReport>, PipelineError> {
-    // With --force an unreadable lock is simply replaced; entries of steps
+    // With `force` an unreadable lock is simply replaced; entries of steps
     // not yet rebuilt are kept, so a failure still leaves it accurate.
     let (old, old_text) = match read_lock(plan) {
         Err(_) if force => (Lock::default(), None),
@@ -303,7 +304,7 @@ pub fn build(
     let mut reports = Vec::new();
     for step in &plan.steps {
         let reasons = if force {
-            vec!["--force".to_string()]
+            vec!["`force`".to_string()]
         } else {
             stale_reasons(plan, step, old.steps.get(&step.name), &BTreeMap::new())?
         };
@@ -660,13 +661,13 @@ fn controller(io: &Inputs<'_>, spec: &BuildController) -> Result<ControllerFile,
 }
 
 fn mixsyn(io: &Inputs<'_>, m: &Mixsyn) -> Result<MixsynReport, PipelineError> {
-    let ((g, src), (ws, _)) = (io.required_system("plant")?, io.required_system("ws")?);
+    let ((g, src), ws) = (io.required_system("plant")?, io.required_system("ws")?);
     let (wu, wt) = (io.system("wu")?, io.system("wt")?);
     m.run(MixsynInputs {
         plant: &g,
-        ws: &ws,
-        wu: wu.as_ref().map(|w| &w.0),
-        wt: wt.as_ref().map(|w| &w.0),
+        ws: Named::from(&ws),
+        wu: wu.as_ref().map(Named::from),
+        wt: wt.as_ref().map(Named::from),
         source: &src,
     })
     .map_err(|e| step_error(io.step, e))

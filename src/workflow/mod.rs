@@ -30,7 +30,7 @@ pub use identify::{
 };
 pub use robust::{
     C2d, C2dMethodChoice, C2dReport, H2, H2Report, Hinf, HinfReport, Mixsyn, MixsynInputs,
-    MixsynReport, Weight, WeightReport, WeightShape,
+    MixsynReport, Named, Weight, WeightReport, WeightShape,
 };
 pub use zpetc::{DesignZpetc, ZpetcReport};
 
