@@ -10,7 +10,7 @@
 //! `fts mixsyn`, discretised at the loop's sample time when continuous), or
 //! none (feedforward only).
 
-use super::common::{bad, read_input, step_error, write_atomic};
+use super::common::{bad, choice, name, read_input, step_error, write_atomic};
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
 use crate::io::controller_file::{StateSpaceBlock, to_c_files};
@@ -35,39 +35,6 @@ enum Format {
     C,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum PidFormChoice {
-    /// Continuous parallel form: --kp, --ki in 1/s, --kd in s (MATLAB
-    /// `pid(Kp, Ki, Kd, 1/N)`), discretised by backward Euler at the loop's
-    /// sample time; the file records both.
-    Parallel,
-    /// \[Li21\] Eq. 5 gains per sample, used as given.
-    Li21,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum FeedbackChoice {
-    /// No feedback controller: a feedforward-only file (ZPETC and/or HC).
-    None,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum C2dChoice {
-    /// Tustin (bilinear), optionally prewarped.
-    Tustin,
-    /// Zero-order hold.
-    Zoh,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum AntiWindupChoice {
-    /// Hold the states while the command is saturated and their update
-    /// would push it further out.
-    ConditionalUpdate,
-    /// Clamp the command only.
-    None,
-}
-
 /// A state-space feedback controller given as a file (shared by `fts emit`
 /// and `fts simulate`).
 #[derive(Debug, Args)]
@@ -77,14 +44,14 @@ pub struct SsArgs {
     #[arg(long, value_name = "K.json", conflicts_with_all = ["kp", "ki", "kd"])]
     pub ss: Option<PathBuf>,
     /// How a continuous --ss controller is discretised at the loop's sample time.
-    #[arg(long, value_enum, default_value_t = C2dChoice::Tustin, requires = "ss")]
-    pub c2d: C2dChoice,
+    #[arg(long, value_parser = choice::<Discretisation>(), default_value = name(SsController::default().c2d), requires = "ss")]
+    pub c2d: Discretisation,
     /// Tustin prewarp frequency, Hz (--c2d tustin only).
     #[arg(long, value_name = "HZ", requires = "ss")]
     pub prewarp: Option<f64>,
     /// What the state-space controller's states do while the command is saturated.
-    #[arg(long, value_enum, default_value_t = AntiWindupChoice::ConditionalUpdate, requires = "ss")]
-    pub ss_anti_windup: AntiWindupChoice,
+    #[arg(long, value_parser = choice::<AntiWindup>(), default_value = name(SsController::default().ss_anti_windup), requires = "ss")]
+    pub ss_anti_windup: AntiWindup,
 }
 
 /// Reads `--ss`, discretises it at `ts` when continuous, and makes the block
@@ -111,15 +78,9 @@ impl SsArgs {
     pub fn step(&self, limits: (Option<f64>, Option<f64>)) -> SsController {
         SsController {
             ts: None,
-            c2d: match self.c2d {
-                C2dChoice::Tustin => Discretisation::Tustin,
-                C2dChoice::Zoh => Discretisation::Zoh,
-            },
+            c2d: self.c2d,
             prewarp: self.prewarp,
-            ss_anti_windup: match self.ss_anti_windup {
-                AntiWindupChoice::ConditionalUpdate => AntiWindup::ConditionalUpdate,
-                AntiWindupChoice::None => AntiWindup::None,
-            },
+            ss_anti_windup: self.ss_anti_windup,
             output_min: limits.0,
             output_max: limits.1,
         }
@@ -138,8 +99,8 @@ pub struct EmitArgs {
     #[arg(long, value_name = "CL.json")]
     closed_loop: Option<PathBuf>,
     /// Which form the PID gains are in (required with --kp/--ki/--kd).
-    #[arg(long, value_enum, conflicts_with = "ss")]
-    pid_form: Option<PidFormChoice>,
+    #[arg(long, value_parser = choice::<PidForm>(), conflicts_with = "ss")]
+    pid_form: Option<PidForm>,
     /// PID proportional gain.
     #[arg(long, allow_hyphen_values = true)]
     kp: Option<f64>,
@@ -153,8 +114,8 @@ pub struct EmitArgs {
     #[arg(long, value_name = "N", conflicts_with = "ss")]
     pid_n: Option<f64>,
     /// `none`: no feedback controller (a feedforward-only file).
-    #[arg(long, value_enum, conflicts_with_all = ["kp", "ki", "kd", "pid_form", "pid_n", "ss"])]
-    feedback: Option<FeedbackChoice>,
+    #[arg(long, value_parser = choice::<NoFeedback>(), conflicts_with_all = ["kp", "ki", "kd", "pid_form", "pid_n", "ss"])]
+    feedback: Option<NoFeedback>,
     #[command(flatten)]
     ss: SsArgs,
     /// Lowest command, V (PID default 0; a state-space controller has no limit unless given).
@@ -199,15 +160,12 @@ fn hashed(
 fn step(args: &EmitArgs) -> BuildController {
     let ss = args.ss.step((args.output_min, args.output_max));
     BuildController {
-        pid_form: args.pid_form.map(|form| match form {
-            PidFormChoice::Parallel => PidForm::Parallel,
-            PidFormChoice::Li21 => PidForm::Li21,
-        }),
+        pid_form: args.pid_form,
         kp: args.kp,
         ki: args.ki,
         kd: args.kd,
         pid_n: args.pid_n,
-        feedback: args.feedback.map(|FeedbackChoice::None| NoFeedback::None),
+        feedback: args.feedback,
         ts: args.ts,
         c2d: ss.c2d,
         prewarp: ss.prewarp,

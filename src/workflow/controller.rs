@@ -5,7 +5,7 @@
 //! [`SsController`] is its state-space part, shared with `fts simulate`.
 
 use super::robust::prewarp_rad;
-use super::{StepError, Validate, positive};
+use super::{Choices, StepError, Validate, positive};
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::{
     ControllerFile, Feedback, ParallelPid, Provenance, StateSpaceBlock,
@@ -233,6 +233,40 @@ impl Validate for SsController {
         }
         Ok(())
     }
+}
+
+impl Choices for Discretisation {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("tustin", "Tustin (bilinear), optionally prewarped"),
+        ("zoh", "Zero-order hold"),
+    ];
+}
+
+impl Choices for AntiWindup {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "conditional-update",
+            "Hold the states while the command is saturated and their update would push it further out",
+        ),
+        ("none", "Clamp the command only"),
+    ];
+}
+
+impl Choices for PidForm {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "parallel",
+            "Continuous parallel form: `kp`, `ki` in 1/s, `kd` in s (MATLAB `pid(Kp, Ki, Kd, 1/N)`), discretised by backward Euler at the loop's sample time; the file records both",
+        ),
+        ("li21", "\\[Li21\\] Eq. 5 gains per sample, used as given"),
+    ];
+}
+
+impl Choices for NoFeedback {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[(
+        "none",
+        "No feedback controller: a feedforward-only file (ZPETC and/or HC)",
+    )];
 }
 
 /// Which form PID gains are in.

@@ -74,6 +74,17 @@ pub enum WeightShape {
     Makeweight,
 }
 
+impl crate::workflow::Choices for WeightShape {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("ws", "W_s = (s/M + w0)/(s + w0 A) (Karagoz18 Eq. 7)"),
+        ("wt", "W_t = (s + w0/M)/(A s + w0) (Karagoz18 Eq. 8)"),
+        (
+            "makeweight",
+            "makeweight(dcgain, [freq, mag], hfgain), first order",
+        ),
+    ];
+}
+
 impl WeightShape {
     fn name(self) -> &'static str {
         match self {
@@ -817,6 +828,13 @@ pub enum C2dMethodChoice {
     Zoh,
     /// Tustin / bilinear.
     Tustin,
+}
+
+impl crate::workflow::Choices for C2dMethodChoice {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("zoh", "Zero-order hold (Van Loan block exponential)"),
+        ("tustin", "Tustin / bilinear"),
+    ];
 }
 
 /// `fts c2d`: discretises a continuous system.
