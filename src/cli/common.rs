@@ -241,9 +241,10 @@ where
 {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
     use serde::de::value::{Error, StrDeserializer};
-    let values = T::CHOICES
-        .iter()
-        .map(|&(name, help)| PossibleValue::new(name).help(flags(help)));
+    let values = T::CHOICES.iter().map(|&(name, help)| match help {
+        "" => PossibleValue::new(name),
+        help => PossibleValue::new(name).help(flags(help)),
+    });
     PossibleValuesParser::new(values).map(|name: String| {
         T::deserialize(StrDeserializer::<Error>::new(&name)).expect("a listed choice deserialises")
     })

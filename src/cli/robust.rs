@@ -9,7 +9,8 @@
 //! * `fts budget SYS.json [--controller K.json] [--output-index I] [--fmax HZ] [--csv OUT.csv] [--json]`
 
 use super::common::{
-    bad, complex_pairs, print_json, print_report, read_input, step_error, write_atomic,
+    bad, choice, complex_pairs, name, print_json, print_report, read_input, step_error,
+    write_atomic,
 };
 use crate::io::ss_json;
 use crate::lti::norms::{NormError, h2_norm, hinf_norm};
@@ -18,7 +19,7 @@ use crate::workflow::robust::poles_summary;
 use crate::workflow::{
     C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Named, Validate, Weight, WeightShape,
 };
-use clap::{Args, ValueEnum};
+use clap::Args;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -114,31 +115,11 @@ pub fn run_h2(args: SynthArgs) -> anyhow::Result<()> {
     print_report(&report, args.json)
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum WeightKind {
-    /// W_s = (s/M + w0)/(s + w0 A) (Karagoz18 Eq. 7).
-    Ws,
-    /// W_t = (s + w0/M)/(A s + w0) (Karagoz18 Eq. 8).
-    Wt,
-    /// makeweight(dcgain, [freq, mag], hfgain), first order.
-    Makeweight,
-}
-
-impl From<WeightKind> for WeightShape {
-    fn from(k: WeightKind) -> Self {
-        match k {
-            WeightKind::Ws => WeightShape::Ws,
-            WeightKind::Wt => WeightShape::Wt,
-            WeightKind::Makeweight => WeightShape::Makeweight,
-        }
-    }
-}
-
 #[derive(Debug, Args)]
 pub struct WeightArgs {
     /// Which weight (`shape` in a manifest, where `kind` names the step's kind).
-    #[arg(long, value_enum, visible_alias = "shape")]
-    kind: WeightKind,
+    #[arg(long, value_parser = choice::<WeightShape>(), visible_alias = "shape")]
+    kind: WeightShape,
     /// Peak sensitivity / gain M (ws, wt).
     #[arg(long)]
     m: Option<f64>,
@@ -177,7 +158,7 @@ pub struct WeightArgs {
 /// `fts weight`.
 pub fn run_weight(args: WeightArgs) -> anyhow::Result<()> {
     let step = Weight {
-        shape: Some(args.kind.into()),
+        shape: Some(args.kind),
         m: args.m,
         w0: args.w0,
         w0_rad: args.w0_rad,
@@ -283,14 +264,6 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     print_report(&report, args.json)
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum Method {
-    /// Zero-order hold (Van Loan block exponential).
-    Zoh,
-    /// Tustin / bilinear.
-    Tustin,
-}
-
 #[derive(Debug, Args)]
 pub struct C2dArgs {
     /// The continuous system (`fts.ss/1` or continuous `fts.tf/1`).
@@ -300,8 +273,8 @@ pub struct C2dArgs {
     #[arg(long)]
     ts: f64,
     /// Discretisation method.
-    #[arg(long, value_enum, default_value = "zoh")]
-    method: Method,
+    #[arg(long, value_parser = choice::<C2dMethodChoice>(), default_value = name(C2d::default().method))]
+    method: C2dMethodChoice,
     /// Tustin prewarp frequency in Hz.
     #[arg(long, value_name = "HZ")]
     prewarp: Option<f64>,
@@ -317,10 +290,7 @@ pub struct C2dArgs {
 pub fn run_c2d(args: C2dArgs) -> anyhow::Result<()> {
     let step = C2d {
         ts: Some(args.ts),
-        method: match args.method {
-            Method::Zoh => C2dMethodChoice::Zoh,
-            Method::Tustin => C2dMethodChoice::Tustin,
-        },
+        method: args.method,
         prewarp: args.prewarp,
     };
     step.validate().map_err(step_error)?;

@@ -241,6 +241,7 @@ mod tests {
     fn choices_are_the_serde_names() {
         names_round_trip::<crate::ident::data::Detrend>();
         names_round_trip::<crate::lti::response::ResponseKind>();
+        names_round_trip::<crate::ident::excite::SweepSpacing>();
         names_round_trip::<Discretisation>();
         names_round_trip::<AntiWindup>();
         names_round_trip::<PidForm>();
