@@ -728,27 +728,7 @@ pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let raw: RawManifest = toml::from_str(text).map_err(|e| {
-        let err = InputError::new(&source, e.message().trim().to_string());
-        match e.span() {
-            Some(span) => err.at_line(line_of(text, span.start)),
-            None => err,
-        }
-    })?;
-    if raw.step.is_empty() {
-        return Err(InputError::new(
-            &source,
-            "no steps: a manifest declares at least one [step.NAME] table",
-        ));
-    }
-    let mut steps = raw
-        .step
-        .into_iter()
-        .map(|(name, table)| step(&source, text, &name, table))
-        .collect::<Result<Vec<_>, _>>()?;
-    // Declaration order, so independent steps run in the order written.
-    steps.sort_by_key(|s| s.line);
-
+    let steps = read_steps(text, &source)?;
     let lock_name = format!(
         "{}.lock",
         manifest
@@ -759,91 +739,9 @@ pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-
-    // Who writes what.
-    let mut producer: BTreeMap<&str, usize> = BTreeMap::new();
-    for (i, s) in steps.iter().enumerate() {
-        for o in &s.outputs {
-            let err = |m: String| {
-                InputError::new(&source, m)
-                    .at_line(o.line)
-                    .in_field(format!("step.{}.{}", s.name, o.field))
-            };
-            if o.path == lock_name || o.path == manifest_name {
-                return Err(err(format!(
-                    "{:?} is the manifest or its lock file, not an output",
-                    o.path
-                )));
-            }
-            if let Some(&j) = producer.get(o.path.as_str()) {
-                return Err(err(format!(
-                    "{:?} is already written by step {:?} (line {})",
-                    o.path, steps[j].name, steps[j].line
-                )));
-            }
-            producer.insert(&o.path, i);
-        }
-    }
-    // Edges and missing inputs.
-    let n = steps.len();
-    let mut deps: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
-    for (i, s) in steps.iter().enumerate() {
-        for inp in &s.inputs {
-            match producer.get(inp.path.as_str()) {
-                Some(&j) => {
-                    deps[i].insert(j);
-                }
-                None if !base.join(&inp.path).is_file() => {
-                    return Err(InputError::new(
-                        &source,
-                        format!(
-                            "input {:?} does not exist (relative to {}) and no step writes it",
-                            inp.path,
-                            base.display()
-                        ),
-                    )
-                    .at_line(inp.line)
-                    .in_field(format!("step.{}.{}", s.name, inp.field)));
-                }
-                None => {}
-            }
-        }
-    }
-    // Kahn's algorithm; ties in declaration order.
-    let mut done = vec![false; n];
-    let mut order = Vec::with_capacity(n);
-    while order.len() < n {
-        let Some(i) = (0..n).find(|&i| !done[i] && deps[i].iter().all(|&j| done[j])) else {
-            // A cycle: follow unfinished dependencies until a step repeats.
-            let mut path = vec![(0..n).find(|&i| !done[i]).expect("unfinished step")];
-            loop {
-                let last = *path.last().expect("non-empty");
-                let next = *deps[last]
-                    .iter()
-                    .find(|&&j| !done[j])
-                    .expect("an unfinished step has an unfinished dependency");
-                if let Some(pos) = path.iter().position(|&p| p == next) {
-                    let cycle: Vec<usize> = path[pos..].to_vec();
-                    let first = cycle[0];
-                    let mut names: Vec<&str> =
-                        cycle.iter().map(|&k| steps[k].name.as_str()).collect();
-                    names.push(&steps[first].name);
-                    return Err(InputError::new(
-                        &source,
-                        format!(
-                            "the steps form a cycle: {} (each step reads a file the next one writes)",
-                            names.join(" -> ")
-                        ),
-                    )
-                    .at_line(steps[first].line)
-                    .in_field(format!("step.{}", steps[first].name)));
-                }
-                path.push(next);
-            }
-        };
-        done[i] = true;
-        order.push(i);
-    }
+    let producer = producers(&steps, &source, [lock_name.as_str(), &manifest_name])?;
+    let deps = dependencies(&steps, &producer, &base, &source)?;
+    let order = build_order(&steps, &deps, &source)?;
     let mut slots: Vec<Option<Step>> = steps.into_iter().map(Some).collect();
     let steps = order
         .into_iter()
@@ -859,6 +757,156 @@ pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
         base,
         steps,
     })
+}
+
+/// The manifest's steps in declaration order, so independent steps run in
+/// the order written.
+fn read_steps(text: &str, source: &str) -> Result<Vec<Step>, InputError> {
+    let raw: RawManifest = toml::from_str(text).map_err(|e| {
+        let err = InputError::new(source, e.message().trim().to_string());
+        match e.span() {
+            Some(span) => err.at_line(line_of(text, span.start)),
+            None => err,
+        }
+    })?;
+    if raw.step.is_empty() {
+        return Err(InputError::new(
+            source,
+            "no steps: a manifest declares at least one [step.NAME] table",
+        ));
+    }
+    let mut steps = raw
+        .step
+        .into_iter()
+        .map(|(name, table)| step(source, text, &name, table))
+        .collect::<Result<Vec<_>, _>>()?;
+    steps.sort_by_key(|s| s.line);
+    Ok(steps)
+}
+
+/// Who writes what: the step writing each output path. Two steps writing
+/// one file, or a step writing the manifest or its lock (`reserved`), are
+/// errors.
+fn producers<'a>(
+    steps: &'a [Step],
+    source: &str,
+    reserved: [&str; 2],
+) -> Result<BTreeMap<&'a str, usize>, InputError> {
+    let mut producer: BTreeMap<&str, usize> = BTreeMap::new();
+    for (i, s) in steps.iter().enumerate() {
+        for o in &s.outputs {
+            let err = |m: String| {
+                InputError::new(source, m)
+                    .at_line(o.line)
+                    .in_field(format!("step.{}.{}", s.name, o.field))
+            };
+            if reserved.contains(&o.path.as_str()) {
+                return Err(err(format!(
+                    "{:?} is the manifest or its lock file, not an output",
+                    o.path
+                )));
+            }
+            if let Some(&j) = producer.get(o.path.as_str()) {
+                return Err(err(format!(
+                    "{:?} is already written by step {:?} (line {})",
+                    o.path, steps[j].name, steps[j].line
+                )));
+            }
+            producer.insert(&o.path, i);
+        }
+    }
+    Ok(producer)
+}
+
+/// The steps each step reads from; an input that no step writes must exist.
+fn dependencies(
+    steps: &[Step],
+    producer: &BTreeMap<&str, usize>,
+    base: &Path,
+    source: &str,
+) -> Result<Vec<BTreeSet<usize>>, InputError> {
+    let mut deps: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); steps.len()];
+    for (i, s) in steps.iter().enumerate() {
+        for inp in &s.inputs {
+            match producer.get(inp.path.as_str()) {
+                Some(&j) => {
+                    deps[i].insert(j);
+                }
+                None if !base.join(&inp.path).is_file() => {
+                    return Err(InputError::new(
+                        source,
+                        format!(
+                            "input {:?} does not exist (relative to {}) and no step writes it",
+                            inp.path,
+                            base.display()
+                        ),
+                    )
+                    .at_line(inp.line)
+                    .in_field(format!("step.{}.{}", s.name, inp.field)));
+                }
+                None => {}
+            }
+        }
+    }
+    Ok(deps)
+}
+
+/// A build order by Kahn's algorithm, ties in declaration order; a cycle is
+/// an error naming its steps.
+fn build_order(
+    steps: &[Step],
+    deps: &[BTreeSet<usize>],
+    source: &str,
+) -> Result<Vec<usize>, InputError> {
+    let n = steps.len();
+    let mut done = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    while order.len() < n {
+        let Some(i) = (0..n).find(|&i| !done[i] && deps[i].iter().all(|&j| done[j])) else {
+            return Err(cycle_error(steps, deps, &done, source));
+        };
+        done[i] = true;
+        order.push(i);
+    }
+    Ok(order)
+}
+
+/// The cycle among the unfinished steps: follow unfinished dependencies
+/// until a step repeats.
+fn cycle_error(
+    steps: &[Step],
+    deps: &[BTreeSet<usize>],
+    done: &[bool],
+    source: &str,
+) -> InputError {
+    let mut path = vec![
+        (0..steps.len())
+            .find(|&i| !done[i])
+            .expect("unfinished step"),
+    ];
+    loop {
+        let last = *path.last().expect("non-empty");
+        let next = *deps[last]
+            .iter()
+            .find(|&&j| !done[j])
+            .expect("an unfinished step has an unfinished dependency");
+        if let Some(pos) = path.iter().position(|&p| p == next) {
+            let cycle = &path[pos..];
+            let first = cycle[0];
+            let mut names: Vec<&str> = cycle.iter().map(|&k| steps[k].name.as_str()).collect();
+            names.push(&steps[first].name);
+            return InputError::new(
+                source,
+                format!(
+                    "the steps form a cycle: {} (each step reads a file the next one writes)",
+                    names.join(" -> ")
+                ),
+            )
+            .at_line(steps[first].line)
+            .in_field(format!("step.{}", steps[first].name));
+        }
+        path.push(next);
+    }
 }
 
 #[cfg(test)]

@@ -80,34 +80,23 @@ pub struct ControllerInputs<'a> {
 }
 
 impl SsController {
+    /// The whole step with these settings and a state-space feedback.
+    fn build_step(&self) -> BuildController {
+        BuildController {
+            ts: self.ts,
+            c2d: self.c2d,
+            prewarp: self.prewarp,
+            ss_anti_windup: self.ss_anti_windup,
+            output_min: self.output_min,
+            output_max: self.output_max,
+            ..BuildController::default()
+        }
+    }
+
     /// The loop's sample time: the ZPETC's, the `ts` setting and a discrete
     /// controller's, which must agree when more than one is given.
     pub fn sample_time(&self, zpetc_ts: Option<f64>, ss_ts: Option<f64>) -> Result<f64, StepError> {
-        let candidates = [
-            (zpetc_ts, "the ZPETC's"),
-            (self.ts, "the ts setting's"),
-            (ss_ts, "the state-space controller's"),
-        ];
-        let mut chosen: Option<(f64, &str)> = None;
-        for (candidate, name) in candidates {
-            match (chosen, candidate) {
-                (Some((a, from)), Some(b)) if (a - b).abs() > 1e-12 * a => {
-                    return Err(StepError::setting(
-                        "ts",
-                        format!("{name} sample time {b} s disagrees with {from} {a} s"),
-                    ));
-                }
-                (None, Some(b)) => chosen = Some((b, name)),
-                _ => {}
-            }
-        }
-        let (ts, _) = chosen.ok_or_else(|| {
-            StepError::setting(
-                "ts",
-                "missing: the sample time is needed when no ZPETC or discrete controller is given",
-            )
-        })?;
-        positive("ts", ts)
+        self.build_step().sample_time(zpetc_ts, ss_ts)
     }
 
     fn method(&self, ts: f64) -> Result<(C2dMethod, String), StepError> {
@@ -189,26 +178,15 @@ impl SsController {
         Ok(block)
     }
 
-    /// Builds the coefficient file.
+    /// Builds the coefficient file ([`BuildController`] with this feedback).
     pub fn run(&self, inputs: ControllerInputs<'_>) -> Result<ControllerReport, StepError> {
         self.validate()?;
-        let ts = self.sample_time(inputs.zpetc.map(|z| z.ts), inputs.ss.ts)?;
-        let block = self.block(inputs.ss, ts, inputs.ss_source)?;
-        let stages = Stages {
-            feedback: FeedbackKind::StateSpace,
-            hysteresis_compensation: inputs.hysteresis.is_some(),
-            zpetc: inputs.zpetc.is_some(),
-        };
-        let file = build_controller(
-            stages,
-            ts,
-            Feedback::StateSpace(block),
-            inputs.hysteresis,
-            inputs.zpetc,
-            inputs.provenance,
-        )
-        .map_err(StepError::input)?;
-        Ok(ControllerReport { file })
+        self.build_step().run(BuildInputs {
+            hysteresis: inputs.hysteresis,
+            zpetc: inputs.zpetc,
+            ss: Some((inputs.ss, inputs.ss_source)),
+            provenance: inputs.provenance,
+        })
     }
 }
 
