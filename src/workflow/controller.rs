@@ -411,12 +411,12 @@ impl BuildController {
                 "PID settings and the state-space controller `ss` exclude each other",
             )),
             (true, None, false) => Ok(FeedbackKind::StateSpace),
-            (false, Some(NoFeedback::None), _) => Ok(FeedbackKind::None),
             (false, None, false) => Err(StepError::setting("pid_form", NO_FEEDBACK_GIVEN)),
-            (false, None, true) if self.prewarp.is_some() => Err(StepError::setting(
+            (false, _, _) if self.prewarp.is_some() => Err(StepError::setting(
                 "prewarp",
                 "goes with a state-space controller `ss`",
             )),
+            (false, Some(NoFeedback::None), _) => Ok(FeedbackKind::None),
             (false, None, true) => Ok(FeedbackKind::Pid),
         }
     }
