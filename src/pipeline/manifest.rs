@@ -375,10 +375,7 @@ impl<'a> Fields<'a> {
                 return Err(self.err(
                     old,
                     line,
-                    format!(
-                        "renamed: the column is chosen with '{new}' (as --{} on the command line)",
-                        new.replace('_', "-")
-                    ),
+                    format!("renamed: the column is chosen with '{new}'"),
                 ));
             }
         }
