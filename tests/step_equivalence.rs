@@ -506,3 +506,46 @@ fn failing_steps_without_a_record_exit_alike_from_both_front_ends() {
         }
     }
 }
+
+/// A controller step asks for one feedback: errors name the field at fault
+/// and its line, before any input is read.
+#[test]
+fn a_controller_step_names_the_feedback_setting_at_fault() {
+    let cases = [
+        (
+            "ts = 1e-4\n",
+            "field 'step.c.pid_form': no feedback controller given",
+        ),
+        (
+            "ss = \"K.json\"\nkp = 1\n",
+            "line 5, field 'step.c.kp': PID settings and the state-space controller 'ss' exclude each other",
+        ),
+        (
+            "feedback = \"none\"\nkp = 1\n",
+            "line 5, field 'step.c.kp': PID settings and 'feedback' none exclude each other",
+        ),
+        (
+            "zpetc = \"K.json\"\nclosed_loop = \"K.json\"\nkp = 1\n",
+            "line 5, field 'step.c.closed_loop'",
+        ),
+        (
+            "pid_form = \"li21\"\nkp = 1\npid_n = 100\nts = 1e-4\n",
+            "line 6, field 'step.c.pid_n': the derivative filter goes with 'pid_form' parallel",
+        ),
+    ];
+    for (settings, culprit) in cases {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::copy(repo("examples/mixsyn/K.json"), d.path().join("K.json")).unwrap();
+        let manifest = format!("[step.c]\nkind = \"controller\"\nout = \"c.json\"\n{settings}");
+        std::fs::write(d.path().join("fts.toml"), manifest).unwrap();
+        let out = fts()
+            .current_dir(d.path())
+            .arg("build")
+            .assert()
+            .code(2)
+            .get_output()
+            .clone();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(culprit), "{settings:?}: {err}");
+    }
+}

@@ -470,6 +470,15 @@ impl<'a> Fields<'a> {
     /// An error names the field at fault: the one that fails on its own, or
     /// the one a validation error is about.
     fn typed<T: DeserializeOwned + Validate>(&mut self) -> Result<T, InputError> {
+        self.typed_checked(|_: &T| Ok(()))
+    }
+
+    /// [`Self::typed`] with a `check` of the settings against the step's
+    /// inputs first (its error is the more telling one).
+    fn typed_checked<T: DeserializeOwned + Validate>(
+        &mut self,
+        check: impl Fn(&T) -> Result<(), StepError>,
+    ) -> Result<T, InputError> {
         let table: toml::Table = std::mem::take(&mut self.map)
             .into_iter()
             .map(|(k, v)| (k, v.into_inner()))
@@ -485,7 +494,9 @@ impl<'a> Fields<'a> {
                 None => self.step_err(self.line, message),
             }
         })?;
-        settings.validate().map_err(|e| self.step_error(e))?;
+        check(&settings)
+            .and_then(|()| settings.validate())
+            .map_err(|e| self.step_error(e))?;
         Ok(settings)
     }
 
@@ -675,8 +686,7 @@ fn controller(f: &mut Fields<'_>) -> Result<Action, InputError> {
     }
     let has_ss = f.inputs.iter().any(|i| i.field == "ss");
     legacy_pid_form(f, has_ss);
-    let step: BuildController = f.typed()?;
-    step.feedback_kind(has_ss).map_err(|e| f.step_error(e))?;
+    let step = f.typed_checked(|s: &BuildController| s.feedback_kind(has_ss).map(|_| ()))?;
     Ok(Action::Controller(step))
 }
 
