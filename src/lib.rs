@@ -28,10 +28,11 @@
 //! | hysteresis | [`IdentifyHysteresis`] (PI, MPI cube-root and dead-zone; least squares or gradient descent; the inverse) |
 //! | linear models | [`IdentifyArx`], [`IdentifyOe`], [`IdentifyIv`], [`ArxStruct`] (records prepared, fit %, delay and order selection) |
 //! | feedforward | [`DesignZpetc`] |
-//! | feedback | [`Weight`], [`Mixsyn`], [`Hinf`], [`H2`], [`C2d`], [`SsController`]; margins and sensitivities in [`lti::margins`] |
+//! | feedback | [`Weight`], [`Mixsyn`], [`Hinf`], [`H2`], [`C2d`]; margins and sensitivities in [`lti::margins`] |
 //! | judging a design | [`workflow::response::Response`] (step/impulse, `stepinfo`), [`workflow::convert`] (tf/ss/zpk, minreal, balred, d2c) |
+//! | virtual records | [`VirtualTriangles`], [`VirtualSweep`] (the \[Li21\] open-loop triangles and closed-loop sweep on the embedded virtual FTS) |
 //! | simulation | [`Simulate`] (a tracking run: the runtime's controller from a coefficient file or stages, on the virtual FTS or a linear model; tracking and step figures, divergence named), [`sim::closed_loop`] (any plant, the runtime's controller), [`sim::virtual_fts`] (the embedded virtual FTS), [`sim::experiment`] (the \[Li21\] study) |
-//! | deployment | [`io::controller_file::ControllerFile`] (the `fts.controller/1` file and C header), [`runtime`] (the allocation-free step, `no_std`) |
+//! | deployment | [`BuildController`] (the coefficient file: PID, [`SsController`] or no feedback, after ZPETC and inverse hysteresis), [`io::controller_file::ControllerFile`] (the `fts.controller/1` file and C header), [`runtime`] (the allocation-free step, `no_std`) |
 //!
 //! Underneath: [`lti`] (polynomials in `z^-1`, transfer functions, state
 //! space, Riccati and Lyapunov solvers, norms), [`ident`] (the estimators),
@@ -63,6 +64,7 @@ pub use io::controller_file::ControllerFile;
 pub use lti::{ContinuousTf, DiscreteTf, Poly, StateSpace, TransferFunction};
 pub use runtime::RuntimeController;
 pub use workflow::{
-    ArxStruct, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyIv, IdentifyOe,
-    Mixsyn, Simulate, SsController, StepError, Validate, Weight,
+    ArxStruct, BuildController, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis,
+    IdentifyIv, IdentifyOe, Mixsyn, Simulate, SsController, StepError, Validate, VirtualSweep,
+    VirtualTriangles, Weight,
 };

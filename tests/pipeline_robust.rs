@@ -456,3 +456,43 @@ fn a_too_long_zpetc_series_exits_2_from_the_command_and_from_the_manifest() {
         .stderr(predicate::str::contains("g.json").and(predicate::str::contains("terms")));
     assert!(!d.join("z.json").exists());
 }
+
+/// An unstable weight is the weight's fault, not the plant's: the command
+/// names `--ws` and its file, the manifest the field `ws` and its line.
+#[test]
+fn an_unstable_weight_is_named_not_blamed_on_the_plant() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(repo("examples/mixsyn/plant.json"), d.join("plant.json")).unwrap();
+    std::fs::write(
+        d.join("ws.json"),
+        r#"{"format": "fts.ss/1", "ts": null, "a": [[1]], "b": [[1]], "c": [[1]], "d": [[0.5]]}"#,
+    )
+    .unwrap();
+    fts()
+        .current_dir(d)
+        .args([
+            "mixsyn",
+            "--plant",
+            "plant.json",
+            "--ws",
+            "ws.json",
+            "-o",
+            "k.json",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "ws.json: the --ws weight is unstable (pole at s = 1+0j)",
+        ));
+    std::fs::write(
+        d.join("fts.toml"),
+        "[step.k]\nkind = \"mixsyn\"\nplant = \"plant.json\"\nws = \"ws.json\"\nout = \"k.json\"\n",
+    )
+    .unwrap();
+    fts().current_dir(d).arg("build").assert().code(2).stderr(
+        predicate::str::contains("line 4, field 'step.k.ws'")
+            .and(predicate::str::contains("the 'ws' weight is unstable")),
+    );
+    assert!(!d.join("k.json").exists());
+}

@@ -31,11 +31,24 @@ pub struct BuildArgs {
     json: bool,
 }
 
+/// A pipeline message with the build settings it names (`` `force` ``)
+/// written as this command's options; other quoted words stay as written.
+fn options(message: &str) -> String {
+    crate::workflow::render_settings(message, |key| match key {
+        "force" | "check" => format!("--{key}"),
+        other => format!("`{other}`"),
+    })
+}
+
 fn map_err(e: PipelineError) -> anyhow::Error {
     match e {
-        PipelineError::BadInput(m) => bad(m),
-        PipelineError::Failure(m) => anyhow::anyhow!(m),
+        PipelineError::BadInput(m) => bad(options(&m)),
+        PipelineError::Failure(m) => anyhow::anyhow!(options(&m)),
     }
+}
+
+fn reasons(r: &StepReport) -> Vec<String> {
+    r.reasons.iter().map(|m| options(m)).collect()
 }
 
 fn line(r: &StepReport) -> String {
@@ -49,7 +62,7 @@ fn line(r: &StepReport) -> String {
         s.push_str(&format!(" ({:.2} s)", r.seconds));
     }
     if r.status != Status::UpToDate && !r.reasons.is_empty() {
-        s.push_str(&format!("\n{:<12} because {}", "", r.reasons.join("; ")));
+        s.push_str(&format!("\n{:<12} because {}", "", reasons(r).join("; ")));
     }
     s
 }
@@ -101,7 +114,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<()> {
                 "name": r.name,
                 "kind": r.kind,
                 "status": r.status.label(),
-                "reasons": r.reasons,
+                "reasons": reasons(r),
                 "outputs": r.outputs,
                 "seconds": r.seconds,
             })).collect::<Vec<_>>(),
@@ -126,7 +139,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<()> {
     if !stale.is_empty() {
         let outputs: Vec<String> = stale
             .iter()
-            .map(|r| format!("{} ({})", r.outputs.join(", "), r.reasons.join("; ")))
+            .map(|r| format!("{} ({})", r.outputs.join(", "), reasons(r).join("; ")))
             .collect();
         return Err(anyhow::anyhow!(
             "stale outputs: {}; run `fts build -f {}`",

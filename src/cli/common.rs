@@ -230,3 +230,27 @@ pub fn print_report<R: serde::Serialize + std::fmt::Display>(
         Ok(())
     }
 }
+
+/// The value parser of a setting with a library vocabulary
+/// (`value_parser = choice::<T>()`): a value is read as the manifest reads
+/// it (serde), and `--help` and the error for a bad value list the choices
+/// with their help (settings it names rendered as flags).
+pub fn choice<T>() -> impl clap::builder::TypedValueParser<Value = T>
+where
+    T: crate::workflow::Choices + serde::de::DeserializeOwned + Clone + Send + Sync,
+{
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    use serde::de::value::{Error, StrDeserializer};
+    let values = T::CHOICES.iter().map(|&(name, help)| match help {
+        "" => PossibleValue::new(name),
+        help => PossibleValue::new(name).help(flags(help)),
+    });
+    PossibleValuesParser::new(values).map(|name: String| {
+        T::deserialize(StrDeserializer::<Error>::new(&name)).expect("a listed choice deserialises")
+    })
+}
+
+/// The name of a library setting's value, for `default_value`.
+pub fn name<T: crate::workflow::Choices + serde::Serialize>(value: T) -> &'static str {
+    value.name()
+}

@@ -10,21 +10,13 @@
 //! transfer functions is written as one `fts.tf/1` file per channel,
 //! `OUT.y<i>u<j>.json` (1-based) beside `OUT.json`.
 
-use super::common::{bad, print_report, step_error, write_atomic};
+use super::common::{bad, choice, print_report, step_error, write_atomic};
 use super::loop_analysis::read_loop_system;
 use crate::io::{ss_json, tf_json};
 use crate::workflow::Validate;
 use crate::workflow::convert::{Balred, Convert, ConvertReport, D2c, Form, Minreal, ZpkStep};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::path::{Path, PathBuf};
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum To {
-    /// State space (`fts.ss/1`): controllable canonical form of a transfer function.
-    Ss,
-    /// Transfer function (`fts.tf/1`), one per output/input channel.
-    Tf,
-}
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
@@ -32,8 +24,8 @@ pub struct ConvertArgs {
     #[arg(value_name = "SYS.json")]
     input: PathBuf,
     /// Target form.
-    #[arg(long, value_enum)]
-    to: To,
+    #[arg(long, value_parser = choice::<Form>())]
+    to: Form,
     /// Write the result here (a MIMO system to tf: one file per channel, `OUT.y<i>u<j>.json`).
     #[arg(short = 'o', long = "out", value_name = "OUT.json")]
     output: Option<PathBuf>,
@@ -113,12 +105,7 @@ fn channel_path(out: &Path, i: usize, j: usize) -> PathBuf {
 
 /// `fts convert`.
 pub fn run_convert(args: ConvertArgs) -> anyhow::Result<()> {
-    let step = Convert {
-        to: match args.to {
-            To::Ss => Form::Ss,
-            To::Tf => Form::Tf,
-        },
-    };
+    let step = Convert { to: args.to };
     step.validate().map_err(step_error)?;
     let source = args.input.display().to_string();
     let model = read_loop_system(&args.input)?;

@@ -22,7 +22,7 @@ pub struct DemoArgs {
     #[arg(long, default_value = "fts-demo")]
     out: PathBuf,
     /// Noise seed of the virtual FTS.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = ExperimentParams::default().seed)]
     seed: u64,
     /// Print one JSON object on stdout instead of the table.
     #[arg(long)]

@@ -10,16 +10,17 @@
 //! `fts mixsyn`, discretised at the loop's sample time when continuous), or
 //! none (feedforward only).
 
-use super::common::{bad, read_input, step_error, write_atomic};
+use super::common::{bad, choice, name, read_input, step_error, write_atomic};
+use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
-use crate::io::controller_file::{Feedback, ParallelPid, StateSpaceBlock, to_c_files};
+use crate::io::controller_file::{StateSpaceBlock, to_c_files};
 use crate::io::{hysteresis_json, tf_json, zpetc_json};
-use crate::lti::TransferFunction;
-use crate::runtime::PidSpec;
-use crate::sim::experiment::build_controller;
-use crate::synth::composite::{FeedbackKind, Stages};
-use crate::synth::zpetc::{self, ZpetcParams};
-use crate::workflow::{AntiWindup, Discretisation, SsController};
+use crate::lti::ss::StateSpace;
+use crate::synth::zpetc::Zpetc;
+use crate::workflow::controller::closed_loop_zpetc;
+use crate::workflow::{
+    AntiWindup, BuildController, BuildInputs, Discretisation, NoFeedback, PidForm, SsController,
+};
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 
@@ -34,39 +35,6 @@ enum Format {
     C,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum PidForm {
-    /// Continuous parallel form: --kp, --ki in 1/s, --kd in s (MATLAB
-    /// `pid(Kp, Ki, Kd, 1/N)`), discretised by backward Euler at the loop's
-    /// sample time; the file records both.
-    Parallel,
-    /// \[Li21\] Eq. 5 gains per sample, used as given.
-    Li21,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum FeedbackChoice {
-    /// No feedback controller: a feedforward-only file (ZPETC and/or HC).
-    None,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum C2dChoice {
-    /// Tustin (bilinear), optionally prewarped.
-    Tustin,
-    /// Zero-order hold.
-    Zoh,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum AntiWindupChoice {
-    /// Hold the states while the command is saturated and their update
-    /// would push it further out.
-    ConditionalUpdate,
-    /// Clamp the command only.
-    None,
-}
-
 /// A state-space feedback controller given as a file (shared by `fts emit`
 /// and `fts simulate`).
 #[derive(Debug, Args)]
@@ -76,22 +44,14 @@ pub struct SsArgs {
     #[arg(long, value_name = "K.json", conflicts_with_all = ["kp", "ki", "kd"])]
     pub ss: Option<PathBuf>,
     /// How a continuous --ss controller is discretised at the loop's sample time.
-    #[arg(long, value_enum, default_value_t = C2dChoice::Tustin, requires = "ss")]
-    pub c2d: C2dChoice,
+    #[arg(long, value_parser = choice::<Discretisation>(), default_value = name(SsController::default().c2d), requires = "ss")]
+    pub c2d: Discretisation,
     /// Tustin prewarp frequency, Hz (--c2d tustin only).
     #[arg(long, value_name = "HZ", requires = "ss")]
     pub prewarp: Option<f64>,
     /// What the state-space controller's states do while the command is saturated.
-    #[arg(long, value_enum, default_value_t = AntiWindupChoice::ConditionalUpdate, requires = "ss")]
-    pub ss_anti_windup: AntiWindupChoice,
-}
-
-/// The sample time of a discrete `--ss` controller, if it is one.
-pub fn ss_sample_time(args: &SsArgs) -> anyhow::Result<Option<f64>> {
-    match &args.ss {
-        Some(p) => Ok(super::robust::read_system(p)?.ts),
-        None => Ok(None),
-    }
+    #[arg(long, value_parser = choice::<AntiWindup>(), default_value = name(SsController::default().ss_anti_windup), requires = "ss")]
+    pub ss_anti_windup: AntiWindup,
 }
 
 /// Reads `--ss`, discretises it at `ts` when continuous, and makes the block
@@ -109,16 +69,7 @@ pub fn read_ss_block(
         .step(limits)
         .block(&sys, ts, &source)
         .map_err(step_error)?;
-    let fast = SsController::poles_beyond_nyquist(&sys, ts);
-    if let Some((pole, hz)) = fast.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
-        eprintln!(
-            "warning: {source}: {} continuous pole(s) beyond the Nyquist frequency {} Hz of ts = {ts} s, the fastest {}{:+}j rad/s ({hz:.4e} Hz); the discretised controller does not reproduce them: sample faster or reduce the controller",
-            fast.len(),
-            0.5 / ts,
-            pole.re,
-            pole.im
-        );
-    }
+    warn_fast_poles(&sys, ts, &source);
     Ok(block)
 }
 
@@ -127,15 +78,9 @@ impl SsArgs {
     pub fn step(&self, limits: (Option<f64>, Option<f64>)) -> SsController {
         SsController {
             ts: None,
-            c2d: match self.c2d {
-                C2dChoice::Tustin => Discretisation::Tustin,
-                C2dChoice::Zoh => Discretisation::Zoh,
-            },
+            c2d: self.c2d,
             prewarp: self.prewarp,
-            ss_anti_windup: match self.ss_anti_windup {
-                AntiWindupChoice::ConditionalUpdate => AntiWindup::ConditionalUpdate,
-                AntiWindupChoice::None => AntiWindup::None,
-            },
+            ss_anti_windup: self.ss_anti_windup,
             output_min: limits.0,
             output_max: limits.1,
         }
@@ -154,7 +99,7 @@ pub struct EmitArgs {
     #[arg(long, value_name = "CL.json")]
     closed_loop: Option<PathBuf>,
     /// Which form the PID gains are in (required with --kp/--ki/--kd).
-    #[arg(long, value_enum, conflicts_with = "ss")]
+    #[arg(long, value_parser = choice::<PidForm>(), conflicts_with = "ss")]
     pid_form: Option<PidForm>,
     /// PID proportional gain.
     #[arg(long, allow_hyphen_values = true)]
@@ -169,8 +114,8 @@ pub struct EmitArgs {
     #[arg(long, value_name = "N", conflicts_with = "ss")]
     pid_n: Option<f64>,
     /// `none`: no feedback controller (a feedforward-only file).
-    #[arg(long, value_enum, conflicts_with_all = ["kp", "ki", "kd", "pid_form", "pid_n", "ss"])]
-    feedback: Option<FeedbackChoice>,
+    #[arg(long, value_parser = choice::<NoFeedback>(), conflicts_with_all = ["kp", "ki", "kd", "pid_form", "pid_n", "ss"])]
+    feedback: Option<NoFeedback>,
     #[command(flatten)]
     ss: SsArgs,
     /// Lowest command, V (PID default 0; a state-space controller has no limit unless given).
@@ -211,178 +156,101 @@ fn hashed(
     Ok((text, path.display().to_string()))
 }
 
-/// Builds the coefficient file from the arguments.
+/// The library step these flags stand for.
+fn step(args: &EmitArgs) -> BuildController {
+    let ss = args.ss.step((args.output_min, args.output_max));
+    BuildController {
+        pid_form: args.pid_form,
+        kp: args.kp,
+        ki: args.ki,
+        kd: args.kd,
+        pid_n: args.pid_n,
+        feedback: args.feedback,
+        ts: args.ts,
+        c2d: ss.c2d,
+        prewarp: ss.prewarp,
+        ss_anti_windup: ss.ss_anti_windup,
+        output_min: args.output_min,
+        output_max: args.output_max,
+    }
+}
+
+/// The inverse hysteresis model of `--hysteresis`, warning when its output
+/// is not the command's unit.
+fn read_inverse(path: &Path, inputs: &mut Vec<InputHash>) -> anyhow::Result<HysteresisModel> {
+    let (text, source) = hashed(path, "hysteresis_inverse", inputs)?;
+    let file = hysteresis_json::parse_model(&text, &source)?;
+    if file.output.unit != "V" && !file.output.unit.is_empty() {
+        eprintln!(
+            "warning: {source}: the model's output unit is {:?}; the HC feedforward is added to a command in V",
+            file.output.unit
+        );
+    }
+    Ok(file.model)
+}
+
+/// The ZPETC of `--zpetc`, or built from `--closed-loop`.
+fn read_filter(args: &EmitArgs, inputs: &mut Vec<InputHash>) -> anyhow::Result<Option<Zpetc>> {
+    if let Some(p) = &args.zpetc {
+        let (text, source) = hashed(p, "zpetc", inputs)?;
+        Ok(Some(zpetc_json::parse_zpetc(&text, &source)?))
+    } else if let Some(p) = &args.closed_loop {
+        let (text, source) = hashed(p, "closed_loop", inputs)?;
+        let model = tf_json::parse_tf(&text, &source)?;
+        Ok(Some(
+            closed_loop_zpetc(&model, &source).map_err(step_error)?,
+        ))
+    } else {
+        Ok(None)
+    }
+}
+
+/// Warns when a continuous controller has poles no discretisation at `ts`
+/// reproduces.
+fn warn_fast_poles(sys: &StateSpace, ts: f64, source: &str) {
+    let fast = SsController::poles_beyond_nyquist(sys, ts);
+    if let Some((pole, hz)) = fast.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+        eprintln!(
+            "warning: {source}: {} continuous pole(s) beyond the Nyquist frequency {} Hz of ts = {ts} s, the fastest {}{:+}j rad/s ({hz:.4e} Hz); the discretised controller does not reproduce them: sample faster or reduce the controller",
+            fast.len(),
+            0.5 / ts,
+            pole.re,
+            pole.im
+        );
+    }
+}
+
+/// Builds the coefficient file from the arguments: every input read once
+/// (and hashed), then the library step.
 pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
     let mut inputs = Vec::new();
     let inverse = match &args.hysteresis {
+        Some(p) => Some(read_inverse(p, &mut inputs)?),
+        None => None,
+    };
+    let filter = read_filter(args, &mut inputs)?;
+    let ss = match &args.ss.ss {
         Some(p) => {
-            let (text, source) = hashed(p, "hysteresis_inverse", &mut inputs)?;
-            let file = hysteresis_json::parse_model(&text, &source)?;
-            if file.output.unit != "V" && !file.output.unit.is_empty() {
-                eprintln!(
-                    "warning: {source}: the model's output unit is {:?}; the HC feedforward is added to a command in V",
-                    file.output.unit
-                );
-            }
-            Some(file.model)
+            let (text, source) = hashed(p, "state_space", &mut inputs)?;
+            Some((crate::io::ss_json::parse_system(&text, &source)?, source))
         }
         None => None,
     };
-    let filter = if let Some(p) = &args.zpetc {
-        let (text, source) = hashed(p, "zpetc", &mut inputs)?;
-        Some(zpetc_json::parse_zpetc(&text, &source)?)
-    } else if let Some(p) = &args.closed_loop {
-        let (text, source) = hashed(p, "closed_loop", &mut inputs)?;
-        let TransferFunction::Discrete(g) = tf_json::parse_tf(&text, &source)? else {
-            return Err(bad(format!(
-                "{source} field 'var': the closed-loop model must be discrete"
-            )));
-        };
-        Some(
-            zpetc::design(&g, &ZpetcParams::default())
-                .map_err(|e| bad(format!("{source}: {e}")))?,
-        )
-    } else {
-        None
-    };
-    let mut ts = filter.as_ref().map(|f| f.ts);
-    let mut ts_from = "the ZPETC's";
-    for (candidate, name) in [
-        (args.ts, "--ts"),
-        (ss_sample_time(&args.ss)?, "the --ss controller's"),
-    ] {
-        match (ts, candidate) {
-            (Some(a), Some(b)) if (a - b).abs() > 1e-12 * a => {
-                return Err(bad(format!(
-                    "{name} sample time {b} s disagrees with {ts_from} {a} s"
-                )));
-            }
-            (None, Some(b)) => {
-                ts = Some(b);
-                ts_from = name;
-            }
-            _ => {}
-        }
+    let report = step(args)
+        .run(BuildInputs {
+            hysteresis: inverse.as_ref(),
+            zpetc: filter.as_ref(),
+            ss: ss.as_ref().map(|(sys, source)| (sys, source.as_str())),
+            provenance: Provenance {
+                fts_version: env!("CARGO_PKG_VERSION").into(),
+                inputs,
+            },
+        })
+        .map_err(step_error)?;
+    if let Some((sys, source)) = &ss {
+        warn_fast_poles(sys, report.file.ts, source);
     }
-    let Some(ts) = ts else {
-        return Err(bad(
-            "--ts: the sample time is needed when no ZPETC, closed-loop model or discrete controller is given",
-        ));
-    };
-    if !(ts.is_finite() && ts > 0.0) {
-        return Err(bad(format!(
-            "--ts: expected a positive number of seconds, got {ts}"
-        )));
-    }
-    let (feedback, kind) = match (&args.ss.ss, args.feedback) {
-        (Some(path), _) => (
-            Feedback::StateSpace(read_ss_block(
-                &args.ss,
-                path,
-                ts,
-                (args.output_min, args.output_max),
-                &mut inputs,
-            )?),
-            FeedbackKind::StateSpace,
-        ),
-        (None, Some(FeedbackChoice::None)) => {
-            if args.output_min.is_some() || args.output_max.is_some() {
-                return Err(bad(
-                    "--output-min/--output-max: a feedforward-only controller (--feedback none) has no command limits; clamp in the loop",
-                ));
-            }
-            (Feedback::None, FeedbackKind::None)
-        }
-        (None, None) => (pid_from_flags(args)?, FeedbackKind::Pid),
-    };
-    if kind == FeedbackKind::None && inverse.is_none() && filter.is_none() {
-        return Err(bad(
-            "--feedback none: a feedforward-only controller needs --hysteresis, --zpetc or --closed-loop",
-        ));
-    }
-    let stages = Stages {
-        feedback: kind,
-        hysteresis_compensation: inverse.is_some(),
-        zpetc: filter.is_some(),
-    };
-    build_controller(
-        stages,
-        ts,
-        feedback,
-        inverse.as_ref(),
-        filter.as_ref(),
-        Provenance {
-            fts_version: env!("CARGO_PKG_VERSION").into(),
-            inputs,
-        },
-    )
-    .map_err(bad)
-}
-
-/// The PID block from its flags, each checked where it is named: the form
-/// stated, the gains finite, the limits finite and ordered. No flags at all
-/// is refused: emit adds no feedback controller the user did not ask for.
-fn pid_from_flags(args: &EmitArgs) -> anyhow::Result<Feedback> {
-    let given = args.kp.is_some() || args.ki.is_some() || args.kd.is_some();
-    let Some(form) = args.pid_form else {
-        return Err(bad(if given {
-            "--pid-form: say which form the PID gains are in: parallel (Kp, Ki in 1/s, Kd in s, as MATLAB's pid) or li21 (gains per sample)"
-        } else {
-            "no feedback controller given: PID gains (--pid-form parallel|li21 --kp .. --ki .. [--kd ..]), a state-space controller (--ss K.json), or --feedback none for a feedforward-only file"
-        }));
-    };
-    if !given {
-        return Err(bad("--kp: --pid-form given without any PID gain"));
-    }
-    let (kp, ki, kd) = (
-        args.kp.unwrap_or(0.0),
-        args.ki.unwrap_or(0.0),
-        args.kd.unwrap_or(0.0),
-    );
-    for (name, value) in [("--kp", kp), ("--ki", ki), ("--kd", kd)] {
-        if !value.is_finite() {
-            return Err(bad(format!("{name}: expected a finite gain, got {value}")));
-        }
-    }
-    let (lo, hi) = (
-        args.output_min.unwrap_or(0.0),
-        args.output_max.unwrap_or(10.0),
-    );
-    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return Err(bad(format!(
-            "--output-min/--output-max: expected finite limits with min < max, got {lo} and {hi}"
-        )));
-    }
-    match form {
-        PidForm::Li21 => {
-            if args.pid_n.is_some() {
-                return Err(bad(
-                    "--pid-n: the derivative filter goes with --pid-form parallel",
-                ));
-            }
-            Ok(Feedback::Pid(PidSpec {
-                kp,
-                ki,
-                kd,
-                output_min: lo,
-                output_max: hi,
-            }))
-        }
-        PidForm::Parallel => {
-            let pid = ParallelPid {
-                kp,
-                ki,
-                kd,
-                n: args.pid_n,
-                output_min: lo,
-                output_max: hi,
-            };
-            pid.validate().map_err(|(key, m)| {
-                bad(format!("--{}: {m}", if key == "n" { "pid-n" } else { key }))
-            })?;
-            Ok(Feedback::ParallelPid(pid))
-        }
-    }
+    Ok(report.file)
 }
 
 pub fn run(args: EmitArgs) -> anyhow::Result<()> {

@@ -1,10 +1,10 @@
 //! `fts excite triangle|sine|sweep|multisine|five-leaf ... -o u.csv`: excitation
 //! signals written as a `t,u` CSV (the time-series contract).
 
-use super::common::{bad, write_atomic};
-use crate::ident::excite::{self, ExciteError};
+use super::common::{bad, choice, name, write_atomic};
+use crate::ident::excite::{self, ExciteError, SweepSpacing};
 use crate::io::timeseries::{time_column, write_csv};
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Debug, Args)]
@@ -72,8 +72,8 @@ enum Signal {
         #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
         offset: f64,
         /// Frequency law.
-        #[arg(long, value_enum, default_value_t = Spacing::Linear)]
-        spacing: Spacing,
+        #[arg(long, value_parser = choice::<SweepSpacing>(), default_value = name(SweepSpacing::default()))]
+        spacing: SweepSpacing,
     },
     /// A Schroeder-phased multisine (Karagoz18), periodic.
     Multisine {
@@ -114,12 +114,6 @@ enum Signal {
         #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
         offset: f64,
     },
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum Spacing {
-    Linear,
-    Log,
 }
 
 fn to_bad(e: ExciteError) -> anyhow::Error {
@@ -170,10 +164,7 @@ pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
             amplitude,
             offset,
             ts,
-            spacing: match spacing {
-                Spacing::Linear => excite::SweepSpacing::Linear,
-                Spacing::Log => excite::SweepSpacing::Logarithmic,
-            },
+            spacing,
         }),
         Signal::Multisine {
             freqs,

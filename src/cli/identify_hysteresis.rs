@@ -7,7 +7,7 @@
 //! renders the report.
 
 use super::columns::IoColumnArgs;
-use super::common::{print_report, step_error, write_atomic};
+use super::common::{choice, name, print_report, step_error, write_atomic};
 use crate::ident::hysteresis::gd::GdState;
 use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_string};
 use crate::io::plot::{Series, stacked_charts_svg};
@@ -17,35 +17,9 @@ use crate::workflow::identify::{
 };
 use argmin::core::observers::Observe;
 use argmin::core::{Error as ArgminError, KV};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum ModelArg {
-    /// Classical Prandtl–Ishlinskii.
-    Pi,
-    /// PI plus a cube-root term (\[Li21\] Eq. 4).
-    MpiCbrt,
-    /// PI followed by one-sided dead-zone operators (\[Tang17\] Eq. 40-43).
-    MpiDeadzone,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum OperatorArg {
-    /// One-sided play, output in [u - r, u] (\[Li21\]).
-    PlayLower,
-    /// Symmetric play, output in [u - r, u + r] (\[Tang17\]).
-    PlaySymmetric,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum MethodArg {
-    /// Least squares by QR.
-    Ls,
-    /// L-BFGS gradient descent on the same cost.
-    Gd,
-}
 
 #[derive(Debug, Args)]
 pub struct HysteresisArgs {
@@ -55,11 +29,11 @@ pub struct HysteresisArgs {
     #[command(flatten)]
     columns: IoColumnArgs,
     /// Model structure.
-    #[arg(long, value_enum, default_value_t = ModelArg::MpiCbrt)]
-    model: ModelArg,
+    #[arg(long, value_parser = choice::<HysteresisModelKind>(), default_value = name(IdentifyHysteresis::default().model))]
+    model: HysteresisModelKind,
     /// Play operator form (default: play-lower for pi and mpi-cbrt, play-symmetric for mpi-deadzone).
-    #[arg(long, value_enum)]
-    operator: Option<OperatorArg>,
+    #[arg(long, value_parser = choice::<PlayOperatorChoice>())]
+    operator: Option<PlayOperatorChoice>,
     /// Number of play operators on the grid r_i = i/N max|u|.
     #[arg(long, value_name = "N", default_value_t = IdentifyHysteresis::default().operators, value_parser = parse_operators)]
     operators: usize,
@@ -75,8 +49,8 @@ pub struct HysteresisArgs {
     #[arg(long, value_name = "M", default_value_t = IdentifyHysteresis::default().dead_zone_operators, value_parser = parse_operators)]
     dead_zone_operators: usize,
     /// Solver.
-    #[arg(long, value_enum, default_value_t = MethodArg::Ls)]
-    method: MethodArg,
+    #[arg(long, value_parser = choice::<HysteresisMethod>(), default_value = name(IdentifyHysteresis::default().method))]
+    method: HysteresisMethod,
     /// Keep every partial sum of the weights positive (an invertible model); ls only.
     #[arg(long)]
     invertible: bool,
@@ -116,22 +90,12 @@ impl HysteresisArgs {
     /// The step these flags describe.
     pub fn step(&self) -> IdentifyHysteresis {
         IdentifyHysteresis {
-            model: match self.model {
-                ModelArg::Pi => HysteresisModelKind::Pi,
-                ModelArg::MpiCbrt => HysteresisModelKind::MpiCbrt,
-                ModelArg::MpiDeadzone => HysteresisModelKind::MpiDeadzone,
-            },
-            operator: self.operator.map(|o| match o {
-                OperatorArg::PlayLower => PlayOperatorChoice::PlayLower,
-                OperatorArg::PlaySymmetric => PlayOperatorChoice::PlaySymmetric,
-            }),
+            model: self.model,
+            operator: self.operator,
             operators: self.operators,
             thresholds: self.thresholds.clone(),
             dead_zone_operators: self.dead_zone_operators,
-            method: match self.method {
-                MethodArg::Ls => HysteresisMethod::Ls,
-                MethodArg::Gd => HysteresisMethod::Gd,
-            },
+            method: self.method,
             invertible: self.invertible,
             offset: !self.no_offset,
             inverse: self.inverse,

@@ -9,7 +9,7 @@
 //! result file is `-o/--out FILE`.
 
 use super::columns::ColumnArgs;
-use super::common::{bad, print_report, step_error, write_atomic};
+use super::common::{bad, choice, name, print_report, step_error, write_atomic};
 use crate::ident::data::Detrend;
 use crate::ident::freq::{FreqError, FreqResponse, WelchParams, welch};
 use crate::io::plot::{Series, stacked_charts_svg};
@@ -20,7 +20,7 @@ use crate::workflow::identify::{
     LinearReport, OeStartChoice, Prepared, RecordSettings, SelectionRuleChoice,
 };
 use crate::workflow::{StepError, Validate};
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Subcommand)]
@@ -35,26 +35,6 @@ pub enum IdentifyLinear {
     ArxStruct(StructArgs),
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum DetrendArg {
-    /// Keep the data as they are.
-    None,
-    /// Remove each signal's mean.
-    Mean,
-    /// Remove each signal's least-squares line.
-    Linear,
-}
-
-impl From<DetrendArg> for Detrend {
-    fn from(d: DetrendArg) -> Self {
-        match d {
-            DetrendArg::None => Detrend::None,
-            DetrendArg::Mean => Detrend::Mean,
-            DetrendArg::Linear => Detrend::Linear,
-        }
-    }
-}
-
 /// Data options shared by every linear identification command.
 #[derive(Debug, Args)]
 pub struct DataArgs {
@@ -67,8 +47,8 @@ pub struct DataArgs {
     #[arg(long, value_name = "SECONDS")]
     pub ts: Option<f64>,
     /// Remove a trend from each data set (estimation and validation separately, as MATLAB's example does).
-    #[arg(long, value_enum, default_value_t = DetrendArg::None)]
-    pub detrend: DetrendArg,
+    #[arg(long, value_parser = choice::<Detrend>(), default_value = name(Detrend::default()))]
+    pub detrend: Detrend,
     /// Validation record (same columns).
     #[arg(long, value_name = "OTHER.csv", conflicts_with = "split")]
     pub validate: Option<PathBuf>,
@@ -82,7 +62,7 @@ impl DataArgs {
     fn settings(&self) -> RecordSettings {
         RecordSettings {
             ts: self.ts,
-            detrend: self.detrend.into(),
+            detrend: self.detrend,
             split: self.split,
         }
     }
@@ -143,8 +123,8 @@ pub struct ArxArgs {
     #[arg(long)]
     pub auto: bool,
     /// Selection rule for --auto.
-    #[arg(long, value_enum, default_value_t = RuleArg::Auto, requires = "auto")]
-    pub rule: RuleArg,
+    #[arg(long, value_parser = choice::<SelectionRuleChoice>(), default_value = name(SelectionRuleChoice::default()), requires = "auto")]
+    pub rule: SelectionRuleChoice,
     /// Also fit an output-error model of the same orders and keep it when it simulates the estimation data better (as `fts demo` does).
     #[arg(long)]
     pub refine_oe: bool,
@@ -166,63 +146,16 @@ pub struct OeArgs {
     #[arg(long)]
     pub nk: usize,
     /// Start estimate of the iteration (manifest key `start_estimate`).
-    #[arg(long, visible_alias = "start", value_enum, default_value_t = StartArg::Best)]
-    pub start_estimate: StartArg,
+    #[arg(long, visible_alias = "start", value_parser = choice::<OeStartChoice>(), default_value = name(IdentifyOe::default().start_estimate))]
+    pub start_estimate: OeStartChoice,
     /// Initial conditions of the simulation: estimated with the model (MATLAB default) or zero.
-    #[arg(long, value_enum, default_value_t = InitialArg::Estimate)]
-    pub initial: InitialArg,
+    #[arg(long, value_parser = choice::<InitialChoice>(), default_value = name(IdentifyOe::default().initial))]
+    pub initial: InitialChoice,
     /// Maximum Levenberg-Marquardt iterations.
     #[arg(long, visible_alias = "max-iter", default_value_t = IdentifyOe::default().max_iterations)]
     pub max_iterations: usize,
     #[command(flatten)]
     pub out: OutArgs,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum RuleArg {
-    /// Validation loss when validation data exist, otherwise MDL.
-    Auto,
-    /// Minimum one-step prediction loss on the validation data (MATLAB arxstruc/selstruc).
-    Loss,
-    /// Maximum simulation fit on the validation data.
-    Fit,
-    /// Minimum AIC on the estimation data.
-    Aic,
-    /// Minimum FPE on the estimation data.
-    Fpe,
-    /// Minimum MDL on the estimation data.
-    Mdl,
-}
-
-impl From<RuleArg> for SelectionRuleChoice {
-    fn from(r: RuleArg) -> Self {
-        match r {
-            RuleArg::Auto => SelectionRuleChoice::Auto,
-            RuleArg::Loss => SelectionRuleChoice::Loss,
-            RuleArg::Fit => SelectionRuleChoice::Fit,
-            RuleArg::Aic => SelectionRuleChoice::Aic,
-            RuleArg::Fpe => SelectionRuleChoice::Fpe,
-            RuleArg::Mdl => SelectionRuleChoice::Mdl,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum InitialArg {
-    /// Estimate the initial state together with B and F.
-    Estimate,
-    /// Start the simulation from rest.
-    Zero,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum StartArg {
-    /// Whichever of IV and ARX simulates the data better.
-    Best,
-    /// Refined instrumental variables.
-    Iv,
-    /// Least-squares ARX.
-    Arx,
 }
 
 #[derive(Debug, Args)]
@@ -259,8 +192,8 @@ pub struct StructArgs {
     #[arg(long, default_value_t = ArxStruct::default().top)]
     pub top: usize,
     /// Which structure to recommend (and write with -o).
-    #[arg(long, value_enum, default_value_t = RuleArg::Auto)]
-    pub rule: RuleArg,
+    #[arg(long, value_parser = choice::<SelectionRuleChoice>(), default_value = name(SelectionRuleChoice::default()))]
+    pub rule: SelectionRuleChoice,
     /// Write the recommended model (`fts.tf/1`) here.
     #[arg(short = 'o', long = "out", value_name = "PLANT.json")]
     pub out: Option<PathBuf>,
@@ -281,7 +214,7 @@ impl ArxArgs {
             nb: self.nb,
             nk: self.nk,
             auto: self.auto,
-            rule: self.rule.into(),
+            rule: self.rule,
             refine_oe: self.refine_oe,
         }
     }
@@ -298,15 +231,8 @@ impl OeArgs {
             nb: Some(self.nb),
             nf: Some(self.nf),
             nk: Some(self.nk),
-            start_estimate: match self.start_estimate {
-                StartArg::Best => OeStartChoice::Best,
-                StartArg::Iv => OeStartChoice::Iv,
-                StartArg::Arx => OeStartChoice::Arx,
-            },
-            initial: match self.initial {
-                InitialArg::Estimate => InitialChoice::Estimate,
-                InitialArg::Zero => InitialChoice::Zero,
-            },
+            start_estimate: self.start_estimate,
+            initial: self.initial,
             max_iterations: self.max_iterations,
         }
     }
@@ -339,7 +265,7 @@ impl StructArgs {
             nb: self.nb.clone(),
             nk: self.nk.clone(),
             top: self.top,
-            rule: self.rule.into(),
+            rule: self.rule,
         }
     }
 }

@@ -44,6 +44,7 @@ mod response;
 mod robust;
 mod simulate;
 mod tf;
+mod virtual_record;
 mod zpetc;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -67,6 +68,9 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
     Excite(excite::ExciteArgs),
+    /// Record open-loop triangles or a closed-loop sweep on the embedded virtual FTS as a t,u,y CSV.
+    #[command(subcommand)]
+    Virtual(virtual_record::VirtualCommand),
     /// Identify a model from measured data.
     #[command(subcommand)]
     Identify(identify::IdentifyCommand),
@@ -273,6 +277,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Build(args) => build::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Excite(args) => excite::run(args),
+        Command::Virtual(cmd) => virtual_record::run(cmd),
         Command::Identify(cmd) => identify::run(cmd),
         Command::Hysteresis(cmd) => hysteresis::run(cmd),
         Command::Emit(args) => emit::run(args),

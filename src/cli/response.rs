@@ -3,29 +3,21 @@
 //! the time response of a system or of its closed loop with a controller,
 //! with rise time, settling time, overshoot and steady-state error.
 
-use super::common::{bad, print_report, read_input, step_error, write_atomic};
+use super::common::{bad, choice, print_report, read_input, step_error, write_atomic};
 use super::loop_analysis::{PidFlags, pid, read_loop_system};
 use crate::io::{plot, ss_json};
 use crate::lti::response::ResponseKind;
 use crate::lti::ss::StateSpace;
 use crate::workflow::Validate;
 use crate::workflow::response::{Response, ResponseInputs, ResponseReport};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::path::{Path, PathBuf};
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum Kind {
-    /// Unit step at t = 0, with rise/settling time, overshoot and steady-state error.
-    Step,
-    /// Unit impulse at t = 0 (a unit-area pulse 1/ts for discrete systems).
-    Impulse,
-}
 
 #[derive(Debug, Args)]
 pub struct ResponseArgs {
     /// Step or impulse.
-    #[arg(value_enum)]
-    kind: Kind,
+    #[arg(value_parser = choice::<ResponseKind>())]
+    kind: ResponseKind,
     /// The system (`fts.tf/1` or `fts.ss/1`, continuous or discrete; MIMO without a controller).
     #[arg(value_name = "SYS.json")]
     system: PathBuf,
@@ -73,10 +65,7 @@ fn controller(args: &ResponseArgs, ts: Option<f64>) -> anyhow::Result<Option<Sta
 /// `fts response`.
 pub fn run(args: ResponseArgs) -> anyhow::Result<()> {
     let step = Response {
-        kind: match args.kind {
-            Kind::Step => ResponseKind::Step,
-            Kind::Impulse => ResponseKind::Impulse,
-        },
+        kind: args.kind,
         duration: args.duration,
         points: args.points,
     };

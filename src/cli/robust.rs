@@ -9,16 +9,17 @@
 //! * `fts budget SYS.json [--controller K.json] [--output-index I] [--fmax HZ] [--csv OUT.csv] [--json]`
 
 use super::common::{
-    bad, complex_pairs, print_json, print_report, read_input, step_error, write_atomic,
+    bad, choice, complex_pairs, name, print_json, print_report, read_input, step_error,
+    write_atomic,
 };
 use crate::io::ss_json;
 use crate::lti::norms::{NormError, h2_norm, hinf_norm};
 use crate::lti::ss::StateSpace;
 use crate::workflow::robust::poles_summary;
 use crate::workflow::{
-    C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Validate, Weight, WeightShape,
+    C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Named, Validate, Weight, WeightShape,
 };
-use clap::{Args, ValueEnum};
+use clap::Args;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -114,31 +115,11 @@ pub fn run_h2(args: SynthArgs) -> anyhow::Result<()> {
     print_report(&report, args.json)
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum WeightKind {
-    /// W_s = (s/M + w0)/(s + w0 A) (Karagoz18 Eq. 7).
-    Ws,
-    /// W_t = (s + w0/M)/(A s + w0) (Karagoz18 Eq. 8).
-    Wt,
-    /// makeweight(dcgain, [freq, mag], hfgain), first order.
-    Makeweight,
-}
-
-impl From<WeightKind> for WeightShape {
-    fn from(k: WeightKind) -> Self {
-        match k {
-            WeightKind::Ws => WeightShape::Ws,
-            WeightKind::Wt => WeightShape::Wt,
-            WeightKind::Makeweight => WeightShape::Makeweight,
-        }
-    }
-}
-
 #[derive(Debug, Args)]
 pub struct WeightArgs {
     /// Which weight (`shape` in a manifest, where `kind` names the step's kind).
-    #[arg(long, value_enum, visible_alias = "shape")]
-    kind: WeightKind,
+    #[arg(long, value_parser = choice::<WeightShape>(), visible_alias = "shape")]
+    kind: WeightShape,
     /// Peak sensitivity / gain M (ws, wt).
     #[arg(long)]
     m: Option<f64>,
@@ -177,7 +158,7 @@ pub struct WeightArgs {
 /// `fts weight`.
 pub fn run_weight(args: WeightArgs) -> anyhow::Result<()> {
     let step = Weight {
-        shape: Some(args.kind.into()),
+        shape: Some(args.kind),
         m: args.m,
         w0: args.w0,
         w0_rad: args.w0_rad,
@@ -243,35 +224,6 @@ fn parse_order(text: &str) -> Result<usize, String> {
     }
 }
 
-/// A mixed-sensitivity weight must be continuous, stable and square with
-/// the plant's channel count (`ny` for Ws and Wt, `nu` for Wu); refused
-/// here, naming its file and option, before the plant is blamed.
-fn check_weight(path: &Path, option: &str, w: &StateSpace, size: usize) -> anyhow::Result<()> {
-    let file = path.display();
-    if w.is_discrete() {
-        return Err(bad(format!(
-            "{file}: the {option} weight is discrete; mixsyn weights are continuous (\"ts\": null)"
-        )));
-    }
-    if w.ny() != size || w.nu() != size {
-        return Err(bad(format!(
-            "{file}: the {option} weight is {}x{} (outputs x inputs); the plant needs {size}x{size}",
-            w.ny(),
-            w.nu()
-        )));
-    }
-    let poles = w
-        .poles()
-        .map_err(|e| bad(format!("{file}: the {option} weight's poles: {e}")))?;
-    if let Some(p) = poles.iter().find(|p| p.re >= 0.0) {
-        return Err(bad(format!(
-            "{file}: the {option} weight is unstable (pole at s = {}{:+}j); mixsyn weights must be stable",
-            p.re, p.im
-        )));
-    }
-    Ok(())
-}
-
 /// `fts mixsyn`.
 pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     let step = Mixsyn {
@@ -282,23 +234,19 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     };
     step.validate().map_err(step_error)?;
     let g = read_system(&args.plant)?;
-    let ws = read_system(&args.ws)?;
-    let wu = args.wu.as_deref().map(read_system).transpose()?;
-    let wt = args.wt.as_deref().map(read_system).transpose()?;
-    check_weight(&args.ws, "--ws", &ws, g.ny())?;
-    if let (Some(path), Some(w)) = (&args.wu, &wu) {
-        check_weight(path, "--wu", w, g.nu())?;
-    }
-    if let (Some(path), Some(w)) = (&args.wt, &wt) {
-        check_weight(path, "--wt", w, g.ny())?;
-    }
+    let named = |path: &Path| -> anyhow::Result<(StateSpace, String)> {
+        Ok((read_system(path)?, path.display().to_string()))
+    };
+    let ws = named(&args.ws)?;
+    let wu = args.wu.as_deref().map(named).transpose()?;
+    let wt = args.wt.as_deref().map(named).transpose()?;
     let source = args.plant.display().to_string();
     let report = step
         .run(MixsynInputs {
             plant: &g,
-            ws: &ws,
-            wu: wu.as_ref(),
-            wt: wt.as_ref(),
+            ws: Named::from(&ws),
+            wu: wu.as_ref().map(Named::from),
+            wt: wt.as_ref().map(Named::from),
             source: &source,
         })
         .map_err(step_error)?;
@@ -316,14 +264,6 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     print_report(&report, args.json)
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum Method {
-    /// Zero-order hold (Van Loan block exponential).
-    Zoh,
-    /// Tustin / bilinear.
-    Tustin,
-}
-
 #[derive(Debug, Args)]
 pub struct C2dArgs {
     /// The continuous system (`fts.ss/1` or continuous `fts.tf/1`).
@@ -333,8 +273,8 @@ pub struct C2dArgs {
     #[arg(long)]
     ts: f64,
     /// Discretisation method.
-    #[arg(long, value_enum, default_value = "zoh")]
-    method: Method,
+    #[arg(long, value_parser = choice::<C2dMethodChoice>(), default_value = name(C2d::default().method))]
+    method: C2dMethodChoice,
     /// Tustin prewarp frequency in Hz.
     #[arg(long, value_name = "HZ")]
     prewarp: Option<f64>,
@@ -350,10 +290,7 @@ pub struct C2dArgs {
 pub fn run_c2d(args: C2dArgs) -> anyhow::Result<()> {
     let step = C2d {
         ts: Some(args.ts),
-        method: match args.method {
-            Method::Zoh => C2dMethodChoice::Zoh,
-            Method::Tustin => C2dMethodChoice::Tustin,
-        },
+        method: args.method,
         prewarp: args.prewarp,
     };
     step.validate().map_err(step_error)?;

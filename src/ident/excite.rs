@@ -209,12 +209,20 @@ pub fn sine(p: &SineParams) -> Result<Vec<f64>, ExciteError> {
 }
 
 /// How the instantaneous frequency of a sweep moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum SweepSpacing {
     /// `f(t) = f0 + (f1 - f0) t / T`.
+    #[default]
     Linear,
     /// `f(t) = f0 (f1/f0)^(t/T)`; needs `f0 > 0`.
+    #[serde(rename = "log")]
     Logarithmic,
+}
+
+impl crate::workflow::Choices for SweepSpacing {
+    // Listed without help, as the names say it.
+    const CHOICES: &'static [(&'static str, &'static str)] = &[("linear", ""), ("log", "")];
 }
 
 /// A sine sweep (chirp) from `f0` to `f1` Hz over `duration` s (\[Li21\]: 0-1000 Hz).

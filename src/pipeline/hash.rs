@@ -65,12 +65,12 @@ impl Lock {
         let v: Value = serde_json::from_str(text).map_err(|e| {
             InputError::new(
                 source,
-                format!("not JSON: {e} (delete it or build with --force)"),
+                format!("not JSON: {e} (delete it or build with `force`)"),
             )
             .at_line(e.line())
         })?;
         let bad = |field: &str, m: &str| {
-            InputError::new(source, format!("{m} (delete it or build with --force)"))
+            InputError::new(source, format!("{m} (delete it or build with `force`)"))
                 .in_field(field)
         };
         match v.get("format").and_then(Value::as_str) {

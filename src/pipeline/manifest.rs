@@ -7,12 +7,9 @@ use crate::io::InputError;
 use crate::io::timeseries::{
     ColumnRef, DEFAULT_TIME_JITTER, Delimiter, HeaderMode, IoColumns, Layout, TimeUnit,
 };
-use crate::runtime::PidSpec;
-use crate::sim::experiment::ExperimentParams;
-
 use crate::workflow::{
-    C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyOe, Mixsyn, SsController,
-    StepError, Validate, Weight,
+    BuildController, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyOe,
+    Mixsyn, StepError, Validate, VirtualSweep, VirtualTriangles, Weight,
 };
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
@@ -61,23 +58,14 @@ pub struct LinearSpec<T> {
     pub step: T,
 }
 
-/// `kind = "controller"`: the `fts.controller/1` file and/or its C header.
-#[derive(Debug, Clone)]
-pub struct ControllerSpec {
-    /// Feedback PID.
-    pub pid: PidSpec,
-    /// Sample time when no ZPETC is given.
-    pub ts: Option<f64>,
-}
-
 /// What a step does.
 #[derive(Debug, Clone)]
 pub enum Action {
     /// Open-loop triangles on the embedded virtual FTS (`t,u,y` CSV, aligned
     /// for the plant's delay).
-    VirtualTriangles(Box<ExperimentParams>),
+    VirtualTriangles(VirtualTriangles),
     /// Closed-loop sweep (PID, + HC with `hysteresis`) on the virtual FTS.
-    VirtualSweep(Box<ExperimentParams>),
+    VirtualSweep(VirtualSweep),
     /// Hysteresis identification.
     Hysteresis(Box<HysteresisSpec>),
     /// ARX identification.
@@ -86,11 +74,8 @@ pub enum Action {
     Oe(Box<LinearSpec<IdentifyOe>>),
     /// ZPETC design.
     Zpetc(DesignZpetc),
-    /// Coefficient file.
-    Controller(ControllerSpec),
-    /// Coefficient file with a state-space feedback controller (a
-    /// `controller` step with an `ss` input).
-    SsController(SsController),
+    /// Coefficient file: PID, state-space (an `ss` input) or no feedback.
+    Controller(BuildController),
     /// A performance weight.
     Weight(Weight),
     /// Mixed-sensitivity H-infinity design.
@@ -201,12 +186,55 @@ struct Fields<'a> {
     source: &'a str,
     text: &'a str,
     step: &'a str,
+    /// The table's line.
+    line: usize,
     map: BTreeMap<String, Spanned<Value>>,
+    /// Manifest line of each field.
+    lines: BTreeMap<String, usize>,
     inputs: Vec<FileRef>,
     outputs: Vec<FileRef>,
 }
 
 impl<'a> Fields<'a> {
+    fn new(
+        source: &'a str,
+        text: &'a str,
+        step: &'a str,
+        table: Spanned<BTreeMap<String, Spanned<Value>>>,
+    ) -> Self {
+        let line = line_of(text, table.span().start);
+        let map = table.into_inner();
+        let lines = map
+            .iter()
+            .map(|(k, v)| (k.clone(), line_of(text, v.span().start)))
+            .collect();
+        Fields {
+            source,
+            text,
+            step,
+            line,
+            map,
+            lines,
+            inputs: Vec::new(),
+            outputs: Vec::new(),
+        }
+    }
+
+    /// Manifest line of `key`, or the table's when the key is absent.
+    fn line_of_field(&self, key: &str) -> usize {
+        self.lines.get(key).copied().unwrap_or(self.line)
+    }
+
+    /// A library step's settings error, naming its field and line.
+    fn step_error(&self, e: StepError) -> InputError {
+        match e {
+            StepError::Input {
+                field: Some(k),
+                message,
+            } => self.err(k, self.line_of_field(k), keys(&message)),
+            other => self.step_err(self.line, keys(&other.to_string())),
+        }
+    }
     fn err(&self, key: &str, line: usize, message: impl Into<String>) -> InputError {
         InputError::new(self.source, message)
             .at_line(line)
@@ -243,16 +271,6 @@ impl<'a> Fields<'a> {
 
     fn f64(&mut self, key: &str, default: f64) -> Result<f64, InputError> {
         Ok(self.f64_opt(key)?.unwrap_or(default))
-    }
-
-    fn positive(&mut self, key: &str, default: f64) -> Result<f64, InputError> {
-        let line = self.line(key);
-        let x = self.f64(key, default)?;
-        if x > 0.0 {
-            Ok(x)
-        } else {
-            Err(self.err(key, line, format!("expected a positive number, got {x}")))
-        }
     }
 
     fn line(&self, key: &str) -> usize {
@@ -331,33 +349,6 @@ impl<'a> Fields<'a> {
             })
     }
 
-    fn f64_list(&mut self, key: &str) -> Result<Option<Vec<f64>>, InputError> {
-        let Some((v, line)) = self.take(key) else {
-            return Ok(None);
-        };
-        let Value::Array(items) = v else {
-            return Err(self.err(
-                key,
-                line,
-                format!("expected a list of numbers, found {}", v.type_str()),
-            ));
-        };
-        items
-            .iter()
-            .enumerate()
-            .map(|(i, item)| match item {
-                Value::Float(x) if x.is_finite() => Ok(*x),
-                Value::Integer(n) => Ok(*n as f64),
-                other => Err(self.err(
-                    key,
-                    line,
-                    format!("item {i}: expected a finite number, found {}", shown(other)),
-                )),
-            })
-            .collect::<Result<Vec<_>, _>>()
-            .map(Some)
-    }
-
     fn column(&mut self, key: &str) -> Result<Option<ColumnRef>, InputError> {
         match self.take(key) {
             None => Ok(None),
@@ -384,10 +375,7 @@ impl<'a> Fields<'a> {
                 return Err(self.err(
                     old,
                     line,
-                    format!(
-                        "renamed: the column is chosen with '{new}' (as --{} on the command line)",
-                        new.replace('_', "-")
-                    ),
+                    format!("renamed: the column is chosen with '{new}'"),
                 ));
             }
         }
@@ -481,17 +469,20 @@ impl<'a> Fields<'a> {
     /// The remaining fields, deserialised into a library step and validated.
     /// An error names the field at fault: the one that fails on its own, or
     /// the one a validation error is about.
-    fn typed<T: DeserializeOwned + Validate>(&mut self, step_line: usize) -> Result<T, InputError> {
-        let entries = std::mem::take(&mut self.map);
-        let lines: BTreeMap<String, usize> = entries
-            .iter()
-            .map(|(k, v)| (k.clone(), line_of(self.text, v.span().start)))
-            .collect();
-        let table: toml::Table = entries
+    fn typed<T: DeserializeOwned + Validate>(&mut self) -> Result<T, InputError> {
+        self.typed_checked(|_: &T| Ok(()))
+    }
+
+    /// [`Self::typed`] with a `check` of the settings against the step's
+    /// inputs first (its error is the more telling one).
+    fn typed_checked<T: DeserializeOwned + Validate>(
+        &mut self,
+        check: impl Fn(&T) -> Result<(), StepError>,
+    ) -> Result<T, InputError> {
+        let table: toml::Table = std::mem::take(&mut self.map)
             .into_iter()
             .map(|(k, v)| (k, v.into_inner()))
             .collect();
-        let line_of_field = |k: &str| lines.get(k).copied().unwrap_or(step_line);
         let settings: T = Value::Table(table.clone()).try_into().map_err(|e| {
             let alone_fails = |(k, v): &(&String, &Value)| {
                 let one = toml::Table::from_iter([((*k).clone(), (*v).clone())]);
@@ -499,17 +490,13 @@ impl<'a> Fields<'a> {
             };
             let message = e.to_string().trim().to_string();
             match table.iter().find(alone_fails) {
-                Some((k, _)) => self.err(k, line_of_field(k), message),
-                None => self.step_err(step_line, message),
+                Some((k, _)) => self.err(k, self.line_of_field(k), message),
+                None => self.step_err(self.line, message),
             }
         })?;
-        settings.validate().map_err(|e| match e {
-            StepError::Input {
-                field: Some(k),
-                message,
-            } => self.err(k, line_of_field(k), keys(&message)),
-            other => self.step_err(step_line, keys(&other.to_string())),
-        })?;
+        check(&settings)
+            .and_then(|()| settings.validate())
+            .map_err(|e| self.step_error(e))?;
         Ok(settings)
     }
 
@@ -565,48 +552,8 @@ fn normalise(s: &str) -> Option<String> {
     Some(parts.join("/"))
 }
 
-fn pid(f: &mut Fields<'_>) -> Result<PidSpec, InputError> {
-    let d = ExperimentParams::default().pid;
-    let line = f.line("output_max").max(f.line("output_min"));
-    let pid = PidSpec {
-        kp: f.f64("kp", d.kp)?,
-        ki: f.f64("ki", d.ki)?,
-        kd: f.f64("kd", d.kd)?,
-        output_min: f.f64("output_min", d.output_min)?,
-        output_max: f.f64("output_max", d.output_max)?,
-    };
-    if pid.output_min >= pid.output_max {
-        return Err(f.err(
-            "output_max",
-            line,
-            format!(
-                "output_max ({}) must exceed output_min ({})",
-                pid.output_max, pid.output_min
-            ),
-        ));
-    }
-    Ok(pid)
-}
-
-/// A controller step writes `out`, `header` or both.
-fn controller_outputs(f: &mut Fields<'_>, line: usize) -> Result<(), InputError> {
-    f.output("out", false, line)?;
-    f.output("header", false, line)?;
-    if f.outputs.is_empty() {
-        return Err(f.err(
-            "out",
-            line,
-            "missing: a controller step writes `out` (fts.controller/1 JSON), `header` (C header) or both",
-        ));
-    }
-    Ok(())
-}
-
-fn experiment(f: &mut Fields<'_>) -> Result<ExperimentParams, InputError> {
-    let mut p = ExperimentParams::default();
-    p.seed = f.u64_opt("seed")?.unwrap_or(p.seed);
-    Ok(p)
-}
+/// The step kinds, as listed in errors.
+const KINDS: &str = "\"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\"";
 
 /// The step table's canonical settings hash: the table as JSON (sorted
 /// keys), the step name and the fts version.
@@ -629,125 +576,31 @@ fn step(
     name: &str,
     table: Spanned<BTreeMap<String, Spanned<Value>>>,
 ) -> Result<Step, InputError> {
-    let line = line_of(text, table.span().start);
-    let table = table.into_inner();
-    let settings_sha256 = settings_hash(name, &table);
-    let field_lines = table
-        .iter()
-        .map(|(k, v)| (k.clone(), line_of(text, v.span().start)))
-        .collect();
-    let mut f = Fields {
-        source,
-        text,
-        step: name,
-        map: table,
-        inputs: Vec::new(),
-        outputs: Vec::new(),
-    };
-    let (kind, kind_line) = f.string_opt("kind")?.ok_or_else(|| {
-        f.err(
-            "kind",
-            line,
-            "missing: one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\"",
-        )
-    })?;
+    let settings_sha256 = settings_hash(name, table.get_ref());
+    let mut f = Fields::new(source, text, name, table);
+    let (line, field_lines) = (f.line, f.lines.clone());
+    let (kind, kind_line) = f
+        .string_opt("kind")?
+        .ok_or_else(|| f.err("kind", line, format!("missing: one of {KINDS}")))?;
     let action = match kind.as_str() {
-        "virtual-triangles" => {
-            let mut p = experiment(&mut f)?;
-            if let Some(a) = f.f64_list("amplitudes")? {
-                p.triangle_amplitudes_v = a;
-            }
-            p.triangle_freq_hz = f.positive("freq", p.triangle_freq_hz)?;
-            f.output("out", true, line)?;
-            Action::VirtualTriangles(Box::new(p))
-        }
-        "virtual-sweep" => {
-            let mut p = experiment(&mut f)?;
-            p.pid = pid(&mut f)?;
-            p.sweep_amplitude = f.positive("amplitude", p.sweep_amplitude)?;
-            p.offset = f.f64("offset", p.offset)?;
-            p.sweep_duration = f.positive("duration", p.sweep_duration)?;
-            p.sweep_f1 = f.positive("f1", p.sweep_f1)?;
-            f.input("hysteresis", false, line)?;
-            f.output("out", true, line)?;
-            Action::VirtualSweep(Box::new(p))
-        }
-        "hysteresis" => {
-            let columns = f.columns()?;
-            f.input("data", true, line)?;
-            f.output("out", true, line)?;
-            let step = f.typed(line)?;
-            Action::Hysteresis(Box::new(HysteresisSpec { columns, step }))
-        }
-        "arx" | "oe" => {
-            let columns = f.columns()?;
-            f.input("data", true, line)?;
-            f.input("validate", false, line)?;
-            f.output("out", true, line)?;
-            if kind == "oe" {
-                let step = f.typed(line)?;
-                Action::Oe(Box::new(LinearSpec { columns, step }))
-            } else {
-                let step = f.typed(line)?;
-                Action::Arx(Box::new(LinearSpec { columns, step }))
-            }
-        }
-        "zpetc" => {
-            f.input("tf", true, line)?;
-            f.output("out", true, line)?;
-            Action::Zpetc(f.typed(line)?)
-        }
-        "controller" if f.map.contains_key("ss") => {
-            f.input("hysteresis", false, line)?;
-            f.input("zpetc", false, line)?;
-            f.input("ss", true, line)?;
-            controller_outputs(&mut f, line)?;
-            Action::SsController(f.typed(line)?)
-        }
-        "weight" => {
-            f.output("out", true, line)?;
-            Action::Weight(f.typed(line)?)
-        }
-        "mixsyn" => {
-            for (key, required) in [("plant", true), ("ws", true), ("wu", false), ("wt", false)] {
-                f.input(key, required, line)?;
-            }
-            f.output("out", true, line)?;
-            f.output("augmented", false, line)?;
-            Action::Mixsyn(f.typed(line)?)
-        }
-        "hinf" | "h2" => {
-            f.input("generalized", true, line)?;
-            f.output("out", true, line)?;
-            if kind == "hinf" {
-                Action::Hinf(f.typed(line)?)
-            } else {
-                Action::H2(f.typed(line)?)
-            }
-        }
-        "c2d" => {
-            f.input("system", true, line)?;
-            f.output("out", true, line)?;
-            Action::C2d(f.typed(line)?)
-        }
-        "controller" => {
-            let pid = pid(&mut f)?;
-            let ts = f.f64_opt("ts")?;
-            f.input("hysteresis", false, line)?;
-            f.input("zpetc", false, line)?;
-            controller_outputs(&mut f, line)?;
-            Action::Controller(ControllerSpec { pid, ts })
-        }
-        other => {
-            return Err(f.err(
-                "kind",
-                kind_line,
-                format!(
-                    "unknown kind {other:?}; expected one of \"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\""
-                ),
-            ));
-        }
-    };
+        "virtual-triangles" => virtual_triangles(&mut f),
+        "virtual-sweep" => virtual_sweep(&mut f),
+        "hysteresis" => hysteresis(&mut f),
+        "arx" => linear(&mut f).map(Action::Arx),
+        "oe" => linear(&mut f).map(Action::Oe),
+        "zpetc" => zpetc(&mut f),
+        "controller" => controller(&mut f),
+        "weight" => weight(&mut f),
+        "mixsyn" => mixsyn(&mut f),
+        "hinf" => synthesis(&mut f).map(Action::Hinf),
+        "h2" => synthesis(&mut f).map(Action::H2),
+        "c2d" => c2d(&mut f),
+        other => Err(f.err(
+            "kind",
+            kind_line,
+            format!("unknown kind {other:?}; expected one of {KINDS}"),
+        )),
+    }?;
     let (inputs, outputs) = f.finish()?;
     Ok(Step {
         name: name.to_string(),
@@ -761,6 +614,118 @@ fn step(
     })
 }
 
+/// Declares a step's files: inputs and outputs, each `(field, required)`.
+fn files(
+    f: &mut Fields<'_>,
+    inputs: &[(&str, bool)],
+    outputs: &[(&str, bool)],
+) -> Result<(), InputError> {
+    let line = f.line;
+    for &(key, required) in inputs {
+        f.input(key, required, line)?;
+    }
+    for &(key, required) in outputs {
+        f.output(key, required, line)?;
+    }
+    Ok(())
+}
+
+fn virtual_triangles(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    files(f, &[], &[("out", true)])?;
+    Ok(Action::VirtualTriangles(f.typed()?))
+}
+
+fn virtual_sweep(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    files(f, &[("hysteresis", false)], &[("out", true)])?;
+    Ok(Action::VirtualSweep(f.typed()?))
+}
+
+fn hysteresis(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    let columns = f.columns()?;
+    files(f, &[("data", true)], &[("out", true)])?;
+    let step = f.typed()?;
+    Ok(Action::Hysteresis(Box::new(HysteresisSpec {
+        columns,
+        step,
+    })))
+}
+
+fn linear<T: DeserializeOwned + Validate>(
+    f: &mut Fields<'_>,
+) -> Result<Box<LinearSpec<T>>, InputError> {
+    let columns = f.columns()?;
+    files(f, &[("data", true), ("validate", false)], &[("out", true)])?;
+    let step = f.typed()?;
+    Ok(Box::new(LinearSpec { columns, step }))
+}
+
+fn zpetc(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    files(f, &[("tf", true)], &[("out", true)])?;
+    Ok(Action::Zpetc(f.typed()?))
+}
+
+/// `kind = "controller"`: what `fts emit` does, its input options as input
+/// fields; it writes `out`, `header` or both.
+fn controller(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    let inputs = ["hysteresis", "zpetc", "closed_loop", "ss"].map(|k| (k, false));
+    files(f, &inputs, &[("out", false), ("header", false)])?;
+    if f.outputs.is_empty() {
+        return Err(f.err(
+            "out",
+            f.line,
+            "missing: a controller step writes `out` (fts.controller/1 JSON), `header` (C header) or both",
+        ));
+    }
+    let given = |field: &str| f.inputs.iter().find(|i| i.field == field);
+    if let (Some(_), Some(cl)) = (given("zpetc"), given("closed_loop")) {
+        return Err(f.err(
+            "closed_loop",
+            cl.line,
+            "give one ZPETC: 'zpetc' (a filter) or 'closed_loop' (a model to build it from), not both",
+        ));
+    }
+    let has_ss = f.inputs.iter().any(|i| i.field == "ss");
+    legacy_pid_form(f, has_ss);
+    let step = f.typed_checked(|s: &BuildController| s.feedback_kind(has_ss).map(|_| ()))?;
+    Ok(Action::Controller(step))
+}
+
+/// Manifests written before `pid_form` existed gave \[Li21\] per-sample
+/// gains without saying so: PID gains without a form (and without `ss` or
+/// `feedback`) read as `pid_form = "li21"`. The settings hash is of the
+/// table as written, so their lock entries stay valid.
+fn legacy_pid_form(f: &mut Fields<'_>, has_ss: bool) {
+    let given = |k: &str| f.map.contains_key(k);
+    let gains = ["kp", "ki", "kd"].iter().any(|k| given(k));
+    if gains && !has_ss && !given("pid_form") && !given("feedback") {
+        let li21 = Spanned::new(0..0, Value::String("li21".into()));
+        f.map.insert("pid_form".into(), li21);
+        f.lines.insert("pid_form".into(), f.line);
+    }
+}
+
+fn weight(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    files(f, &[], &[("out", true)])?;
+    Ok(Action::Weight(f.typed()?))
+}
+
+fn mixsyn(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    let inputs = [("plant", true), ("ws", true), ("wu", false), ("wt", false)];
+    files(f, &inputs, &[("out", true), ("augmented", false)])?;
+    Ok(Action::Mixsyn(f.typed()?))
+}
+
+/// `hinf` and `h2`: a controller for a generalised plant.
+fn synthesis<T: DeserializeOwned + Validate>(f: &mut Fields<'_>) -> Result<T, InputError> {
+    files(f, &[("generalized", true)], &[("out", true)])?;
+    f.typed()
+}
+
+fn c2d(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    files(f, &[("system", true)], &[("out", true)])?;
+    Ok(Action::C2d(f.typed()?))
+}
+
 /// Parses and validates a manifest. `source` names it in errors; `base` is
 /// the folder its paths are relative to (used to check that inputs no step
 /// produces exist).
@@ -770,27 +735,7 @@ pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let raw: RawManifest = toml::from_str(text).map_err(|e| {
-        let err = InputError::new(&source, e.message().trim().to_string());
-        match e.span() {
-            Some(span) => err.at_line(line_of(text, span.start)),
-            None => err,
-        }
-    })?;
-    if raw.step.is_empty() {
-        return Err(InputError::new(
-            &source,
-            "no steps: a manifest declares at least one [step.NAME] table",
-        ));
-    }
-    let mut steps = raw
-        .step
-        .into_iter()
-        .map(|(name, table)| step(&source, text, &name, table))
-        .collect::<Result<Vec<_>, _>>()?;
-    // Declaration order, so independent steps run in the order written.
-    steps.sort_by_key(|s| s.line);
-
+    let steps = read_steps(text, &source)?;
     let lock_name = format!(
         "{}.lock",
         manifest
@@ -801,91 +746,9 @@ pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-
-    // Who writes what.
-    let mut producer: BTreeMap<&str, usize> = BTreeMap::new();
-    for (i, s) in steps.iter().enumerate() {
-        for o in &s.outputs {
-            let err = |m: String| {
-                InputError::new(&source, m)
-                    .at_line(o.line)
-                    .in_field(format!("step.{}.{}", s.name, o.field))
-            };
-            if o.path == lock_name || o.path == manifest_name {
-                return Err(err(format!(
-                    "{:?} is the manifest or its lock file, not an output",
-                    o.path
-                )));
-            }
-            if let Some(&j) = producer.get(o.path.as_str()) {
-                return Err(err(format!(
-                    "{:?} is already written by step {:?} (line {})",
-                    o.path, steps[j].name, steps[j].line
-                )));
-            }
-            producer.insert(&o.path, i);
-        }
-    }
-    // Edges and missing inputs.
-    let n = steps.len();
-    let mut deps: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
-    for (i, s) in steps.iter().enumerate() {
-        for inp in &s.inputs {
-            match producer.get(inp.path.as_str()) {
-                Some(&j) => {
-                    deps[i].insert(j);
-                }
-                None if !base.join(&inp.path).is_file() => {
-                    return Err(InputError::new(
-                        &source,
-                        format!(
-                            "input {:?} does not exist (relative to {}) and no step writes it",
-                            inp.path,
-                            base.display()
-                        ),
-                    )
-                    .at_line(inp.line)
-                    .in_field(format!("step.{}.{}", s.name, inp.field)));
-                }
-                None => {}
-            }
-        }
-    }
-    // Kahn's algorithm; ties in declaration order.
-    let mut done = vec![false; n];
-    let mut order = Vec::with_capacity(n);
-    while order.len() < n {
-        let Some(i) = (0..n).find(|&i| !done[i] && deps[i].iter().all(|&j| done[j])) else {
-            // A cycle: follow unfinished dependencies until a step repeats.
-            let mut path = vec![(0..n).find(|&i| !done[i]).expect("unfinished step")];
-            loop {
-                let last = *path.last().expect("non-empty");
-                let next = *deps[last]
-                    .iter()
-                    .find(|&&j| !done[j])
-                    .expect("an unfinished step has an unfinished dependency");
-                if let Some(pos) = path.iter().position(|&p| p == next) {
-                    let cycle: Vec<usize> = path[pos..].to_vec();
-                    let first = cycle[0];
-                    let mut names: Vec<&str> =
-                        cycle.iter().map(|&k| steps[k].name.as_str()).collect();
-                    names.push(&steps[first].name);
-                    return Err(InputError::new(
-                        &source,
-                        format!(
-                            "the steps form a cycle: {} (each step reads a file the next one writes)",
-                            names.join(" -> ")
-                        ),
-                    )
-                    .at_line(steps[first].line)
-                    .in_field(format!("step.{}", steps[first].name)));
-                }
-                path.push(next);
-            }
-        };
-        done[i] = true;
-        order.push(i);
-    }
+    let producer = producers(&steps, &source, [lock_name.as_str(), &manifest_name])?;
+    let deps = dependencies(&steps, &producer, &base, &source)?;
+    let order = build_order(&steps, &deps, &source)?;
     let mut slots: Vec<Option<Step>> = steps.into_iter().map(Some).collect();
     let steps = order
         .into_iter()
@@ -901,6 +764,156 @@ pub fn parse_manifest(text: &str, manifest: &Path) -> Result<Plan, InputError> {
         base,
         steps,
     })
+}
+
+/// The manifest's steps in declaration order, so independent steps run in
+/// the order written.
+fn read_steps(text: &str, source: &str) -> Result<Vec<Step>, InputError> {
+    let raw: RawManifest = toml::from_str(text).map_err(|e| {
+        let err = InputError::new(source, e.message().trim().to_string());
+        match e.span() {
+            Some(span) => err.at_line(line_of(text, span.start)),
+            None => err,
+        }
+    })?;
+    if raw.step.is_empty() {
+        return Err(InputError::new(
+            source,
+            "no steps: a manifest declares at least one [step.NAME] table",
+        ));
+    }
+    let mut steps = raw
+        .step
+        .into_iter()
+        .map(|(name, table)| step(source, text, &name, table))
+        .collect::<Result<Vec<_>, _>>()?;
+    steps.sort_by_key(|s| s.line);
+    Ok(steps)
+}
+
+/// Who writes what: the step writing each output path. Two steps writing
+/// one file, or a step writing the manifest or its lock (`reserved`), are
+/// errors.
+fn producers<'a>(
+    steps: &'a [Step],
+    source: &str,
+    reserved: [&str; 2],
+) -> Result<BTreeMap<&'a str, usize>, InputError> {
+    let mut producer: BTreeMap<&str, usize> = BTreeMap::new();
+    for (i, s) in steps.iter().enumerate() {
+        for o in &s.outputs {
+            let err = |m: String| {
+                InputError::new(source, m)
+                    .at_line(o.line)
+                    .in_field(format!("step.{}.{}", s.name, o.field))
+            };
+            if reserved.contains(&o.path.as_str()) {
+                return Err(err(format!(
+                    "{:?} is the manifest or its lock file, not an output",
+                    o.path
+                )));
+            }
+            if let Some(&j) = producer.get(o.path.as_str()) {
+                return Err(err(format!(
+                    "{:?} is already written by step {:?} (line {})",
+                    o.path, steps[j].name, steps[j].line
+                )));
+            }
+            producer.insert(&o.path, i);
+        }
+    }
+    Ok(producer)
+}
+
+/// The steps each step reads from; an input that no step writes must exist.
+fn dependencies(
+    steps: &[Step],
+    producer: &BTreeMap<&str, usize>,
+    base: &Path,
+    source: &str,
+) -> Result<Vec<BTreeSet<usize>>, InputError> {
+    let mut deps: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); steps.len()];
+    for (i, s) in steps.iter().enumerate() {
+        for inp in &s.inputs {
+            match producer.get(inp.path.as_str()) {
+                Some(&j) => {
+                    deps[i].insert(j);
+                }
+                None if !base.join(&inp.path).is_file() => {
+                    return Err(InputError::new(
+                        source,
+                        format!(
+                            "input {:?} does not exist (relative to {}) and no step writes it",
+                            inp.path,
+                            base.display()
+                        ),
+                    )
+                    .at_line(inp.line)
+                    .in_field(format!("step.{}.{}", s.name, inp.field)));
+                }
+                None => {}
+            }
+        }
+    }
+    Ok(deps)
+}
+
+/// A build order by Kahn's algorithm, ties in declaration order; a cycle is
+/// an error naming its steps.
+fn build_order(
+    steps: &[Step],
+    deps: &[BTreeSet<usize>],
+    source: &str,
+) -> Result<Vec<usize>, InputError> {
+    let n = steps.len();
+    let mut done = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    while order.len() < n {
+        let Some(i) = (0..n).find(|&i| !done[i] && deps[i].iter().all(|&j| done[j])) else {
+            return Err(cycle_error(steps, deps, &done, source));
+        };
+        done[i] = true;
+        order.push(i);
+    }
+    Ok(order)
+}
+
+/// The cycle among the unfinished steps: follow unfinished dependencies
+/// until a step repeats.
+fn cycle_error(
+    steps: &[Step],
+    deps: &[BTreeSet<usize>],
+    done: &[bool],
+    source: &str,
+) -> InputError {
+    let mut path = vec![
+        (0..steps.len())
+            .find(|&i| !done[i])
+            .expect("unfinished step"),
+    ];
+    loop {
+        let last = *path.last().expect("non-empty");
+        let next = *deps[last]
+            .iter()
+            .find(|&&j| !done[j])
+            .expect("an unfinished step has an unfinished dependency");
+        if let Some(pos) = path.iter().position(|&p| p == next) {
+            let cycle = &path[pos..];
+            let first = cycle[0];
+            let mut names: Vec<&str> = cycle.iter().map(|&k| steps[k].name.as_str()).collect();
+            names.push(&steps[first].name);
+            return InputError::new(
+                source,
+                format!(
+                    "the steps form a cycle: {} (each step reads a file the next one writes)",
+                    names.join(" -> ")
+                ),
+            )
+            .at_line(steps[first].line)
+            .in_field(format!("step.{}", steps[first].name));
+        }
+        path.push(next);
+    }
 }
 
 #[cfg(test)]

@@ -3,19 +3,23 @@
 //! (`check`).
 
 use super::hash::{Lock, LockEntry, sha256_hex};
-use super::manifest::{Action, ColumnSpec, FileRef, Plan, Step, keys, parse_manifest};
+use super::manifest::{
+    Action, ColumnSpec, FileRef, HysteresisSpec, Plan, Step, keys, parse_manifest,
+};
+use crate::ident::hysteresis::HysteresisModel;
 use crate::io::InputError;
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, to_c_header};
 use crate::io::hysteresis_json::{model_to_string, parse_model};
-use crate::io::timeseries::{IoData, read_io, time_column, write_csv};
+use crate::io::timeseries::{IoData, read_io};
 use crate::io::{ss_json, tf_json, zpetc_json};
 use crate::lti::ss::StateSpace;
-use crate::sim::experiment::{
-    align_triangle_record, build_controller, sweep_record, triangle_record,
-};
-use crate::synth::composite::Stages;
+use crate::workflow::controller::closed_loop_zpetc;
 use crate::workflow::identify::HysteresisInputs;
-use crate::workflow::{ControllerInputs, LinearInputs, MixsynInputs, SsController, StepError};
+use crate::workflow::robust::MixsynReport;
+use crate::workflow::{
+    BuildController, BuildInputs, DesignZpetc, LinearInputs, LinearReport, Mixsyn, MixsynInputs,
+    Named, StepError,
+};
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::Path;
@@ -70,6 +74,7 @@ pub struct StepReport {
     /// Outcome.
     pub status: Status,
     /// Why it was (or would be) rebuilt: `never built`, `input data/sweep.csv changed`, ...
+    /// (`` `force` `` when every step was rebuilt on request).
     pub reasons: Vec<String>,
     /// Its outputs (manifest-relative).
     pub outputs: Vec<String>,
@@ -281,7 +286,7 @@ pub fn build(
     force: bool,
     observer: &mut dyn FnMut(Event<'_>),
 ) -> Result<Vec<StepReport>, PipelineError> {
-    // With --force an unreadable lock is simply replaced; entries of steps
+    // With `force` an unreadable lock is simply replaced; entries of steps
     // not yet rebuilt are kept, so a failure still leaves it accurate.
     let (old, old_text) = match read_lock(plan) {
         Err(_) if force => (Lock::default(), None),
@@ -299,7 +304,7 @@ pub fn build(
     let mut reports = Vec::new();
     for step in &plan.steps {
         let reasons = if force {
-            vec!["--force".to_string()]
+            vec!["`force`".to_string()]
         } else {
             stale_reasons(plan, step, old.steps.get(&step.name), &BTreeMap::new())?
         };
@@ -429,180 +434,152 @@ fn read_record(
     Ok(data)
 }
 
-/// The record of a linear step and its validation record, read with the
-/// step's columns.
-fn linear_inputs<'a>(
-    columns: &ColumnSpec,
-    bytes_of: impl Fn(&str) -> Option<(&'a [u8], String)>,
-) -> Result<LinearInputs, PipelineError> {
-    let (bytes, source) = bytes_of("data").expect("validated: data is required");
-    let validation = match bytes_of("validate") {
-        Some((vbytes, vsource)) => Some((read_record(vbytes, &vsource, columns, 2)?, vsource)),
-        None => None,
-    };
-    Ok(LinearInputs {
-        data: read_record(bytes, &source, columns, 2)?,
-        source,
-        validation,
-    })
+/// A step's outputs: each file's bytes.
+type Outputs = Vec<(FileRef, Vec<u8>)>;
+
+/// The inputs of a running step: the bytes read for each field (hashed
+/// once; the bytes hashed are the bytes used).
+struct Inputs<'a> {
+    plan: &'a Plan,
+    step: &'a Step,
+    bytes: &'a BTreeMap<String, Vec<u8>>,
 }
 
-/// Runs one step on its inputs' bytes; returns every output's bytes (nothing
-/// is written here).
-fn execute(
-    plan: &Plan,
-    step: &Step,
-    inputs: &BTreeMap<String, Vec<u8>>,
-) -> Result<Vec<(FileRef, Vec<u8>)>, PipelineError> {
-    let out = |field: &str| step.output(field).cloned();
-    let bytes_of = |field: &str| -> Option<(&[u8], String)> {
-        let f = step.input(field)?;
-        inputs.get(field).map(|t| (t.as_slice(), source(plan, f)))
-    };
-    let text_of = |field: &str| -> Result<Option<(&str, String)>, PipelineError> {
-        bytes_of(field)
+impl Inputs<'_> {
+    /// The bytes of the input `field` and its name for messages.
+    fn bytes(&self, field: &str) -> Option<(&[u8], String)> {
+        let f = self.step.input(field)?;
+        let bytes = self.bytes.get(field)?;
+        Some((bytes.as_slice(), source(self.plan, f)))
+    }
+
+    /// The input `field` as text.
+    fn text(&self, field: &str) -> Result<Option<(&str, String)>, PipelineError> {
+        self.bytes(field)
             .map(|(bytes, src)| match std::str::from_utf8(bytes) {
                 Ok(text) => Ok((text, src)),
                 Err(_) => Err(bad(format!("{src}: not UTF-8 text"))),
             })
             .transpose()
-    };
-    let mut files: Vec<(Option<FileRef>, Vec<u8>)> = Vec::new();
-    match &step.action {
-        Action::VirtualTriangles(p) => {
-            let (command, measured) = triangle_record(p).map_err(|e| bad(e.to_string()))?;
-            let (u, y) = align_triangle_record(p, &command, &measured);
-            let t = time_column(u.len(), p.plant.ts);
-            files.push((
-                out("out"),
-                write_csv(&["t", "u", "y"], &[&t, u, y]).into_bytes(),
-            ));
-        }
-        Action::VirtualSweep(p) => {
-            let model = match text_of("hysteresis")? {
-                Some((text, src)) => Some(parse_model(text, &src)?.model),
-                None => None,
-            };
-            let (r, y) = sweep_record(p, model.as_ref()).map_err(|e| bad(e.to_string()))?;
-            let t = time_column(r.len(), p.plant.ts);
-            files.push((
-                out("out"),
-                write_csv(&["t", "u", "y"], &[&t, &r, &y]).into_bytes(),
-            ));
-        }
-        Action::Hysteresis(spec) => {
-            let (bytes, src) = bytes_of("data").expect("validated: data is required");
-            let record = read_record(bytes, &src, &spec.columns, 1)?;
-            let inputs = HysteresisInputs {
-                record: &record,
-                source: &src,
-                start: spec.columns.start,
-            };
-            let report = spec.step.run(inputs).map_err(|e| step_error(step, e))?;
-            files.push((out("out"), model_to_string(&report.file).into_bytes()));
-        }
-        Action::Arx(spec) => {
-            let inputs = linear_inputs(&spec.columns, bytes_of)?;
-            let report = spec.step.run(inputs).map_err(|e| step_error(step, e))?;
-            let tf = tf_json::tf_to_string(&report.transfer_function());
-            files.push((out("out"), tf.into_bytes()));
-        }
-        Action::Oe(spec) => {
-            let inputs = linear_inputs(&spec.columns, bytes_of)?;
-            let report = spec.step.run(inputs).map_err(|e| step_error(step, e))?;
-            let tf = tf_json::tf_to_string(&report.transfer_function());
-            files.push((out("out"), tf.into_bytes()));
-        }
-        Action::Zpetc(spec) => {
-            let (text, src) = text_of("tf")?.expect("validated: tf is required");
-            let model = tf_json::parse_tf(text, &src)?;
-            let filter = spec
-                .run(&model, &src)
-                .map_err(|e| step_error(step, e))?
-                .filter;
-            files.push((
-                out("out"),
-                zpetc_json::zpetc_to_string(&filter).into_bytes(),
-            ));
-        }
-        Action::Weight(_)
-        | Action::Mixsyn(_)
-        | Action::Hinf(_)
-        | Action::H2(_)
-        | Action::C2d(_)
-        | Action::SsController(_) => {
-            return robust(plan, step, inputs);
-        }
-        Action::Controller(spec) => {
-            let mut provenance = Provenance {
-                fts_version: env!("CARGO_PKG_VERSION").into(),
-                inputs: Vec::new(),
-            };
-            let mut hashed =
-                |field: &str, role: &str| -> Result<Option<(&str, String)>, PipelineError> {
-                    let Some(f) = step.input(field) else {
-                        return Ok(None);
-                    };
-                    let Some(bytes) = inputs.get(field) else {
-                        return Ok(None);
-                    };
-                    provenance.inputs.push(InputHash {
-                        role: role.into(),
-                        file: f.path.clone(),
-                        sha256: sha256_hex(bytes),
-                    });
-                    let src = source(plan, f);
-                    std::str::from_utf8(bytes)
-                        .map(|text| Some((text, src.clone())))
-                        .map_err(|_| bad(format!("{src}: not UTF-8 text")))
-                };
-            let inverse = match hashed("hysteresis", "hysteresis_inverse")? {
-                Some((text, src)) => Some(parse_model(text, &src)?.model),
-                None => None,
-            };
-            let filter = match hashed("zpetc", "zpetc")? {
-                Some((text, src)) => Some(zpetc_json::parse_zpetc(text, &src)?),
-                None => None,
-            };
-            let ts = match (filter.as_ref().map(|f| f.ts), spec.ts) {
-                (Some(a), Some(b)) if (a - b).abs() > 1e-12 * a => {
-                    return Err(bad(format!(
-                        "field 'ts' ({b}) disagrees with the ZPETC's sample time {a}"
-                    )));
-                }
-                (Some(a), _) => a,
-                (None, Some(b)) if b > 0.0 => b,
-                _ => {
-                    return Err(bad(
-                        "field 'ts': a positive sample time is needed when no zpetc is given",
-                    ));
-                }
-            };
-            let stages = Stages {
-                feedback: crate::synth::composite::FeedbackKind::Pid,
-                hysteresis_compensation: inverse.is_some(),
-                zpetc: filter.is_some(),
-            };
-            let file = build_controller(
-                stages,
-                ts,
-                spec.pid,
-                inverse.as_ref(),
-                filter.as_ref(),
-                provenance,
-            )
-            .map_err(bad)?;
-            if let Some(f) = out("out") {
-                files.push((Some(f), file.to_json_string().into_bytes()));
-            }
-            if let Some(f) = out("header") {
-                files.push((Some(f), to_c_header(&file).into_bytes()));
-            }
+    }
+
+    /// The system in the input file of `field`, with its name for messages.
+    fn system(&self, field: &str) -> Result<Option<(StateSpace, String)>, PipelineError> {
+        match self.text(field)? {
+            Some((text, src)) => Ok(Some((ss_json::parse_system(text, &src)?, src))),
+            None => Ok(None),
         }
     }
+
+    /// A required system input (checked when the manifest was read).
+    fn required_system(&self, field: &str) -> Result<(StateSpace, String), PipelineError> {
+        self.system(field)?
+            .ok_or_else(|| bad(format!("field '{field}' is required")))
+    }
+
+    /// The inverse hysteresis model of the input `field`, if given.
+    fn hysteresis(&self, field: &str) -> Result<Option<HysteresisModel>, PipelineError> {
+        match self.text(field)? {
+            Some((text, src)) => Ok(Some(parse_model(text, &src)?.model)),
+            None => Ok(None),
+        }
+    }
+
+    /// The record of a data step and its validation record, read with the
+    /// step's columns.
+    fn linear(&self, columns: &ColumnSpec) -> Result<LinearInputs, PipelineError> {
+        let (bytes, source) = self.bytes("data").expect("validated: data is required");
+        let validation = match self.bytes("validate") {
+            Some((vbytes, vsource)) => Some((read_record(vbytes, &vsource, columns, 2)?, vsource)),
+            None => None,
+        };
+        Ok(LinearInputs {
+            data: read_record(bytes, &source, columns, 2)?,
+            source,
+            validation,
+        })
+    }
+
+    /// The provenance of a coefficient file: the given inputs among
+    /// `(field, role)`, in that order, by their manifest-relative paths.
+    fn provenance(&self, roles: &[(&str, &str)]) -> Provenance {
+        let inputs = roles
+            .iter()
+            .filter_map(|&(field, role)| {
+                let (f, bytes) = (self.step.input(field)?, self.bytes.get(field)?);
+                Some(InputHash {
+                    role: role.into(),
+                    file: f.path.clone(),
+                    sha256: sha256_hex(bytes),
+                })
+            })
+            .collect();
+        Provenance {
+            fts_version: env!("CARGO_PKG_VERSION").into(),
+            inputs,
+        }
+    }
+}
+
+/// Runs one step on its inputs' bytes; returns the bytes of every output
+/// the manifest names (nothing is written here).
+fn execute(
+    plan: &Plan,
+    step: &Step,
+    bytes: &BTreeMap<String, Vec<u8>>,
+) -> Result<Outputs, PipelineError> {
+    let io = Inputs { plan, step, bytes };
+    let err = |e: StepError| step_error(step, e);
+    let ss_file = |sys: &StateSpace| ss_json::ss_to_string(sys).into_bytes();
+    let files: Vec<(&str, Vec<u8>)> = match &step.action {
+        Action::VirtualTriangles(s) => vec![("out", s.run().map_err(err)?.to_csv().into_bytes())],
+        Action::VirtualSweep(s) => {
+            let model = io.hysteresis("hysteresis")?;
+            let record = s.run(model.as_ref()).map_err(err)?;
+            vec![("out", record.to_csv().into_bytes())]
+        }
+        Action::Hysteresis(spec) => vec![("out", hysteresis(&io, spec)?)],
+        Action::Arx(spec) => vec![(
+            "out",
+            tf_file(step, spec.step.run(io.linear(&spec.columns)?))?,
+        )],
+        Action::Oe(spec) => vec![(
+            "out",
+            tf_file(step, spec.step.run(io.linear(&spec.columns)?))?,
+        )],
+        Action::Zpetc(spec) => vec![("out", zpetc(&io, spec)?)],
+        Action::Controller(spec) => {
+            let file = controller(&io, spec)?;
+            vec![
+                ("out", file.to_json_string().into_bytes()),
+                ("header", to_c_header(&file).into_bytes()),
+            ]
+        }
+        Action::Weight(w) => vec![("out", ss_file(&w.run().map_err(err)?.weight))],
+        Action::Hinf(h) => {
+            let (p, src) = io.required_system("generalized")?;
+            vec![("out", ss_file(&h.run(&p, &src).map_err(err)?.result.k))]
+        }
+        Action::H2(h) => {
+            let (p, src) = io.required_system("generalized")?;
+            vec![("out", ss_file(&h.run(&p, &src).map_err(err)?.result.k))]
+        }
+        Action::C2d(c) => {
+            let (sys, src) = io.required_system("system")?;
+            vec![("out", ss_file(&c.run(&sys, &src).map_err(err)?.system))]
+        }
+        Action::Mixsyn(m) => {
+            let report = mixsyn(&io, m)?;
+            vec![
+                ("out", ss_file(report.controller())),
+                ("augmented", ss_file(&report.augmented)),
+            ]
+        }
+    };
+    // Only the outputs the manifest names are written.
     Ok(files
         .into_iter()
-        .filter_map(|(f, b)| f.map(|f| (f, b)))
+        .filter_map(|(field, bytes)| step.output(field).map(|f| (f.clone(), bytes)))
         .collect())
 }
 
@@ -628,126 +605,70 @@ fn step_error(step: &Step, e: StepError) -> PipelineError {
     }
 }
 
-/// The system in the input file of `field`, with its name for messages.
-fn system_input(
-    plan: &Plan,
-    step: &Step,
-    inputs: &BTreeMap<String, Vec<u8>>,
-    field: &str,
-) -> Result<Option<(StateSpace, String)>, PipelineError> {
-    let (Some(f), Some(bytes)) = (step.input(field), inputs.get(field)) else {
-        return Ok(None);
-    };
-    let src = source(plan, f);
-    let text = std::str::from_utf8(bytes).map_err(|_| bad(format!("{src}: not UTF-8 text")))?;
-    Ok(Some((ss_json::parse_system(text, &src)?, src)))
+/// The `fts.tf/1` file of an identified linear model.
+fn tf_file(step: &Step, report: Result<LinearReport, StepError>) -> Result<Vec<u8>, PipelineError> {
+    let tf = report.map_err(|e| step_error(step, e))?.transfer_function();
+    Ok(tf_json::tf_to_string(&tf).into_bytes())
 }
 
-/// Runs a robust-control step (a typed library step) on its inputs' bytes.
-fn robust(
-    plan: &Plan,
-    step: &Step,
-    inputs: &BTreeMap<String, Vec<u8>>,
-) -> Result<Vec<(FileRef, Vec<u8>)>, PipelineError> {
-    let system = |field: &str| -> Result<(StateSpace, String), PipelineError> {
-        system_input(plan, step, inputs, field)?
-            .ok_or_else(|| bad(format!("field '{field}' is required")))
+fn hysteresis(io: &Inputs<'_>, spec: &HysteresisSpec) -> Result<Vec<u8>, PipelineError> {
+    let (bytes, src) = io.bytes("data").expect("validated: data is required");
+    let record = read_record(bytes, &src, &spec.columns, 1)?;
+    let inputs = HysteresisInputs {
+        record: &record,
+        source: &src,
+        start: spec.columns.start,
     };
-    let optional = |field: &str| system_input(plan, step, inputs, field);
-    let err = |e: StepError| step_error(step, e);
-    let ss_file = |sys: &StateSpace| ss_json::ss_to_string(sys).into_bytes();
-    let mut files: Vec<(&str, Vec<u8>)> = Vec::new();
-    match &step.action {
-        Action::Weight(w) => files.push(("out", ss_file(&w.run().map_err(err)?.weight))),
-        Action::Hinf(h) => {
-            let (p, src) = system("generalized")?;
-            files.push(("out", ss_file(&h.run(&p, &src).map_err(err)?.result.k)));
-        }
-        Action::H2(h) => {
-            let (p, src) = system("generalized")?;
-            files.push(("out", ss_file(&h.run(&p, &src).map_err(err)?.result.k)));
-        }
-        Action::C2d(c) => {
-            let (sys, src) = system("system")?;
-            files.push(("out", ss_file(&c.run(&sys, &src).map_err(err)?.system)));
-        }
-        Action::Mixsyn(m) => {
-            let ((g, src), (ws, _)) = (system("plant")?, system("ws")?);
-            let (wu, wt) = (optional("wu")?, optional("wt")?);
-            let report = m
-                .run(MixsynInputs {
-                    plant: &g,
-                    ws: &ws,
-                    wu: wu.as_ref().map(|w| &w.0),
-                    wt: wt.as_ref().map(|w| &w.0),
-                    source: &src,
-                })
-                .map_err(err)?;
-            files.push(("out", ss_file(report.controller())));
-            files.push(("augmented", ss_file(&report.augmented)));
-        }
-        Action::SsController(c) => {
-            let file = ss_controller(plan, step, c, inputs)?;
-            files.push(("out", file.to_json_string().into_bytes()));
-            files.push(("header", to_c_header(&file).into_bytes()));
-        }
-        _ => unreachable!("robust() is called for robust-control steps only"),
-    }
-    // Only the outputs the manifest names are written.
-    Ok(files
-        .into_iter()
-        .filter_map(|(field, bytes)| step.output(field).map(|f| (f.clone(), bytes)))
-        .collect())
+    let report = spec.step.run(inputs).map_err(|e| step_error(io.step, e))?;
+    Ok(model_to_string(&report.file).into_bytes())
 }
 
-/// The coefficient file of a `controller` step with a state-space `ss`:
-/// inputs hashed in the order `fts emit` records them.
-fn ss_controller(
-    plan: &Plan,
-    step: &Step,
-    spec: &SsController,
-    inputs: &BTreeMap<String, Vec<u8>>,
-) -> Result<ControllerFile, PipelineError> {
-    let mut provenance = Provenance {
-        fts_version: env!("CARGO_PKG_VERSION").into(),
-        inputs: Vec::new(),
-    };
-    let mut texts = BTreeMap::new();
-    for (field, role) in [
+fn zpetc(io: &Inputs<'_>, spec: &DesignZpetc) -> Result<Vec<u8>, PipelineError> {
+    let (text, src) = io.text("tf")?.expect("validated: tf is required");
+    let model = tf_json::parse_tf(text, &src)?;
+    let report = spec.run(&model, &src).map_err(|e| step_error(io.step, e))?;
+    Ok(zpetc_json::zpetc_to_string(&report.filter).into_bytes())
+}
+
+/// The coefficient file of a `controller` step: inputs hashed in the order
+/// `fts emit` records them.
+fn controller(io: &Inputs<'_>, spec: &BuildController) -> Result<ControllerFile, PipelineError> {
+    let err = |e: StepError| step_error(io.step, e);
+    let provenance = io.provenance(&[
         ("hysteresis", "hysteresis_inverse"),
         ("zpetc", "zpetc"),
+        ("closed_loop", "closed_loop"),
         ("ss", "state_space"),
-    ] {
-        let (Some(f), Some(bytes)) = (step.input(field), inputs.get(field)) else {
-            continue;
-        };
-        provenance.inputs.push(InputHash {
-            role: role.into(),
-            file: f.path.clone(),
-            sha256: sha256_hex(bytes),
-        });
-        let src = source(plan, f);
-        let text = std::str::from_utf8(bytes).map_err(|_| bad(format!("{src}: not UTF-8 text")))?;
-        texts.insert(field, (text, src));
-    }
-    let inverse = match texts.get("hysteresis") {
-        Some((text, src)) => Some(parse_model(text, src)?.model),
-        None => None,
+    ]);
+    let inverse = io.hysteresis("hysteresis")?;
+    let filter = match (io.text("zpetc")?, io.text("closed_loop")?) {
+        (Some((text, src)), _) => Some(zpetc_json::parse_zpetc(text, &src)?),
+        (None, Some((text, src))) => {
+            Some(closed_loop_zpetc(&tf_json::parse_tf(text, &src)?, &src).map_err(err)?)
+        }
+        (None, None) => None,
     };
-    let filter = match texts.get("zpetc") {
-        Some((text, src)) => Some(zpetc_json::parse_zpetc(text, src)?),
-        None => None,
-    };
-    let (ss_text, ss_src) = texts.get("ss").expect("validated: ss is required");
-    let k = ss_json::parse_system(ss_text, ss_src)?;
+    let ss = io.system("ss")?;
     let report = spec
-        .run(ControllerInputs {
-            ss: &k,
-            ss_source: ss_src,
+        .run(BuildInputs {
             hysteresis: inverse.as_ref(),
             zpetc: filter.as_ref(),
+            ss: ss.as_ref().map(|(sys, src)| (sys, src.as_str())),
             provenance,
         })
-        .map_err(|e| step_error(step, e))?;
+        .map_err(err)?;
     Ok(report.file)
+}
+
+fn mixsyn(io: &Inputs<'_>, m: &Mixsyn) -> Result<MixsynReport, PipelineError> {
+    let ((g, src), ws) = (io.required_system("plant")?, io.required_system("ws")?);
+    let (wu, wt) = (io.system("wu")?, io.system("wt")?);
+    m.run(MixsynInputs {
+        plant: &g,
+        ws: Named::from(&ws),
+        wu: wu.as_ref().map(Named::from),
+        wt: wt.as_ref().map(Named::from),
+        source: &src,
+    })
+    .map_err(|e| step_error(io.step, e))
 }

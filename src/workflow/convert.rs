@@ -46,6 +46,19 @@ pub enum Form {
     Tf,
 }
 
+impl crate::workflow::Choices for Form {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "ss",
+            "State space (`fts.ss/1`): controllable canonical form of a transfer function",
+        ),
+        (
+            "tf",
+            "Transfer function (`fts.tf/1`), one per output/input channel",
+        ),
+    ];
+}
+
 /// `fts convert`: a model as state space or as transfer functions.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

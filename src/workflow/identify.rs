@@ -261,6 +261,23 @@ pub enum SelectionRuleChoice {
     Mdl,
 }
 
+impl crate::workflow::Choices for SelectionRuleChoice {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "auto",
+            "Validation loss when validation data exist, otherwise MDL",
+        ),
+        (
+            "loss",
+            "Minimum one-step prediction loss on the validation data (MATLAB arxstruc/selstruc)",
+        ),
+        ("fit", "Maximum simulation fit on the validation data"),
+        ("aic", "Minimum AIC on the estimation data"),
+        ("fpe", "Minimum FPE on the estimation data"),
+        ("mdl", "Minimum MDL on the estimation data"),
+    ];
+}
+
 impl SelectionRuleChoice {
     /// The rule's name in reports, given whether validation data exist.
     fn name(self, validated: bool) -> &'static str {
@@ -309,6 +326,14 @@ pub enum OeStartChoice {
     Arx,
 }
 
+impl crate::workflow::Choices for OeStartChoice {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("best", "Whichever of IV and ARX simulates the data better"),
+        ("iv", "Refined instrumental variables"),
+        ("arx", "Least-squares ARX"),
+    ];
+}
+
 /// Initial conditions of the output-error simulation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -318,6 +343,16 @@ pub enum InitialChoice {
     Estimate,
     /// From rest.
     Zero,
+}
+
+impl crate::workflow::Choices for InitialChoice {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "estimate",
+            "Estimate the initial state together with B and F",
+        ),
+        ("zero", "Start the simulation from rest"),
+    ];
 }
 
 // ---------------------------------------------------------------- steps

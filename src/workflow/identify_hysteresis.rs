@@ -26,6 +26,17 @@ pub enum HysteresisModelKind {
     MpiDeadzone,
 }
 
+impl crate::workflow::Choices for HysteresisModelKind {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("pi", "Classical Prandtl–Ishlinskii"),
+        ("mpi-cbrt", "PI plus a cube-root term (\\[Li21\\] Eq. 4)"),
+        (
+            "mpi-deadzone",
+            "PI followed by one-sided dead-zone operators (\\[Tang17\\] Eq. 40-43)",
+        ),
+    ];
+}
+
 /// Play operator form.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -34,6 +45,19 @@ pub enum PlayOperatorChoice {
     PlayLower,
     /// Symmetric play, output in [u - r, u + r] (\[Tang17\]).
     PlaySymmetric,
+}
+
+impl crate::workflow::Choices for PlayOperatorChoice {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "play-lower",
+            "One-sided play, output in [u - r, u] (\\[Li21\\])",
+        ),
+        (
+            "play-symmetric",
+            "Symmetric play, output in [u - r, u + r] (\\[Tang17\\])",
+        ),
+    ];
 }
 
 /// Solver.
@@ -45,6 +69,13 @@ pub enum HysteresisMethod {
     Ls,
     /// L-BFGS gradient descent on the same cost.
     Gd,
+}
+
+impl crate::workflow::Choices for HysteresisMethod {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("ls", "Least squares by QR"),
+        ("gd", "L-BFGS gradient descent on the same cost"),
+    ];
 }
 
 /// `fts identify hysteresis`, pipeline kind `hysteresis`: a PI / MPI model

@@ -1,6 +1,7 @@
 //! Workflows as typed steps: one struct per command (`fts weight`,
-//! `fts mixsyn`, `fts hinf`, `fts h2`, `fts c2d`, the state-space feedback
-//! of `fts emit`), shared by the command line and the pipeline manifest.
+//! `fts mixsyn`, `fts hinf`, `fts h2`, `fts c2d`, `fts emit`,
+//! `fts virtual triangles|sweep`, ...), shared by the command line and the
+//! pipeline manifest.
 //!
 //! Each step is `serde::Deserialize` (unknown keys refused, missing keys
 //! take the [`Default`]), has `validate()` (settings alone) and `run(...)`
@@ -11,6 +12,7 @@
 
 pub mod controller;
 pub mod convert;
+pub mod experiment;
 pub mod identify;
 mod identify_hysteresis;
 pub mod response;
@@ -19,15 +21,17 @@ pub mod simulate;
 pub mod zpetc;
 
 pub use controller::{
-    AntiWindup, ControllerInputs, ControllerReport, Discretisation, SsController,
+    AntiWindup, BuildController, BuildInputs, ControllerInputs, ControllerReport, Discretisation,
+    NoFeedback, PidForm, SsController,
 };
+pub use experiment::{VirtualRecord, VirtualSweep, VirtualTriangles};
 pub use identify::{
     ArxStruct, IdentifyArx, IdentifyHysteresis, IdentifyIv, IdentifyOe, LinearInputs, LinearReport,
     Prepared, SelectionRuleChoice, StructReport,
 };
 pub use robust::{
     C2d, C2dMethodChoice, C2dReport, H2, H2Report, Hinf, HinfReport, Mixsyn, MixsynInputs,
-    MixsynReport, Weight, WeightReport, WeightShape,
+    MixsynReport, Named, Weight, WeightReport, WeightShape,
 };
 pub use simulate::{
     ReferenceShape, SimController, SimPlant, Simulate, SimulateInputs, SimulateReport, StageModels,
@@ -148,6 +152,48 @@ pub(crate) fn some_whole_number<'de, D: serde::Deserializer<'de>>(
     whole_number(d).map(Some)
 }
 
+/// A setting with a fixed vocabulary: each value's name, as a manifest
+/// writes it (its serde name) and the command line takes it, with one line
+/// of help. Front ends list the choices from here.
+pub trait Choices: Sized + 'static {
+    /// `(name, help)` of every value, in the order they are listed.
+    const CHOICES: &'static [(&'static str, &'static str)];
+
+    /// The name of `self` (its serde name).
+    fn name(&self) -> &'static str
+    where
+        Self: serde::Serialize,
+    {
+        let value = serde_json::to_value(self).expect("a unit variant serialises");
+        Self::CHOICES
+            .iter()
+            .find(|(name, _)| value == *name)
+            .map(|(name, _)| *name)
+            .expect("every value is listed in CHOICES")
+    }
+}
+
+impl Choices for crate::ident::data::Detrend {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("none", "Keep the data as they are"),
+        ("mean", "Remove each signal's mean"),
+        ("linear", "Remove each signal's least-squares line"),
+    ];
+}
+
+impl Choices for crate::lti::response::ResponseKind {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "step",
+            "Unit step at t = 0, with rise/settling time, overshoot and steady-state error",
+        ),
+        (
+            "impulse",
+            "Unit impulse at t = 0 (a unit-area pulse 1/ts for discrete systems)",
+        ),
+    ];
+}
+
 /// Settings that can be checked before any input is read.
 pub trait Validate {
     /// Checks the settings alone.
@@ -185,6 +231,34 @@ mod tests {
         for m in ["use `fts identify oe`", "`A` and `", "a ` b"] {
             assert_eq!(render_settings(m, |_| "X".into()), m);
         }
+    }
+
+    /// Every listed name deserialises to a value whose name it is.
+    fn names_round_trip<T: Choices + serde::Serialize + serde::de::DeserializeOwned>() {
+        for (name, _) in T::CHOICES {
+            let value: T = serde_json::from_value(serde_json::json!(name)).unwrap();
+            assert_eq!(value.name(), *name);
+        }
+    }
+
+    #[test]
+    fn choices_are_the_serde_names() {
+        names_round_trip::<crate::ident::data::Detrend>();
+        names_round_trip::<crate::lti::response::ResponseKind>();
+        names_round_trip::<crate::ident::excite::SweepSpacing>();
+        names_round_trip::<Discretisation>();
+        names_round_trip::<AntiWindup>();
+        names_round_trip::<PidForm>();
+        names_round_trip::<NoFeedback>();
+        names_round_trip::<WeightShape>();
+        names_round_trip::<C2dMethodChoice>();
+        names_round_trip::<convert::Form>();
+        names_round_trip::<SelectionRuleChoice>();
+        names_round_trip::<identify::OeStartChoice>();
+        names_round_trip::<identify::InitialChoice>();
+        names_round_trip::<identify_hysteresis::HysteresisModelKind>();
+        names_round_trip::<identify_hysteresis::PlayOperatorChoice>();
+        names_round_trip::<identify_hysteresis::HysteresisMethod>();
     }
 
     #[derive(Debug, serde::Deserialize)]

@@ -74,6 +74,17 @@ pub enum WeightShape {
     Makeweight,
 }
 
+impl crate::workflow::Choices for WeightShape {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("ws", "W_s = (s/M + w0)/(s + w0 A) (Karagoz18 Eq. 7)"),
+        ("wt", "W_t = (s + w0/M)/(A s + w0) (Karagoz18 Eq. 8)"),
+        (
+            "makeweight",
+            "makeweight(dcgain, [freq, mag], hfgain), first order",
+        ),
+    ];
+}
+
 impl WeightShape {
     fn name(self) -> &'static str {
         match self {
@@ -544,19 +555,70 @@ impl Default for Mixsyn {
     }
 }
 
+/// A system and its name (a file path) for messages.
+#[derive(Debug, Clone, Copy)]
+pub struct Named<'a> {
+    /// The system.
+    pub system: &'a StateSpace,
+    /// Its name.
+    pub source: &'a str,
+}
+
+impl<'a> From<&'a (StateSpace, String)> for Named<'a> {
+    fn from((system, source): &'a (StateSpace, String)) -> Self {
+        Named {
+            system,
+            source: source.as_str(),
+        }
+    }
+}
+
 /// The systems `mixsyn` combines; `source` names the plant in messages.
 #[derive(Debug, Clone, Copy)]
 pub struct MixsynInputs<'a> {
     /// The plant G.
     pub plant: &'a StateSpace,
     /// Sensitivity weight (on S).
-    pub ws: &'a StateSpace,
+    pub ws: Named<'a>,
     /// Control weight (on KS).
-    pub wu: Option<&'a StateSpace>,
+    pub wu: Option<Named<'a>>,
     /// Complementary sensitivity weight (on T).
-    pub wt: Option<&'a StateSpace>,
+    pub wt: Option<Named<'a>>,
     /// The plant's name (a file path), for messages.
     pub source: &'a str,
+}
+
+/// A mixed-sensitivity weight must be continuous, stable and square with
+/// the plant's channel count (`ny` for ws and wt, `nu` for wu); refused
+/// here, naming its file and setting, before the plant is blamed.
+fn check_weight(key: &'static str, w: Named<'_>, size: usize) -> Result<(), StepError> {
+    let (file, sys) = (w.source, w.system);
+    let refuse = |m: String| {
+        Err(StepError::setting(
+            key,
+            format!("{file}: the `{key}` weight {m}"),
+        ))
+    };
+    if sys.is_discrete() {
+        return refuse("is discrete; mixsyn weights are continuous (\"ts\": null)".into());
+    }
+    if sys.ny() != size || sys.nu() != size {
+        return refuse(format!(
+            "is {}x{} (outputs x inputs); the plant needs {size}x{size}",
+            sys.ny(),
+            sys.nu()
+        ));
+    }
+    let poles = sys
+        .poles()
+        .map_err(|e| StepError::setting(key, format!("{file}: the `{key}` weight's poles: {e}")))?;
+    match poles.iter().find(|p| p.re >= 0.0) {
+        Some(p) => refuse(format!(
+            "is unstable (pole at s = {}{:+}j); mixsyn weights must be stable",
+            p.re, p.im
+        )),
+        None => Ok(()),
+    }
 }
 
 impl Mixsyn {
@@ -570,12 +632,20 @@ impl Mixsyn {
 
     /// Designs the controller.
     pub fn run(&self, inputs: MixsynInputs<'_>) -> Result<MixsynReport, StepError> {
+        let (ny, nu) = (inputs.plant.ny(), inputs.plant.nu());
+        check_weight("ws", inputs.ws, ny)?;
+        if let Some(wu) = inputs.wu {
+            check_weight("wu", wu, nu)?;
+        }
+        if let Some(wt) = inputs.wt {
+            check_weight("wt", wt, ny)?;
+        }
         let hinf = self.hinf();
         let (augmented, result) = mixsyn(
             inputs.plant,
-            Some(inputs.ws),
-            inputs.wu,
-            inputs.wt,
+            Some(inputs.ws.system),
+            inputs.wu.map(|w| w.system),
+            inputs.wt.map(|w| w.system),
             hinf.options()?,
         )
         .map_err(|e| synth_err(inputs.source, e))?;
@@ -758,6 +828,13 @@ pub enum C2dMethodChoice {
     Zoh,
     /// Tustin / bilinear.
     Tustin,
+}
+
+impl crate::workflow::Choices for C2dMethodChoice {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("zoh", "Zero-order hold (Van Loan block exponential)"),
+        ("tustin", "Tustin / bilinear"),
+    ];
 }
 
 /// `fts c2d`: discretises a continuous system.

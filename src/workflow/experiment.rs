@@ -1,0 +1,230 @@
+//! Records of the embedded virtual FTS, the first and third steps of the
+//! \[Li21\] experiment: open-loop triangles ([`VirtualTriangles`]) and the
+//! closed-loop sweep ([`VirtualSweep`]). What `fts virtual triangles|sweep`
+//! and the manifest's `virtual-triangles` and `virtual-sweep` kinds write;
+//! `fts demo` records the same through [`crate::sim::experiment`].
+
+use super::{StepError, Validate, positive, whole_number};
+use crate::ident::hysteresis::HysteresisModel;
+use crate::io::timeseries::{time_column, write_csv};
+use crate::runtime::PidSpec;
+use crate::sim::experiment::{
+    DEFAULT_PID, ExperimentParams, align_triangle_record, sweep_record, triangle_record,
+};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// Open-loop triangle waves on the virtual FTS: the command (V) and the
+/// measured displacement (um), aligned for the plant's delay so that a
+/// quasi-static model sees matching pairs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VirtualTriangles {
+    /// Noise seed of the virtual FTS; default 1.
+    #[serde(deserialize_with = "seed")]
+    pub seed: u64,
+    /// Peak amplitudes of the command, V, played in order; default 10, 8,
+    /// 6, 4, 2.
+    pub amplitudes: Vec<f64>,
+    /// Triangle frequency, Hz; default 2.
+    pub freq: f64,
+}
+
+impl Default for VirtualTriangles {
+    fn default() -> Self {
+        let p = ExperimentParams::default();
+        Self {
+            seed: p.seed,
+            amplitudes: p.triangle_amplitudes_v,
+            freq: p.triangle_freq_hz,
+        }
+    }
+}
+
+impl VirtualTriangles {
+    /// The experiment's settings with these changed.
+    pub fn params(&self) -> ExperimentParams {
+        ExperimentParams {
+            seed: self.seed,
+            triangle_amplitudes_v: self.amplitudes.clone(),
+            triangle_freq_hz: self.freq,
+            ..ExperimentParams::default()
+        }
+    }
+
+    /// Records the triangles.
+    pub fn run(&self) -> Result<VirtualRecord, StepError> {
+        self.validate()?;
+        let p = self.params();
+        let (command, measured) =
+            triangle_record(&p).map_err(|e| StepError::input(e.to_string()))?;
+        let (u, y) = align_triangle_record(&p, &command, &measured);
+        Ok(VirtualRecord::new(p.plant.ts, u.to_vec(), y.to_vec()))
+    }
+}
+
+impl Validate for VirtualTriangles {
+    fn validate(&self) -> Result<(), StepError> {
+        if let Some((i, a)) = self
+            .amplitudes
+            .iter()
+            .enumerate()
+            .find(|(_, a)| !a.is_finite())
+        {
+            return Err(StepError::setting(
+                "amplitudes",
+                format!("item {i}: expected a finite number, found {a}"),
+            ));
+        }
+        positive("freq", self.freq).map(|_| ())
+    }
+}
+
+/// The closed-loop sweep on the virtual FTS: the \[Li21\] PID (+ HC when an
+/// inverse hysteresis model is given) driven by a 0..`f1` sweep; the
+/// filtered reference and the measurement (um) after the lead-in.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VirtualSweep {
+    /// Noise seed of the virtual FTS; default 1.
+    #[serde(deserialize_with = "seed")]
+    pub seed: u64,
+    /// PID proportional gain, V/um; default [`DEFAULT_PID`]'s 0.02.
+    pub kp: f64,
+    /// PID integral gain, V/um per sample; default 0.15.
+    pub ki: f64,
+    /// PID derivative gain, V/um per sample; default 0.
+    pub kd: f64,
+    /// Lowest command, V; default 0.
+    pub output_min: f64,
+    /// Highest command, V; default 10.
+    pub output_max: f64,
+    /// Sweep amplitude, um; default 2.
+    pub amplitude: f64,
+    /// Centre of the sweep, um; default 7 (mid-stroke).
+    pub offset: f64,
+    /// Sweep length, s; default 2.
+    pub duration: f64,
+    /// Highest sweep frequency, Hz; default 1000.
+    pub f1: f64,
+}
+
+impl Default for VirtualSweep {
+    fn default() -> Self {
+        let p = ExperimentParams::default();
+        Self {
+            seed: p.seed,
+            kp: DEFAULT_PID.kp,
+            ki: DEFAULT_PID.ki,
+            kd: DEFAULT_PID.kd,
+            output_min: DEFAULT_PID.output_min,
+            output_max: DEFAULT_PID.output_max,
+            amplitude: p.sweep_amplitude,
+            offset: p.offset,
+            duration: p.sweep_duration,
+            f1: p.sweep_f1,
+        }
+    }
+}
+
+impl VirtualSweep {
+    /// The experiment's settings with these changed.
+    pub fn params(&self) -> ExperimentParams {
+        ExperimentParams {
+            seed: self.seed,
+            pid: PidSpec {
+                kp: self.kp,
+                ki: self.ki,
+                kd: self.kd,
+                output_min: self.output_min,
+                output_max: self.output_max,
+            },
+            sweep_amplitude: self.amplitude,
+            offset: self.offset,
+            sweep_duration: self.duration,
+            sweep_f1: self.f1,
+            ..ExperimentParams::default()
+        }
+    }
+
+    /// Records the sweep, with the inverse hysteresis feedforward when
+    /// `hysteresis` is given.
+    pub fn run(&self, hysteresis: Option<&HysteresisModel>) -> Result<VirtualRecord, StepError> {
+        self.validate()?;
+        let p = self.params();
+        let (r, y) = sweep_record(&p, hysteresis).map_err(|e| StepError::input(e.to_string()))?;
+        Ok(VirtualRecord::new(p.plant.ts, r, y))
+    }
+}
+
+impl Validate for VirtualSweep {
+    fn validate(&self) -> Result<(), StepError> {
+        for (key, value) in [
+            ("kp", self.kp),
+            ("ki", self.ki),
+            ("kd", self.kd),
+            ("output_min", self.output_min),
+            ("output_max", self.output_max),
+            ("offset", self.offset),
+        ] {
+            if !value.is_finite() {
+                return Err(StepError::setting(
+                    key,
+                    format!("expected a finite number, got {value}"),
+                ));
+            }
+        }
+        if self.output_min >= self.output_max {
+            return Err(StepError::setting(
+                "output_max",
+                format!(
+                    "output_max ({}) must exceed output_min ({})",
+                    self.output_max, self.output_min
+                ),
+            ));
+        }
+        positive("amplitude", self.amplitude)?;
+        positive("duration", self.duration)?;
+        positive("f1", self.f1).map(|_| ())
+    }
+}
+
+/// A record of the virtual FTS: input `u` and output `y` at sample time `ts`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VirtualRecord {
+    /// Sample time, s.
+    pub ts: f64,
+    /// The input column (command V, or filtered reference um).
+    pub u: Vec<f64>,
+    /// The output column (displacement or measurement, um).
+    pub y: Vec<f64>,
+}
+
+impl VirtualRecord {
+    fn new(ts: f64, u: Vec<f64>, y: Vec<f64>) -> Self {
+        Self { ts, u, y }
+    }
+
+    /// The `t,u,y` CSV (time in seconds from 0).
+    pub fn to_csv(&self) -> String {
+        let t = time_column(self.u.len(), self.ts);
+        write_csv(&["t", "u", "y"], &[&t, &self.u, &self.y])
+    }
+}
+
+impl Serialize for VirtualRecord {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        serde_json::json!({"samples": self.u.len(), "ts": self.ts}).serialize(s)
+    }
+}
+
+impl fmt::Display for VirtualRecord {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "{} samples, ts = {} s", self.u.len(), self.ts)
+    }
+}
+
+/// A noise seed: a non-negative whole number.
+fn seed<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u64, D::Error> {
+    whole_number(d).map(|n| n as u64)
+}
