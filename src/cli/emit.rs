@@ -12,8 +12,8 @@
 
 use super::common::{bad, choice, name, read_input, step_error, write_atomic};
 use crate::ident::hysteresis::HysteresisModel;
+use crate::io::controller_file::to_c_files;
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
-use crate::io::controller_file::{StateSpaceBlock, to_c_files};
 use crate::io::{hysteresis_json, tf_json, zpetc_json};
 use crate::lti::ss::StateSpace;
 use crate::synth::zpetc::Zpetc;
@@ -52,25 +52,6 @@ pub struct SsArgs {
     /// What the state-space controller's states do while the command is saturated.
     #[arg(long, value_parser = choice::<AntiWindup>(), default_value = name(SsController::default().ss_anti_windup), requires = "ss")]
     pub ss_anti_windup: AntiWindup,
-}
-
-/// Reads `--ss`, discretises it at `ts` when continuous, and makes the block
-/// (limits `output_min`/`output_max`, `None` for none). The file's hash goes in `inputs`.
-pub fn read_ss_block(
-    args: &SsArgs,
-    path: &Path,
-    ts: f64,
-    limits: (Option<f64>, Option<f64>),
-    inputs: &mut Vec<InputHash>,
-) -> anyhow::Result<StateSpaceBlock> {
-    let (text, source) = hashed(path, "state_space", inputs)?;
-    let sys = crate::io::ss_json::parse_system(&text, &source)?;
-    let block = args
-        .step(limits)
-        .block(&sys, ts, &source)
-        .map_err(step_error)?;
-    warn_fast_poles(&sys, ts, &source);
-    Ok(block)
 }
 
 impl SsArgs {

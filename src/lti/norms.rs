@@ -130,6 +130,20 @@ pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
     }
 }
 
+/// `count` log-spaced frequencies from a decade below the slowest pole
+/// to a decade above the fastest (empty without non-zero poles).
+fn log_grid(poles: &[c64], count: usize) -> Vec<f64> {
+    let mags = poles.iter().map(|p| p.norm()).filter(|&w| w > 0.0);
+    let (lo, hi) = mags.fold((f64::INFINITY, 0.0f64), |(l, h), w| (l.min(w), h.max(w)));
+    if !(lo.is_finite() && hi > 0.0) {
+        return Vec::new();
+    }
+    let (a, b) = ((lo / 10.0).log10(), (hi * 10.0).log10());
+    (0..count)
+        .map(|i| 10f64.powf(a + (b - a) * i as f64 / (count - 1) as f64))
+        .collect()
+}
+
 fn hinf_continuous(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
     let rtol = rtol.clamp(1e-12, 1e-1);
     let n = sys.nx();
@@ -141,10 +155,18 @@ fn hinf_continuous(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError>
     let mut glb = sd;
     let mut wpk = f64::INFINITY;
     let mut cands = vec![0.0];
-    for p in eigvals(&sys.a)? {
+    let poles = eigvals(&sys.a)?;
+    for p in &poles {
         cands.push(p.norm());
         cands.push(p.im.abs());
     }
+    // And a coarse log grid over the poles' range: a start at sigma(D) alone
+    // (a peak at infinity, e.g. a discrete system's Nyquist value after the
+    // bilinear map) puts gamma within 2 rtol of sigma_max(D), where
+    // R = D'D - gamma^2 I is nearly singular and the Hamiltonian's
+    // imaginary eigenvalues are lost; a start from the grid's best point
+    // keeps R well conditioned whenever the peak is finite.
+    cands.extend(log_grid(&poles, 64));
     for w in cands {
         let s = sys.sigma_at(w);
         if s > glb {
@@ -236,6 +258,66 @@ mod tests {
         assert!((h2_norm(&g).unwrap() - 0.5f64.sqrt()).abs() < 1e-14);
         let (n, w) = hinf_norm(&g, 1e-9).unwrap();
         assert!((n - 1.0).abs() < 1e-8 && w.abs() < 1e-6);
+    }
+
+    /// Largest singular value of a discrete system over a 2000-point grid
+    /// on `[0, pi]` refined by golden-section search around the best point:
+    /// an independent lower bound on the H-inf norm.
+    fn discrete_sweep_peak(sys: &StateSpace) -> f64 {
+        let k = 2000;
+        let step = std::f64::consts::PI / k as f64;
+        let (mut peak, mut at) = (0.0, 0.0);
+        for i in 0..=k {
+            let s = sys.sigma_at(i as f64 * step);
+            if s > peak {
+                (peak, at) = (s, i as f64 * step);
+            }
+        }
+        let (mut lo, mut hi) = ((at - step).max(0.0), (at + step).min(std::f64::consts::PI));
+        for _ in 0..80 {
+            let (m1, m2) = (lo + 0.382 * (hi - lo), lo + 0.618 * (hi - lo));
+            if sys.sigma_at(m1) > sys.sigma_at(m2) {
+                hi = m2;
+            } else {
+                lo = m1;
+            }
+        }
+        peak.max(sys.sigma_at(0.5 * (lo + hi)))
+    }
+
+    #[test]
+    fn discrete_norm_finds_peaks_below_nyquist() {
+        // Random stable discrete systems, 1..6 states, SISO to 2x2, with and
+        // without D. Seeding the search at sigma(D) alone (the Nyquist value
+        // after the bilinear map) missed peaks by up to 11 % on 16 of 2000
+        // such systems.
+        let mut seed = 99u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let mut worst = 0.0f64;
+        for case in 0..400 {
+            let n = 1 + (case % 6);
+            let (m, p) = (1 + (case / 6) % 2, 1 + (case / 12) % 2);
+            let a0 = Mat::from_fn(n, n, |_, _| rnd());
+            let b = Mat::from_fn(n, m, |_, _| rnd());
+            let c = Mat::from_fn(p, n, |_, _| rnd());
+            let d = Mat::from_fn(p, m, |_, _| if case % 3 == 0 { 0.0 } else { rnd() });
+            let radius = eigvals(&a0)
+                .unwrap()
+                .iter()
+                .fold(1e-9f64, |r, z| r.max(z.norm()));
+            let shrink = (0.5 + 0.499 * rnd().abs()) / radius;
+            let a = Mat::from_fn(n, n, |i, j| a0[(i, j)] * shrink);
+            let sys = StateSpace::new(a, b, c, d, Some(1.0)).unwrap();
+            let (g, _) = hinf_norm(&sys, 1e-9).unwrap();
+            let peak = discrete_sweep_peak(&sys);
+            worst = worst.max(1.0 - g / peak);
+        }
+        assert!(worst < 1e-6, "worst relative shortfall {worst:e}");
     }
 
     #[test]
