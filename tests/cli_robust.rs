@@ -317,3 +317,43 @@ fn budget_closes_the_loop_and_matches_parseval() {
         .code(2)
         .stderr(predicate::str::contains("not stable"));
 }
+
+#[test]
+fn ss_info_always_prints_the_zeros_and_the_normal_rank() {
+    let dir = tempfile::tempdir().unwrap();
+    // B of rank 1: normal rank 1, no zeros (the Rosenbrock pencil is
+    // singular; its QZ eigenvalues are not zeros).
+    let deficient = write(
+        dir.path(),
+        "deficient.json",
+        r#"{"format":"fts.ss/1","ts":null,"a":[[-1,0,0],[0,-2,0],[0,0,-3]],"b":[[1,1],[1,1],[1,1]],"c":[[1,0,1],[0,1,1]],"d":[[0,0],[0,0]]}"#,
+    );
+    // Tall (2 outputs, 1 input): the unobservable mode -2 is its only zero.
+    let tall = write(
+        dir.path(),
+        "tall.json",
+        r#"{"format":"fts.ss/1","ts":null,"a":[[-1,0],[0,-2]],"b":[[1],[1]],"c":[[1,0],[3,0]],"d":[[0],[0]]}"#,
+    );
+    for (file, text, zeros, rank) in [
+        (&deficient, "zeros: none (normal rank 1)\n", 0, 1),
+        (&tall, "zeros: -2.000000 (normal rank 1)\n", 1, 1),
+    ] {
+        fts()
+            .arg("ss-info")
+            .arg(file)
+            .assert()
+            .success()
+            .stdout(predicate::str::contains(text));
+        let out = fts()
+            .args(["ss-info", "--json"])
+            .arg(file)
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        let v = json_of(&out);
+        assert_eq!(v["zeros"].as_array().unwrap().len(), zeros);
+        assert_eq!(v["normal_rank"].as_u64(), Some(rank));
+    }
+}

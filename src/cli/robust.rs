@@ -15,6 +15,7 @@ use super::common::{
 use crate::io::ss_json;
 use crate::lti::norms::{NormError, h2_norm, hinf_norm};
 use crate::lti::ss::StateSpace;
+use crate::lti::zeros::invariant_zeros;
 use crate::workflow::robust::poles_summary;
 use crate::workflow::{
     C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Named, Validate, Weight, WeightShape,
@@ -312,7 +313,8 @@ pub struct SsInfoArgs {
     json: bool,
 }
 
-/// `fts ss-info`: poles, stability, H2 and H-infinity norms.
+/// `fts ss-info`: poles, invariant zeros (with the normal rank), stability,
+/// H2 and H-infinity norms.
 pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
     let sys = read_system(&args.input)?;
     let poles = sys.poles()?;
@@ -323,24 +325,30 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
     };
     let h2 = norm(h2_norm(&sys));
     let hinf = hinf_norm(&sys, 1e-9).ok();
-    let zeros = sys.zeros().ok();
+    let zeros = invariant_zeros(&sys, None)?;
     if args.json {
         print_json(&json!({
             "states": sys.nx(), "inputs": sys.nu(), "outputs": sys.ny(), "ts": sys.ts,
             "poles": complex_pairs(&poles), "stable": stable,
-            "zeros": zeros.as_ref().map(complex_pairs),
+            "zeros": complex_pairs(&zeros.finite), "normal_rank": zeros.normal_rank,
             "h2_norm": h2, "hinf_norm": hinf.map(|h| h.0), "hinf_omega": hinf.map(|h| h.1),
             "hinf_freq_hz": hinf.map(|h| h.1 / std::f64::consts::TAU),
         }))
     } else {
         say!(
-            "{} states, {} inputs, {} outputs, {}\npoles: {}\nstable: {stable}\nH2 norm: {h2}\nH-inf norm: {}",
+            "{} states, {} inputs, {} outputs, {}\npoles: {}\nzeros: {} (normal rank {})\nstable: {stable}\nH2 norm: {h2}\nH-inf norm: {}",
             sys.nx(),
             sys.nu(),
             sys.ny(),
             sys.ts
                 .map_or("continuous".to_string(), |t| format!("ts = {t} s")),
             poles_summary(&poles),
+            if zeros.finite.is_empty() {
+                "none".to_string()
+            } else {
+                poles_summary(&zeros.finite)
+            },
+            zeros.normal_rank,
             hinf.map_or("infinite (unstable)".to_string(), |h| format!(
                 "{:.9} at {:.6} Hz ({:.6} rad/s)",
                 h.0,

@@ -17,6 +17,7 @@ pub mod schur;
 pub mod ss;
 pub mod stability;
 pub mod tf;
+pub mod zeros;
 
 /// Complex double, the same type faer uses (`faer::c64`).
 #[allow(non_camel_case_types)]
@@ -29,3 +30,4 @@ pub use ss::{SsError, StateSpace};
 pub use tf::{
     Bode, ContinuousTf, DiscreteTf, Minreal, TfError, TransferFunction, linspace, logspace,
 };
+pub use zeros::{Zeros, invariant_zeros};

@@ -583,35 +583,12 @@ impl StateSpace {
         })
     }
 
-    /// Transmission zeros of a square system: finite generalized eigenvalues
-    /// of the Rosenbrock pencil `([A B; C D], [I 0; 0 0])`.
+    /// Finite invariant zeros of any system, square or not: the values where
+    /// the Rosenbrock matrix `[A - sI, B; C, D]` drops below its normal rank,
+    /// by the staircase reduction of SLICOT `AB08ND` (see
+    /// [`invariant_zeros`](super::zeros::invariant_zeros), default tolerance).
     pub fn zeros(&self) -> Result<Vec<c64>, SsError> {
-        if self.nu() != self.ny() {
-            return Err(SsError::Dimension(
-                "transmission zeros are computed for square systems only".into(),
-            ));
-        }
-        let (n, m) = (self.nx(), self.nu());
-        if n == 0 {
-            return Ok(Vec::new());
-        }
-        let big = block2(&self.a, &self.b, &self.c, &self.d);
-        let e = Mat::from_fn(n + m, n + m, |i, j| if i == j && i < n { 1.0 } else { 0.0 });
-        let ge = big
-            .generalized_eigen(&e)
-            .map_err(|_| SsError::NoConvergence)?;
-        let alpha = ge.S_a();
-        let beta = ge.S_b();
-        let scale = fro(&big).max(1.0);
-        let mut z = Vec::new();
-        for i in 0..n + m {
-            let a = alpha[i];
-            let b = beta[i];
-            if b.norm() > 1e-10 * a.norm().max(1e-300) && b.norm() * scale * 1e8 > a.norm() {
-                z.push(a / b);
-            }
-        }
-        Ok(z)
+        super::zeros::invariant_zeros(self, None).map(|z| z.finite)
     }
 
     /// Frequency response at the complex point `s` (continuous) or `z` (discrete).
