@@ -29,6 +29,7 @@
 //! | linear models | [`IdentifyArx`], [`IdentifyOe`], [`IdentifyIv`], [`ArxStruct`] (records prepared, fit %, delay and order selection) |
 //! | feedforward | [`DesignZpetc`] |
 //! | feedback | [`Weight`], [`Mixsyn`], [`Hinf`], [`H2`], [`C2d`]; margins and sensitivities in [`lti::margins`] |
+//! | studies | [`Ding22Study`] (the \[Ding22\] two-mass FTS: H2 design against a PID tuned for the same cost, error budget, structural sweep) |
 //! | judging a design | [`workflow::response::Response`] (step/impulse, `stepinfo`), [`workflow::convert`] (tf/ss/zpk, minreal, balred, d2c) |
 //! | virtual records | [`VirtualTriangles`], [`VirtualSweep`] (the \[Li21\] open-loop triangles and closed-loop sweep on the embedded virtual FTS) |
 //! | simulation | [`Simulate`] (a tracking run: the runtime's controller from a coefficient file or stages, on the virtual FTS or a linear model; tracking and step figures, divergence named), [`sim::closed_loop`] (any plant, the runtime's controller), [`sim::virtual_fts`] (the embedded virtual FTS), [`sim::experiment`] (the \[Li21\] study) |
@@ -64,7 +65,7 @@ pub use io::controller_file::ControllerFile;
 pub use lti::{ContinuousTf, DiscreteTf, Poly, StateSpace, TransferFunction};
 pub use runtime::RuntimeController;
 pub use workflow::{
-    ArxStruct, BuildController, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis,
-    IdentifyIv, IdentifyOe, Mixsyn, Simulate, SsController, StepError, Validate, VirtualSweep,
-    VirtualTriangles, Weight,
+    ArxStruct, BuildController, C2d, DesignZpetc, Ding22Study, H2, Hinf, IdentifyArx,
+    IdentifyHysteresis, IdentifyIv, IdentifyOe, Mixsyn, Simulate, SsController, StepError,
+    Validate, VirtualSweep, VirtualTriangles, Weight,
 };

@@ -1,11 +1,13 @@
 //! `fts bode DATA [--method welch|etfe] [-o response.csv] [--plot bode.svg] [--json]`:
 //! the empirical frequency response of an input/output record.
 
-use super::common::{bad, print_json, write_atomic};
+use super::common::{bad, print_report, write_atomic};
 use super::identify_linear::{DataArgs, empirical_plot, prepare};
-use crate::ident::freq::{WelchParams, etfe, welch};
+use crate::ident::freq::{FreqResponse, WelchParams, etfe, welch};
+use crate::lti::c64;
+use crate::workflow::Prepared;
 use clap::{Args, ValueEnum};
-use serde_json::json;
+use serde::Serialize;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -51,7 +53,33 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
         return Err(bad("fts bode: --validate and --split do not apply"));
     }
     let p = prepare(&a.data)?;
-    let h = match a.method {
+    let h = estimate(&a, &p)?;
+    let nyq = 0.5 / p.ts;
+    let fmax = a.fmax.unwrap_or(nyq).min(nyq);
+    if let Some(path) = &a.out {
+        write_atomic(path, response_csv(&h).as_bytes())?;
+    }
+    if let Some(path) = &a.plot {
+        empirical_plot(
+            path,
+            &format!("empirical response of {}", p.source),
+            &h,
+            fmax,
+        )?;
+    }
+    let report = BodeReport::new(a.method, &p, &h, fmax, a.rows);
+    print_report(&report, a.json)?;
+    if !a.json {
+        for path in [&a.out, &a.plot].into_iter().flatten() {
+            say!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// The empirical response of the prepared record by the chosen estimator.
+fn estimate(a: &BodeArgs, p: &Prepared) -> anyhow::Result<FreqResponse> {
+    match a.method {
         Method::Welch => welch(
             &p.est.u,
             &p.est.y,
@@ -63,100 +91,133 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
         ),
         Method::Etfe => etfe(&p.est.u, &p.est.y, p.ts),
     }
-    .map_err(|e| bad(format!("{}: {e}", p.source)))?;
-    let nyq = 0.5 / p.ts;
-    let fmax = a.fmax.unwrap_or(nyq).min(nyq);
+    .map_err(|e| bad(format!("{}: {e}", p.source)))
+}
+
+/// The whole response as CSV: `freq_hz, magnitude, magnitude_db,
+/// phase_deg, coherence, re, im`.
+fn response_csv(h: &FreqResponse) -> String {
     let phase = h.phase_deg_unwrapped();
-    let coh = |i: usize| h.coherence.as_ref().map(|c| c[i]);
-    if let Some(path) = &a.out {
-        let mut s = String::from("freq_hz,magnitude,magnitude_db,phase_deg,coherence,re,im\n");
-        for (i, f) in h.freq_hz.iter().enumerate() {
-            let v = h.response[i];
-            s.push_str(&format!(
-                "{f},{},{},{},{},{},{}\n",
-                v.norm(),
-                20.0 * v.norm().log10(),
-                phase[i],
-                coh(i).map(|c| c.to_string()).unwrap_or_default(),
-                v.re,
-                v.im
-            ));
-        }
-        write_atomic(path, s.as_bytes())?;
-    }
-    if let Some(path) = &a.plot {
-        empirical_plot(
-            path,
-            &format!("empirical response of {}", p.source),
-            &h,
-            fmax,
-        )?;
-    }
-    let idx: Vec<usize> = (0..h.freq_hz.len())
-        .filter(|&i| h.freq_hz[i] <= fmax)
-        .collect();
-    let stride = (idx.len() / a.rows.max(1)).max(1);
-    let shown: Vec<usize> = idx.iter().copied().step_by(stride).collect();
-    let mean_coh = h.coherence.as_ref().map(|c| {
-        let v: Vec<f64> = idx.iter().map(|&i| c[i]).collect();
-        v.iter().sum::<f64>() / v.len().max(1) as f64
-    });
-    if a.json {
-        return print_json(&json!({
-            "method": match a.method { Method::Welch => "welch", Method::Etfe => "etfe" },
-            "ts": p.ts,
-            "segments": h.segments,
-            "segment_len": h.segment_len,
-            "resolution_hz": 1.0 / (h.segment_len as f64 * p.ts),
-            "mean_coherence": mean_coh,
-            "freq_hz": idx.iter().map(|&i| h.freq_hz[i]).collect::<Vec<_>>(),
-            "magnitude": idx.iter().map(|&i| h.response[i].norm()).collect::<Vec<_>>(),
-            "phase_deg": idx.iter().map(|&i| phase[i]).collect::<Vec<_>>(),
-            "coherence": h.coherence.as_ref().map(|c| idx.iter().map(|&i| c[i]).collect::<Vec<_>>()),
-        }));
-    }
-    say!(
-        "{} estimate of {} ({} samples, Ts = {} s): {} segment(s) of {} samples, resolution {:.4} Hz{}",
-        match a.method {
-            Method::Welch => "Welch",
-            Method::Etfe => "ETFE",
-        },
-        p.source,
-        p.est.y.len(),
-        p.ts,
-        h.segments,
-        h.segment_len,
-        1.0 / (h.segment_len as f64 * p.ts),
-        mean_coh
-            .map(|c| format!(", mean coherence {c:.3}"))
-            .unwrap_or_default()
-    );
-    say!(
-        "  {:>12} {:>12} {:>10} {:>11} {:>9}",
-        "freq (Hz)",
-        "magnitude",
-        "dB",
-        "phase (deg)",
-        "coherence"
-    );
-    for i in shown {
+    let mut s = String::from("freq_hz,magnitude,magnitude_db,phase_deg,coherence,re,im\n");
+    for (i, f) in h.freq_hz.iter().enumerate() {
         let v = h.response[i];
-        say!(
-            "  {:>12.4} {:>12.6} {:>10.3} {:>11.2} {:>9}",
-            h.freq_hz[i],
+        let coherence = h.coherence.as_ref().map(|c| c[i].to_string());
+        s.push_str(&format!(
+            "{f},{},{},{},{},{},{}\n",
             v.norm(),
             20.0 * v.norm().log10(),
             phase[i],
-            coh(i)
-                .map(|c| format!("{c:.3}"))
-                .unwrap_or_else(|| "-".into())
-        );
+            coherence.unwrap_or_default(),
+            v.re,
+            v.im
+        ));
     }
-    if let Some(path) = &a.out {
-        say!("wrote {}", path.display());
+    s
+}
+
+/// What `fts bode` reports: the estimate's resolution and its response up
+/// to `fmax` (`--json`), and a table of about `rows` of those frequencies
+/// (the summary).
+#[derive(Debug, Serialize)]
+struct BodeReport {
+    method: &'static str,
+    ts: f64,
+    segments: usize,
+    segment_len: usize,
+    resolution_hz: f64,
+    mean_coherence: Option<f64>,
+    freq_hz: Vec<f64>,
+    magnitude: Vec<f64>,
+    phase_deg: Vec<f64>,
+    coherence: Option<Vec<f64>>,
+    /// `Welch` or `ETFE`.
+    #[serde(skip)]
+    estimator: &'static str,
+    /// The record's name.
+    #[serde(skip)]
+    source: String,
+    /// Samples of the record.
+    #[serde(skip)]
+    samples: usize,
+    /// The table's rows: frequency, response, phase, coherence.
+    #[serde(skip)]
+    rows: Vec<(f64, c64, f64, Option<f64>)>,
+}
+
+impl BodeReport {
+    fn new(method: Method, p: &Prepared, h: &FreqResponse, fmax: f64, rows: usize) -> Self {
+        let phase = h.phase_deg_unwrapped();
+        let idx: Vec<usize> = (0..h.freq_hz.len())
+            .filter(|&i| h.freq_hz[i] <= fmax)
+            .collect();
+        let stride = (idx.len() / rows.max(1)).max(1);
+        let coherence = h
+            .coherence
+            .as_ref()
+            .map(|c| idx.iter().map(|&i| c[i]).collect::<Vec<_>>());
+        let table = idx.iter().step_by(stride).map(|&i| {
+            let coherence = h.coherence.as_ref().map(|c| c[i]);
+            (h.freq_hz[i], h.response[i], phase[i], coherence)
+        });
+        let (method, estimator) = match method {
+            Method::Welch => ("welch", "Welch"),
+            Method::Etfe => ("etfe", "ETFE"),
+        };
+        Self {
+            method,
+            ts: p.ts,
+            segments: h.segments,
+            segment_len: h.segment_len,
+            resolution_hz: 1.0 / (h.segment_len as f64 * p.ts),
+            mean_coherence: coherence
+                .as_ref()
+                .map(|v| v.iter().sum::<f64>() / v.len().max(1) as f64),
+            freq_hz: idx.iter().map(|&i| h.freq_hz[i]).collect(),
+            magnitude: idx.iter().map(|&i| h.response[i].norm()).collect(),
+            phase_deg: idx.iter().map(|&i| phase[i]).collect(),
+            coherence,
+            estimator,
+            source: p.source.clone(),
+            samples: p.est.y.len(),
+            rows: table.collect(),
+        }
     }
-    if let Some(path) = &a.plot {
-        say!("wrote {}", path.display());
+}
+
+impl std::fmt::Display for BodeReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{} estimate of {} ({} samples, Ts = {} s): {} segment(s) of {} samples, resolution {:.4} Hz{}",
+            self.estimator,
+            self.source,
+            self.samples,
+            self.ts,
+            self.segments,
+            self.segment_len,
+            self.resolution_hz,
+            self.mean_coherence
+                .map(|c| format!(", mean coherence {c:.3}"))
+                .unwrap_or_default()
+        )?;
+        writeln!(
+            f,
+            "  {:>12} {:>12} {:>10} {:>11} {:>9}",
+            "freq (Hz)", "magnitude", "dB", "phase (deg)", "coherence"
+        )?;
+        for (freq, v, phase, coherence) in &self.rows {
+            writeln!(
+                f,
+                "  {:>12.4} {:>12.6} {:>10.3} {:>11.2} {:>9}",
+                freq,
+                v.norm(),
+                20.0 * v.norm().log10(),
+                phase,
+                coherence
+                    .map(|c| format!("{c:.3}"))
+                    .unwrap_or_else(|| "-".into())
+            )?;
+        }
+        Ok(())
     }
-    Ok(())
 }

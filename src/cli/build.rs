@@ -69,6 +69,39 @@ fn line(r: &StepReport) -> String {
 
 pub fn run(args: BuildArgs) -> anyhow::Result<()> {
     let plan = pipeline::load(&args.manifest).map_err(map_err)?;
+    let start = std::time::Instant::now();
+    let reports = run_steps(&plan, &args)?;
+    let count = |s: Status| reports.iter().filter(|r| r.status == s).count();
+    if args.json {
+        print_json(&summary_json(
+            &plan,
+            args.check,
+            &reports,
+            start.elapsed().as_secs_f64(),
+        ))?;
+    } else if args.check {
+        say!(
+            "{}: {} of {} steps up to date",
+            plan.manifest.display(),
+            count(Status::UpToDate),
+            reports.len()
+        );
+    } else {
+        say!(
+            "{}: {} built, {} up to date, {:.2} s; lock {}",
+            plan.manifest.display(),
+            count(Status::Built),
+            count(Status::UpToDate),
+            start.elapsed().as_secs_f64(),
+            plan.lock.display()
+        );
+    }
+    refuse_stale(&plan, &reports)
+}
+
+/// Checks or builds the plan's steps, with a spinner on stderr and, unless
+/// `--json`, one line per step as it finishes.
+fn run_steps(plan: &pipeline::Plan, args: &BuildArgs) -> anyhow::Result<Vec<StepReport>> {
     let bar = ProgressBar::new_spinner();
     bar.set_style(ProgressStyle::with_template("{spinner} [{elapsed}] {msg}").expect("valid"));
     let quiet = args.json;
@@ -88,64 +121,55 @@ pub fn run(args: BuildArgs) -> anyhow::Result<()> {
             }
         }
     };
-    let start = std::time::Instant::now();
     let result = if args.check {
-        pipeline::check(&plan, &mut observer)
+        pipeline::check(plan, &mut observer)
     } else {
-        pipeline::build(&plan, args.force, &mut observer)
+        pipeline::build(plan, args.force, &mut observer)
     };
     bar.finish_and_clear();
-    let reports = result.map_err(map_err)?;
+    result.map_err(map_err)
+}
+
+/// The `--json` summary: the run's counts and every step's status.
+fn summary_json(
+    plan: &pipeline::Plan,
+    check: bool,
+    reports: &[StepReport],
+    seconds: f64,
+) -> serde_json::Value {
     let count = |s: Status| reports.iter().filter(|r| r.status == s).count();
-    let stale: Vec<&StepReport> = reports
+    json!({
+        "manifest": plan.manifest.display().to_string(),
+        "lock": plan.lock.display().to_string(),
+        "check": check,
+        "seconds": seconds,
+        "built": count(Status::Built),
+        "up_to_date": count(Status::UpToDate),
+        "stale": count(Status::Stale),
+        "steps": reports.iter().map(|r| json!({
+            "name": r.name,
+            "kind": r.kind,
+            "status": r.status.label(),
+            "reasons": reasons(r),
+            "outputs": r.outputs,
+            "seconds": r.seconds,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// Exit 1 naming every stale output and why (`--check`).
+fn refuse_stale(plan: &pipeline::Plan, reports: &[StepReport]) -> anyhow::Result<()> {
+    let stale: Vec<String> = reports
         .iter()
         .filter(|r| r.status == Status::Stale)
+        .map(|r| format!("{} ({})", r.outputs.join(", "), reasons(r).join("; ")))
         .collect();
-    if args.json {
-        print_json(&json!({
-            "manifest": plan.manifest.display().to_string(),
-            "lock": plan.lock.display().to_string(),
-            "check": args.check,
-            "seconds": start.elapsed().as_secs_f64(),
-            "built": count(Status::Built),
-            "up_to_date": count(Status::UpToDate),
-            "stale": count(Status::Stale),
-            "steps": reports.iter().map(|r| json!({
-                "name": r.name,
-                "kind": r.kind,
-                "status": r.status.label(),
-                "reasons": reasons(r),
-                "outputs": r.outputs,
-                "seconds": r.seconds,
-            })).collect::<Vec<_>>(),
-        }))?;
-    } else if args.check {
-        say!(
-            "{}: {} of {} steps up to date",
-            plan.manifest.display(),
-            count(Status::UpToDate),
-            reports.len()
-        );
-    } else {
-        say!(
-            "{}: {} built, {} up to date, {:.2} s; lock {}",
-            plan.manifest.display(),
-            count(Status::Built),
-            count(Status::UpToDate),
-            start.elapsed().as_secs_f64(),
-            plan.lock.display()
-        );
+    if stale.is_empty() {
+        return Ok(());
     }
-    if !stale.is_empty() {
-        let outputs: Vec<String> = stale
-            .iter()
-            .map(|r| format!("{} ({})", r.outputs.join(", "), reasons(r).join("; ")))
-            .collect();
-        return Err(anyhow::anyhow!(
-            "stale outputs: {}; run `fts build -f {}`",
-            outputs.join("; "),
-            plan.manifest.display()
-        ));
-    }
-    Ok(())
+    Err(anyhow::anyhow!(
+        "stale outputs: {}; run `fts build -f {}`",
+        stale.join("; "),
+        plan.manifest.display()
+    ))
 }

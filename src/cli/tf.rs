@@ -1,10 +1,10 @@
 //! `fts tf info plant.json [--bode out.csv] [--freq HZ ...] [--json]`
 
-use super::common::{complex_pairs, fmt_complex, print_json, read_input, write_atomic};
+use super::common::{complex_pairs, fmt_complex, print_report, read_input, write_atomic};
 use crate::io::tf_json;
-use crate::lti::{Bode, TransferFunction, linspace, logspace};
+use crate::lti::{Bode, TransferFunction, c64, linspace, logspace};
 use clap::{Args, Subcommand};
-use serde_json::json;
+use serde::Serialize;
 use std::path::PathBuf;
 
 #[derive(Debug, Subcommand)]
@@ -46,127 +46,199 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
             "--freq: expected a non-negative frequency in Hz, got {f}"
         )));
     }
-    let zeros = g.zeros()?;
-    let poles = g.poles()?;
-    let stable = g.is_stable()?;
-    // The verdict is exact on the stored coefficients; say so where the
-    // computed poles (clustered: accurate to about eps^(1/k)) suggest
-    // otherwise.
-    let by_roots = match &g {
+    let report = TfInfo::new(&g, &source, &args.freq)?;
+    if let Some(path) = &args.bode {
+        write_atomic(path, bode_csv(&g, args.points).as_bytes())?;
+    }
+    print_report(&report, args.json)?;
+    if let Some(path) = &args.bode
+        && !args.json
+    {
+        say!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// What `fts tf info` reports: the model's document with its poles,
+/// zeros, DC gain, stability and response at a few frequencies.
+#[derive(Debug, Serialize)]
+struct TfInfo {
+    /// The `fts.tf/1` document of the model.
+    #[serde(flatten)]
+    model: serde_json::Value,
+    #[serde(serialize_with = "pairs")]
+    poles: Vec<c64>,
+    #[serde(serialize_with = "pairs")]
+    zeros: Vec<c64>,
+    dc_gain: f64,
+    stable: bool,
+    /// Set where the computed poles contradict the exact verdict.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stability_note: Option<String>,
+    response: Vec<ResponseAt>,
+    /// The summary's first line: source, kind, sample time and delay, sizes.
+    #[serde(skip)]
+    heading: String,
+    /// `|z|` or `|s|`.
+    #[serde(skip)]
+    plane: &'static str,
+}
+
+/// The response at one frequency.
+#[derive(Debug, Serialize)]
+struct ResponseAt {
+    freq_hz: f64,
+    magnitude: f64,
+    phase_deg: f64,
+    re: f64,
+    im: f64,
+}
+
+fn pairs<S: serde::Serializer>(values: &[c64], s: S) -> Result<S::Ok, S::Error> {
+    complex_pairs(values).serialize(s)
+}
+
+impl TfInfo {
+    /// The report on `g` with its response at `freq` (default: a few up to
+    /// Nyquist for a discrete model, 1 kHz for a continuous one).
+    fn new(g: &TransferFunction, source: &str, freq: &[f64]) -> anyhow::Result<Self> {
+        let zeros = g.zeros()?;
+        let poles = g.poles()?;
+        let stable = g.is_stable()?;
+        let (heading, plane, top) = match g {
+            TransferFunction::Discrete(d) => (
+                format!(
+                    "{source}: discrete, ts = {} s, delay {} samples, {} zeros, {} poles",
+                    d.ts(),
+                    d.delay(),
+                    zeros.len(),
+                    poles.len()
+                ),
+                "|z|",
+                d.nyquist_hz(),
+            ),
+            TransferFunction::Continuous(_) => (
+                format!(
+                    "{source}: continuous, {} zeros, {} poles",
+                    zeros.len(),
+                    poles.len()
+                ),
+                "|s|",
+                1000.0,
+            ),
+        };
+        let freqs = if freq.is_empty() {
+            // 0 Hz, then fractions of the top frequency up to the top itself.
+            let mut f = vec![0.0];
+            f.extend([0.02, 0.04, 0.1, 0.2, 0.4, 1.0].iter().map(|r| r * top));
+            f
+        } else {
+            freq.to_vec()
+        };
+        Ok(Self {
+            model: tf_json::tf_to_value(g),
+            stability_note: stability_note(g, &poles, stable),
+            zeros,
+            poles,
+            dc_gain: g.dc_gain(),
+            stable,
+            response: freqs.iter().map(|&f| response_at(g, f)).collect(),
+            heading,
+            plane,
+        })
+    }
+}
+
+/// The verdict is exact on the stored coefficients; a note says so where
+/// the computed poles (clustered: accurate to about eps^(1/k)) suggest
+/// otherwise.
+fn stability_note(g: &TransferFunction, poles: &[c64], stable: bool) -> Option<String> {
+    let by_roots = match g {
         TransferFunction::Discrete(_) => poles.iter().all(|p| p.norm() < 1.0),
         TransferFunction::Continuous(_) => poles.iter().all(|p| p.re < 0.0),
     };
-    let disagreement = (stable != by_roots).then(|| {
+    (stable != by_roots).then(|| {
         format!(
             "the exact test on the stored denominator says {}, the computed poles below say {}: \
              clustered poles are computed to about eps^(1/k) for a k-fold pole; the exact verdict holds",
             if stable { "stable" } else { "unstable" },
             if by_roots { "stable" } else { "unstable" }
         )
-    });
-    let (kind, top) = match &g {
-        TransferFunction::Discrete(d) => ("discrete", d.nyquist_hz()),
-        TransferFunction::Continuous(_) => ("continuous", 1000.0),
-    };
-    let freqs = if args.freq.is_empty() {
-        // 0 Hz, then fractions of the top frequency up to the top itself
-        // (Nyquist for a discrete model, 1 kHz for a continuous one).
-        let mut f = vec![0.0];
-        f.extend([0.02, 0.04, 0.1, 0.2, 0.4, 1.0].iter().map(|r| r * top));
-        f
-    } else {
-        args.freq.clone()
-    };
-    let points = args.points.max(2);
-    let grid = match &g {
+    })
+}
+
+fn response_at(g: &TransferFunction, freq_hz: f64) -> ResponseAt {
+    let v = g.response_at_hz(freq_hz);
+    ResponseAt {
+        freq_hz,
+        magnitude: v.norm(),
+        phase_deg: v.arg().to_degrees(),
+        re: v.re,
+        im: v.im,
+    }
+}
+
+impl std::fmt::Display for TfInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let plane = self.plane;
+        writeln!(f, "{}", self.heading)?;
+        writeln!(
+            f,
+            "poles ({}):",
+            if self.stable { "stable" } else { "UNSTABLE" }
+        )?;
+        if let Some(note) = &self.stability_note {
+            writeln!(f, "  note: {note}")?;
+        }
+        for p in &self.poles {
+            writeln!(f, "  {:<26} {plane} = {:.6}", fmt_complex(*p), p.norm())?;
+        }
+        writeln!(f, "zeros:")?;
+        for z in &self.zeros {
+            writeln!(f, "  {:<26} {plane} = {:.6}", fmt_complex(*z), z.norm())?;
+        }
+        writeln!(f, "DC gain: {:.6}", self.dc_gain)?;
+        writeln!(f, "frequency response:")?;
+        writeln!(
+            f,
+            "  {:>12} {:>12} {:>10} {:>10}",
+            "freq (Hz)", "magnitude", "dB", "phase (deg)"
+        )?;
+        for r in &self.response {
+            writeln!(
+                f,
+                "  {:>12.3} {:>12.6} {:>10.3} {:>10.2}",
+                r.freq_hz,
+                r.magnitude,
+                20.0 * r.magnitude.log10(),
+                r.phase_deg
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The Bode table: `freq_hz, magnitude, magnitude_db, phase_deg, re, im`
+/// on `points` frequencies (linear to Nyquist, or log from 0.01 Hz to
+/// 100 kHz for a continuous model).
+fn bode_csv(g: &TransferFunction, points: usize) -> String {
+    let points = points.max(2);
+    let grid = match g {
         TransferFunction::Discrete(d) => linspace(0.0, d.nyquist_hz(), points),
         TransferFunction::Continuous(_) => logspace(1e-2, 1e5, points),
     };
     let bode = Bode::from_fn(&grid, |f| g.response_at_hz(f));
-    if let Some(path) = &args.bode {
-        let mut out = String::from("freq_hz,magnitude,magnitude_db,phase_deg,re,im\n");
-        for (i, f) in bode.freq_hz.iter().enumerate() {
-            let v = g.response_at_hz(*f);
-            out.push_str(&format!(
-                "{f},{},{},{},{},{}\n",
-                bode.magnitude[i],
-                20.0 * bode.magnitude[i].log10(),
-                bode.phase_deg[i],
-                v.re,
-                v.im
-            ));
-        }
-        write_atomic(path, out.as_bytes())?;
+    let mut out = String::from("freq_hz,magnitude,magnitude_db,phase_deg,re,im\n");
+    for (i, f) in bode.freq_hz.iter().enumerate() {
+        let v = g.response_at_hz(*f);
+        out.push_str(&format!(
+            "{f},{},{},{},{},{}\n",
+            bode.magnitude[i],
+            20.0 * bode.magnitude[i].log10(),
+            bode.phase_deg[i],
+            v.re,
+            v.im
+        ));
     }
-    let responses: Vec<_> = freqs.iter().map(|&f| (f, g.response_at_hz(f))).collect();
-    if args.json {
-        let mut doc = tf_json::tf_to_value(&g);
-        let obj = doc.as_object_mut().expect("object");
-        obj.insert("poles".into(), complex_pairs(&poles));
-        obj.insert("zeros".into(), complex_pairs(&zeros));
-        obj.insert("dc_gain".into(), json!(g.dc_gain()));
-        obj.insert("stable".into(), json!(stable));
-        if let Some(note) = &disagreement {
-            obj.insert("stability_note".into(), json!(note));
-        }
-        obj.insert(
-            "response".into(),
-            serde_json::Value::Array(
-                responses
-                    .iter()
-                    .map(|(f, v)| json!({"freq_hz": f, "magnitude": v.norm(), "phase_deg": v.arg().to_degrees(), "re": v.re, "im": v.im}))
-                    .collect(),
-            ),
-        );
-        return print_json(&doc);
-    }
-    match &g {
-        TransferFunction::Discrete(d) => say!(
-            "{source}: discrete, ts = {} s, delay {} samples, {} zeros, {} poles",
-            d.ts(),
-            d.delay(),
-            zeros.len(),
-            poles.len()
-        ),
-        TransferFunction::Continuous(_) => {
-            say!(
-                "{source}: {kind}, {} zeros, {} poles",
-                zeros.len(),
-                poles.len()
-            )
-        }
-    }
-    let plane = if kind == "discrete" { "|z|" } else { "|s|" };
-    say!("poles ({}):", if stable { "stable" } else { "UNSTABLE" });
-    if let Some(note) = &disagreement {
-        say!("  note: {note}");
-    }
-    for p in &poles {
-        say!("  {:<26} {plane} = {:.6}", fmt_complex(*p), p.norm());
-    }
-    say!("zeros:");
-    for z in &zeros {
-        say!("  {:<26} {plane} = {:.6}", fmt_complex(*z), z.norm());
-    }
-    say!("DC gain: {:.6}", g.dc_gain());
-    say!("frequency response:");
-    say!(
-        "  {:>12} {:>12} {:>10} {:>10}",
-        "freq (Hz)",
-        "magnitude",
-        "dB",
-        "phase (deg)"
-    );
-    for (f, v) in responses {
-        say!(
-            "  {f:>12.3} {:>12.6} {:>10.3} {:>10.2}",
-            v.norm(),
-            20.0 * v.norm().log10(),
-            v.arg().to_degrees()
-        );
-    }
-    if let Some(path) = &args.bode {
-        say!("wrote {}", path.display());
-    }
-    Ok(())
+    out
 }

@@ -296,11 +296,6 @@ pub fn build(
     let names: BTreeSet<&str> = plan.steps.iter().map(|s| s.name.as_str()).collect();
     let mut lock = old.clone();
     lock.steps.retain(|name, _| names.contains(name.as_str()));
-    let write_lock = |lock: &Lock| -> Result<(), PipelineError> {
-        write_atomic(&plan.lock, lock.to_json_string().as_bytes()).map_err(|e| {
-            PipelineError::Failure(format!("{}: cannot write: {e}", plan.lock.display()))
-        })
-    };
     let mut reports = Vec::new();
     for step in &plan.steps {
         let reasons = if force {
@@ -316,44 +311,7 @@ pub fn build(
         }
         observer(Event::Start(step));
         let start = Instant::now();
-        // Inputs are read once: the bytes hashed are the bytes used.
-        let mut inputs = BTreeMap::new();
-        let mut entry = LockEntry {
-            kind: step.kind.clone(),
-            settings_sha256: step.settings_sha256.clone(),
-            ..LockEntry::default()
-        };
-        for f in &step.inputs {
-            let path = plan.locate(&f.path);
-            let bytes = std::fs::read(&path).map_err(|e| {
-                PipelineError::BadInput(format!(
-                    "{} line {}, field 'step.{}.{}': cannot read {}: {e}",
-                    plan.manifest.display(),
-                    f.line,
-                    step.name,
-                    f.field,
-                    path.display()
-                ))
-            })?;
-            entry.inputs.insert(f.path.clone(), sha256_hex(&bytes));
-            inputs.insert(f.field.clone(), bytes);
-        }
-        let outputs = execute(plan, step, &inputs).map_err(|e| {
-            let prefix = format!(
-                "{} line {}, step {:?} ({})",
-                plan.manifest.display(),
-                step.line,
-                step.name,
-                step.kind
-            );
-            match e {
-                PipelineError::BadInput(m) => PipelineError::BadInput(format!("{prefix}: {m}")),
-                PipelineError::Failure(m) => PipelineError::Failure(format!("{prefix}: {m}")),
-            }
-        })?;
-        commit_outputs(plan, &outputs, &mut entry)?;
-        lock.steps.insert(step.name.clone(), entry);
-        write_lock(&lock)?;
+        build_step(plan, step, &mut lock)?;
         let r = report(step, Status::Built, reasons, start.elapsed().as_secs_f64());
         observer(Event::Done(&r));
         reports.push(r);
@@ -361,9 +319,67 @@ pub fn build(
     // Entries of steps no longer in the manifest are dropped.
     let text = lock.to_json_string();
     if old_text.as_deref() != Some(text.as_str()) {
-        write_lock(&lock)?;
+        write_lock(plan, &lock)?;
     }
     Ok(reports)
+}
+
+/// Builds one step: reads its inputs, runs it, commits its outputs, and
+/// records it in the lock file.
+fn build_step(plan: &Plan, step: &Step, lock: &mut Lock) -> Result<(), PipelineError> {
+    let (inputs, mut entry) = read_inputs(plan, step)?;
+    let outputs = execute(plan, step, &inputs).map_err(|e| {
+        let prefix = format!(
+            "{} line {}, step {:?} ({})",
+            plan.manifest.display(),
+            step.line,
+            step.name,
+            step.kind
+        );
+        match e {
+            PipelineError::BadInput(m) => PipelineError::BadInput(format!("{prefix}: {m}")),
+            PipelineError::Failure(m) => PipelineError::Failure(format!("{prefix}: {m}")),
+        }
+    })?;
+    commit_outputs(plan, &outputs, &mut entry)?;
+    lock.steps.insert(step.name.clone(), entry);
+    write_lock(plan, lock)
+}
+
+/// A step's inputs by field, each read once (the bytes hashed are the bytes
+/// used), and its lock entry with their hashes.
+fn read_inputs(
+    plan: &Plan,
+    step: &Step,
+) -> Result<(BTreeMap<String, Vec<u8>>, LockEntry), PipelineError> {
+    let mut inputs = BTreeMap::new();
+    let mut entry = LockEntry {
+        kind: step.kind.clone(),
+        settings_sha256: step.settings_sha256.clone(),
+        ..LockEntry::default()
+    };
+    for f in &step.inputs {
+        let path = plan.locate(&f.path);
+        let bytes = std::fs::read(&path).map_err(|e| {
+            PipelineError::BadInput(format!(
+                "{} line {}, field 'step.{}.{}': cannot read {}: {e}",
+                plan.manifest.display(),
+                f.line,
+                step.name,
+                f.field,
+                path.display()
+            ))
+        })?;
+        entry.inputs.insert(f.path.clone(), sha256_hex(&bytes));
+        inputs.insert(f.field.clone(), bytes);
+    }
+    Ok((inputs, entry))
+}
+
+/// Writes the lock file atomically.
+fn write_lock(plan: &Plan, lock: &Lock) -> Result<(), PipelineError> {
+    write_atomic(&plan.lock, lock.to_json_string().as_bytes())
+        .map_err(|e| PipelineError::Failure(format!("{}: cannot write: {e}", plan.lock.display())))
 }
 
 /// Writes a step's outputs all or none: every changed output is staged in a

@@ -1,7 +1,7 @@
 //! Workflows as typed steps: one struct per command (`fts weight`,
 //! `fts mixsyn`, `fts hinf`, `fts h2`, `fts c2d`, `fts emit`,
-//! `fts virtual triangles|sweep`, ...), shared by the command line and the
-//! pipeline manifest.
+//! `fts virtual triangles|sweep`, `fts ding22`, ...), shared by the command
+//! line and the pipeline manifest.
 //!
 //! Each step is `serde::Deserialize` (unknown keys refused, missing keys
 //! take the [`Default`]), has `validate()` (settings alone) and `run(...)`
@@ -12,6 +12,7 @@
 
 pub mod controller;
 pub mod convert;
+pub mod ding22;
 pub mod experiment;
 pub mod identify;
 mod identify_hysteresis;
@@ -24,6 +25,7 @@ pub use controller::{
     AntiWindup, BuildController, BuildInputs, ControllerInputs, ControllerReport, Discretisation,
     NoFeedback, PidForm, SsController,
 };
+pub use ding22::{Ding22Report, Ding22Study};
 pub use experiment::{VirtualRecord, VirtualSweep, VirtualTriangles};
 pub use identify::{
     ArxStruct, IdentifyArx, IdentifyHysteresis, IdentifyIv, IdentifyOe, LinearInputs, LinearReport,
@@ -113,7 +115,11 @@ pub fn render_settings(message: &str, name: impl Fn(&str) -> String) -> String {
         };
         let key = &rest[open + 1..open + 1 + len];
         out.push_str(&rest[..open]);
-        if !key.is_empty() && key.bytes().all(|b| b.is_ascii_lowercase() || b == b'_') {
+        if key.starts_with(|c: char| c.is_ascii_lowercase())
+            && key
+                .bytes()
+                .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_')
+        {
             out.push_str(&name(key));
         } else {
             out.push_str(&rest[open..open + len + 2]);
@@ -220,6 +226,10 @@ mod tests {
     fn settings_in_messages_are_named_as_the_front_end_calls_them() {
         let m = "data.csv: no time column; give `ts` SECONDS or `max_iterations`";
         assert_eq!(
+            render_settings("`k2` must be positive", |k| format!("--{k}")),
+            "--k2 must be positive"
+        );
+        assert_eq!(
             render_settings(m, |k| format!("--{}", k.replace('_', "-"))),
             "data.csv: no time column; give --ts SECONDS or --max-iterations"
         );
@@ -228,7 +238,7 @@ mod tests {
             "data.csv: no time column; give 'ts' SECONDS or 'max_iterations'"
         );
         // Not a key (spaces, capitals, unmatched): left as written.
-        for m in ["use `fts identify oe`", "`A` and `", "a ` b"] {
+        for m in ["use `fts identify oe`", "`A` and `", "a ` b", "`2a`"] {
             assert_eq!(render_settings(m, |_| "X".into()), m);
         }
     }
