@@ -51,6 +51,19 @@ pub(crate) fn check_coeffs(source: &str, field: &str, c: &[f64]) -> Result<(), I
     Ok(())
 }
 
+/// Refuses an empty polynomial, a non-finite coefficient (naming it, e.g.
+/// `num[3]`) and what [`check_coeffs`] refuses.
+pub(crate) fn check_poly(source: &str, field: &str, c: &[f64]) -> Result<(), InputError> {
+    if c.is_empty() {
+        return Err(field_err(source, field, "must not be empty"));
+    }
+    if let Some(i) = c.iter().position(|v| !v.is_finite()) {
+        let message = format!("expected a finite number, found {}", c[i]);
+        return Err(field_err(source, &format!("{field}[{i}]"), &message));
+    }
+    check_coeffs(source, field, c)
+}
+
 /// Parses an `fts.tf/1` document. Unknown fields are ignored; an unknown
 /// `format` is an error.
 pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError> {
