@@ -3,8 +3,12 @@
 //! hand-written checks (`expected a number, found string "x"`).
 
 use crate::io::InputError;
-use serde::de::DeserializeOwned;
+use serde::Deserialize;
+use serde::de::value::MapAccessDeserializer;
+use serde::de::{DeserializeOwned, Deserializer, MapAccess, Visitor};
 use serde_json::Value;
+use std::fmt;
+use std::marker::PhantomData;
 
 /// The top of a document read from `source`.
 pub(crate) fn top(source: &str) -> At<'_> {
@@ -121,5 +125,26 @@ fn plain_kind(kind: &str) -> String {
         k if k.starts_with("struct ") => "an object".into(),
         // `integer `3``, `floating point `4.5``: the value without backticks.
         k => k.replace('`', ""),
+    }
+}
+
+/// A `T` read from a JSON object only. serde's derived structs also accept
+/// an array of their fields in order, which the readers refuse; this reads
+/// through the map itself, so errors inside keep their path.
+pub(crate) struct Object<T>(pub(crate) T);
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Object<T> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct ObjectVisitor<T>(PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for ObjectVisitor<T> {
+            type Value = Object<T>;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("an object")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Object<T>, A::Error> {
+                T::deserialize(MapAccessDeserializer::new(map)).map(Object)
+            }
+        }
+        d.deserialize_map(ObjectVisitor(PhantomData))
     }
 }

@@ -14,7 +14,7 @@
 //! the reference `preview` samples ahead.
 
 use super::InputError;
-use super::serde_doc::{At, from_value, parse_object, top};
+use super::serde_doc::{At, Object, from_value, parse_object, top};
 use super::tf_json::check_poly;
 use crate::lti::{Poly, c64};
 use crate::synth::zpetc::{ClassifiedZero, StableInversion, ZeroStatus, Zpetc, ZpetcParams};
@@ -108,7 +108,7 @@ struct ZpetcDoc {
     #[serde(default)]
     series_terms: u64,
     #[serde(default)]
-    stable_inversion: Option<StableInversionDoc>,
+    stable_inversion: Option<Object<StableInversionDoc>>,
 }
 
 /// `stable_inversion`: each key defaults to [`StableInversion::default`].
@@ -179,7 +179,7 @@ impl ZpetcDoc {
             rho: self.rho.unwrap_or(defaults.rho),
             min_damping: self.min_damping.unwrap_or(defaults.min_damping),
             stable_inversion: match &self.stable_inversion {
-                Some(si) => Some(si.read(At {
+                Some(Object(si)) => Some(si.read(At {
                     source: at.source,
                     path: "stable_inversion",
                 })?),
@@ -291,6 +291,11 @@ mod tests {
                 r#", "num": [1], "series_terms": null}"#,
                 "series_terms",
                 "found null",
+            ),
+            (
+                r#", "num": [1], "stable_inversion": [2]}"#,
+                "stable_inversion",
+                "an object",
             ),
         ] {
             let e = parse_zpetc(&format!("{head}{tail}"), "z.json").unwrap_err();
