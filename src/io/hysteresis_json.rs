@@ -10,12 +10,13 @@
 //! ```
 
 use super::InputError;
-use super::tf_json::{MAX_COEFF_MAGNITUDE, check_format, get_f64_array, get_str};
+use super::serde_doc::{At, Object, from_value, parse_object, top};
+use super::tf_json::MAX_COEFF_MAGNITUDE;
 use crate::ident::hysteresis::{
-    DeadZoneStage, HysteresisModel, Identified, IdentifyParams, ModelKind, PlayOperator,
+    DeadZoneStage, HysteresisModel, Identified, IdentifyParams, ModelError, ModelKind, PlayOperator,
 };
-use serde::Serialize;
-use serde_json::{Map, Value};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
 
 /// The format tag.
 pub const HYSTERESIS_FORMAT: &str = "fts.hysteresis/1";
@@ -144,196 +145,209 @@ pub fn model_to_string(file: &ModelFile) -> String {
     s
 }
 
-fn err(source: &str, field: &str, message: impl Into<String>) -> InputError {
-    InputError::new(source, message).in_field(field)
-}
-
 /// The most operators (or dead zones) a model file may have: applying a
 /// model costs one play per operator and sample.
 pub const MAX_OPERATORS: usize = 1024;
 
-/// A bounded list of numbers, none subnormal or beyond
-/// [`MAX_COEFF_MAGNITUDE`] (such a model overflows on ordinary inputs).
-fn get_bounded_array(
-    obj: &Map<String, Value>,
-    source: &str,
-    key: &str,
-) -> Result<Vec<f64>, InputError> {
-    if let Some(Value::Array(a)) = obj.get(key)
-        && a.len() > MAX_OPERATORS
-    {
-        return Err(err(
-            source,
-            key,
-            format!("{} values; at most {MAX_OPERATORS} are accepted", a.len()),
-        ));
-    }
-    let values = get_f64_array(obj, source, key)?;
-    check_magnitude(source, key, &values)?;
-    Ok(values)
+/// The `fts.hysteresis/1` document as read (after its `format`); unknown
+/// keys are ignored, and `mapping` is informative (derived from
+/// `input`/`output`).
+#[derive(Deserialize)]
+struct ModelDoc {
+    model: String,
+    operator: String,
+    #[serde(default)]
+    input: Option<Object<SignalDoc>>,
+    #[serde(default)]
+    output: Option<Object<SignalDoc>>,
+    thresholds: Vec<f64>,
+    weights: Vec<f64>,
+    /// Absent or `null` reads as 0, as do `offset` and `input_offset`.
+    #[serde(default)]
+    cbrt_gain: Option<f64>,
+    #[serde(default)]
+    offset: Option<f64>,
+    #[serde(default)]
+    input_offset: Option<f64>,
+    #[serde(default)]
+    dead_zone: Option<Object<DeadZoneIn>>,
+    #[serde(default)]
+    fit: Option<Object<FitDoc>>,
 }
 
-fn check_magnitude(source: &str, key: &str, values: &[f64]) -> Result<(), InputError> {
-    let absurd =
-        |v: f64| v != 0.0 && (v.abs() < f64::MIN_POSITIVE || v.abs() > MAX_COEFF_MAGNITUDE);
-    match values.iter().position(|&v| absurd(v)) {
-        Some(i) => Err(err(
-            source,
-            &format!("{key}[{i}]"),
-            format!(
-                "{:e} is subnormal or beyond {MAX_COEFF_MAGNITUDE:e}; rescale the model (other units)",
-                values[i]
-            ),
-        )),
+/// `input` or `output`; an absent or empty `quantity` reads as the default.
+#[derive(Deserialize)]
+struct SignalDoc {
+    #[serde(default)]
+    quantity: String,
+    #[serde(default)]
+    unit: String,
+}
+
+/// The `dead_zone` stage as read.
+#[derive(Deserialize)]
+struct DeadZoneIn {
+    thresholds: Vec<f64>,
+    weights: Vec<f64>,
+}
+
+/// The fit record as read: informative, so each field may be absent, and
+/// `null` (as a non-finite number is written) reads as NaN.
+#[derive(Deserialize)]
+struct FitDoc {
+    #[serde(default)]
+    rms_percent: Option<f64>,
+    #[serde(default)]
+    max_percent: Option<f64>,
+    #[serde(default)]
+    samples: Option<u64>,
+    #[serde(default)]
+    method: Option<String>,
+    #[serde(default)]
+    condition_number: Option<f64>,
+    #[serde(default)]
+    iterations: Option<u64>,
+}
+
+/// A list of at most [`MAX_OPERATORS`] numbers, not empty, none subnormal
+/// or beyond [`MAX_COEFF_MAGNITUDE`] (such a model overflows on ordinary
+/// inputs).
+fn check_bounded(values: &[f64], key: &str, at: At<'_>) -> Result<(), InputError> {
+    if values.len() > MAX_OPERATORS {
+        let message = format!(
+            "{} values; at most {MAX_OPERATORS} are accepted",
+            values.len()
+        );
+        return Err(at.err(key, message));
+    }
+    if values.is_empty() {
+        return Err(at.err(key, "must not be empty"));
+    }
+    match values.iter().position(|&v| absurd(v) || !v.is_finite()) {
+        Some(i) => Err(at.err(&format!("{key}[{i}]"), magnitude_message(values[i]))),
         None => Ok(()),
     }
 }
 
-fn get_number(obj: &Map<String, Value>, source: &str, key: &str) -> Result<f64, InputError> {
-    match obj.get(key) {
-        None | Some(Value::Null) => Ok(0.0),
-        Some(v) => {
-            let x = v
-                .as_f64()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| err(source, key, format!("expected a finite number, found {v}")))?;
-            check_magnitude(source, key, &[x]).map_err(|mut e| {
-                e.field = Some(key.to_owned());
-                e
-            })?;
-            Ok(x)
-        }
+fn absurd(v: f64) -> bool {
+    v != 0.0 && (v.abs() < f64::MIN_POSITIVE || v.abs() > MAX_COEFF_MAGNITUDE)
+}
+
+fn magnitude_message(v: f64) -> String {
+    if v.is_finite() {
+        format!(
+            "{v:e} is subnormal or beyond {MAX_COEFF_MAGNITUDE:e}; rescale the model (other units)"
+        )
+    } else {
+        format!("expected a finite number, found {v}")
     }
 }
 
-fn signal(
-    obj: &Map<String, Value>,
-    source: &str,
-    key: &str,
-    default_quantity: &str,
-) -> Result<SignalInfo, InputError> {
-    match obj.get(key) {
-        None | Some(Value::Null) => Ok(SignalInfo {
-            quantity: default_quantity.into(),
+/// A number that is 0 when absent, and neither subnormal nor absurd.
+fn scalar(value: Option<f64>, key: &str, at: At<'_>) -> Result<f64, InputError> {
+    match value {
+        Some(x) if absurd(x) || !x.is_finite() => Err(at.err(key, magnitude_message(x))),
+        x => Ok(x.unwrap_or(0.0)),
+    }
+}
+
+impl SignalDoc {
+    fn info(doc: Option<Object<SignalDoc>>, default_quantity: &str) -> SignalInfo {
+        let doc = doc.map(|o| o.0).unwrap_or(SignalDoc {
+            quantity: String::new(),
             unit: String::new(),
-        }),
-        Some(Value::Object(o)) => {
-            let text = |k: &str| match o.get(k) {
-                None => Ok(String::new()),
-                Some(Value::String(s)) => Ok(s.clone()),
-                Some(_) => Err(err(source, &format!("{key}.{k}"), "expected a string")),
-            };
-            let quantity = text("quantity")?;
-            Ok(SignalInfo {
-                quantity: if quantity.is_empty() {
-                    default_quantity.into()
-                } else {
-                    quantity
-                },
-                unit: text("unit")?,
-            })
+        });
+        SignalInfo {
+            quantity: if doc.quantity.is_empty() {
+                default_quantity.into()
+            } else {
+                doc.quantity
+            },
+            unit: doc.unit,
         }
-        Some(_) => Err(err(
-            source,
-            key,
-            "expected an object {\"quantity\": ..., \"unit\": ...}",
-        )),
     }
 }
 
-/// Parses and validates an `fts.hysteresis/1` document. Unknown fields are
-/// ignored; `mapping` is informative (it is derived from `input`/`output`).
+impl FitDoc {
+    fn record(self) -> FitRecord {
+        FitRecord {
+            rms_percent: self.rms_percent.unwrap_or(f64::NAN),
+            max_percent: self.max_percent.unwrap_or(f64::NAN),
+            samples: self.samples.unwrap_or(0) as usize,
+            method: self.method.unwrap_or_default(),
+            condition_number: self.condition_number.unwrap_or(f64::NAN),
+            iterations: self.iterations.unwrap_or(0),
+        }
+    }
+}
+
+/// Parses and validates an `fts.hysteresis/1` document.
 pub fn parse_model(text: &str, source: &str) -> Result<ModelFile, InputError> {
-    let value: Value = serde_json::from_str(text)
-        .map_err(|e| InputError::new(source, format!("invalid JSON: {e}")).at_line(e.line()))?;
-    let obj = value
-        .as_object()
-        .ok_or_else(|| InputError::new(source, "expected a JSON object"))?;
-    check_format(obj, source, HYSTERESIS_FORMAT)?;
-    let kind_name = get_str(obj, source, "model")?;
-    let kind = ModelKind::from_name(kind_name).ok_or_else(|| {
-        err(
-            source,
-            "model",
-            format!(
-                "unknown model {kind_name:?}; expected \"pi\", \"mpi-cbrt\" or \"mpi-deadzone\""
-            ),
-        )
-    })?;
-    let op_name = get_str(obj, source, "operator")?;
-    let operator = PlayOperator::from_name(op_name).ok_or_else(|| {
-        err(
-            source,
-            "operator",
-            format!("unknown operator {op_name:?}; expected \"play-lower\" or \"play-symmetric\""),
-        )
-    })?;
-    let dead_zone = match obj.get("dead_zone") {
-        None | Some(Value::Null) => None,
-        Some(Value::Object(dz)) => {
-            // Errors name the nested field, e.g. `dead_zone.weights[2]`.
-            let nested = |key: &str| {
-                get_bounded_array(dz, source, key).map_err(|mut e| {
-                    e.field = e.field.map(|f| format!("dead_zone.{f}"));
-                    e
-                })
-            };
-            Some(DeadZoneStage {
-                thresholds: nested("thresholds")?,
-                weights: nested("weights")?,
-            })
-        }
-        Some(_) => {
-            return Err(err(
-                source,
-                "dead_zone",
-                "expected null or an object {\"thresholds\": [...], \"weights\": [...]}",
-            ));
-        }
-    };
-    let model = HysteresisModel {
-        kind,
-        operator,
-        thresholds: get_bounded_array(obj, source, "thresholds")?,
-        weights: get_bounded_array(obj, source, "weights")?,
-        cbrt_gain: get_number(obj, source, "cbrt_gain")?,
-        offset: get_number(obj, source, "offset")?,
-        input_offset: get_number(obj, source, "input_offset")?,
-        dead_zone,
-    };
+    let at = top(source);
+    let doc: ModelDoc = from_value(parse_object(text, source, HYSTERESIS_FORMAT)?, at)?;
+    let model = doc.model(at)?;
     model.validate().map_err(|e| {
         let field = match &e {
-            crate::ident::hysteresis::ModelError::LengthMismatch { field, .. } => *field,
-            crate::ident::hysteresis::ModelError::Thresholds { field, .. } => *field,
-            crate::ident::hysteresis::ModelError::NonFinite { field } => *field,
-            crate::ident::hysteresis::ModelError::Inconsistent(_) => "model",
+            ModelError::LengthMismatch { field, .. } => *field,
+            ModelError::Thresholds { field, .. } => *field,
+            ModelError::NonFinite { field } => *field,
+            ModelError::Inconsistent(_) => "model",
         };
-        err(source, field, e.to_string())
+        at.err(field, e.to_string())
     })?;
-    let fit = match obj.get("fit") {
-        Some(Value::Object(f)) => {
-            let num = |k: &str| f.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
-            Some(FitRecord {
-                rms_percent: num("rms_percent"),
-                max_percent: num("max_percent"),
-                samples: f.get("samples").and_then(Value::as_u64).unwrap_or(0) as usize,
-                method: f
-                    .get("method")
-                    .and_then(Value::as_str)
-                    .unwrap_or("")
-                    .to_owned(),
-                condition_number: num("condition_number"),
-                iterations: f.get("iterations").and_then(Value::as_u64).unwrap_or(0),
-            })
-        }
-        _ => None,
-    };
     Ok(ModelFile {
         model,
-        input: signal(obj, source, "input", "input")?,
-        output: signal(obj, source, "output", "output")?,
-        fit,
+        input: SignalDoc::info(doc.input, "input"),
+        output: SignalDoc::info(doc.output, "output"),
+        fit: doc.fit.map(|f| f.0.record()),
     })
+}
+
+impl ModelDoc {
+    /// The model, its names known and its numbers bounded (not yet
+    /// validated as a whole).
+    fn model(&self, at: At<'_>) -> Result<HysteresisModel, InputError> {
+        let kind = ModelKind::from_name(&self.model).ok_or_else(|| {
+            let name = &self.model;
+            let message = format!(
+                "unknown model {name:?}; expected \"pi\", \"mpi-cbrt\" or \"mpi-deadzone\""
+            );
+            at.err("model", message)
+        })?;
+        let operator = PlayOperator::from_name(&self.operator).ok_or_else(|| {
+            let name = &self.operator;
+            let message =
+                format!("unknown operator {name:?}; expected \"play-lower\" or \"play-symmetric\"");
+            at.err("operator", message)
+        })?;
+        let dead_zone = match &self.dead_zone {
+            Some(Object(dz)) => {
+                let nested = At {
+                    source: at.source,
+                    path: "dead_zone",
+                };
+                check_bounded(&dz.thresholds, "thresholds", nested)?;
+                check_bounded(&dz.weights, "weights", nested)?;
+                Some(DeadZoneStage {
+                    thresholds: dz.thresholds.clone(),
+                    weights: dz.weights.clone(),
+                })
+            }
+            None => None,
+        };
+        check_bounded(&self.thresholds, "thresholds", at)?;
+        check_bounded(&self.weights, "weights", at)?;
+        Ok(HysteresisModel {
+            kind,
+            operator,
+            thresholds: self.thresholds.clone(),
+            weights: self.weights.clone(),
+            cbrt_gain: scalar(self.cbrt_gain, "cbrt_gain", at)?,
+            offset: scalar(self.offset, "offset", at)?,
+            input_offset: scalar(self.input_offset, "input_offset", at)?,
+            dead_zone,
+        })
+    }
 }
 
 #[cfg(test)]
@@ -403,6 +417,32 @@ mod tests {
             "thresholds": [0], "weights": [1], "offset": 1e200}"#;
         let e = parse_model(offset, "m.json").unwrap_err();
         assert_eq!(e.field.as_deref(), Some("offset"), "{e}");
+    }
+
+    /// Type errors name their path, inside nested objects too; an array
+    /// where an object belongs is refused.
+    #[test]
+    fn errors_name_their_path() {
+        let head = r#"{"format": "fts.hysteresis/1", "model": "mpi-deadzone", "operator": "play-lower", "thresholds": [0, 2], "weights": [1, 0.2]"#;
+        for (tail, field, needle) in [
+            (r#", "dead_zone": [[0], [1]]}"#, "dead_zone", "an object"),
+            (
+                r#", "dead_zone": {"thresholds": [0], "weights": ["x"]}}"#,
+                "dead_zone.weights[0]",
+                "a number",
+            ),
+            (
+                r#", "input": {"quantity": 3}}"#,
+                "input.quantity",
+                "a string",
+            ),
+            (r#", "output": ["x", "um"]}"#, "output", "an object"),
+            (r#", "offset": "x"}"#, "offset", "a number"),
+        ] {
+            let e = parse_model(&format!("{head}{tail}"), "h.json").unwrap_err();
+            assert_eq!(e.field.as_deref(), Some(field), "{e}");
+            assert!(e.message.contains(needle), "{e}");
+        }
     }
 
     #[test]

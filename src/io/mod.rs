@@ -13,4 +13,5 @@ pub mod controller_file;
 pub mod hysteresis_json;
 pub mod mat;
 pub mod plot;
+mod serde_doc;
 pub mod zpetc_json;

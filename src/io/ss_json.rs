@@ -7,9 +7,11 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::InputError;
-use super::tf_json::{MAX_COEFF_MAGNITUDE, check_format};
+use super::serde_doc::{At, from_value, parse_object, top};
+use super::tf_json::MAX_COEFF_MAGNITUDE;
 use crate::lti::ss::StateSpace;
 use faer::Mat;
+use serde::Deserialize;
 use serde_json::{Map, Value, json};
 
 /// The format tag this module reads and writes.
@@ -22,215 +24,163 @@ pub const MAX_STATES: usize = 512;
 /// The most inputs or outputs a file may have.
 pub const MAX_CHANNELS: usize = 64;
 
-fn field_err(source: &str, field: &str, message: impl Into<String>) -> InputError {
-    InputError::new(source, message).in_field(field)
-}
-
 /// A finite entry that is subnormal or beyond [`MAX_COEFF_MAGNITUDE`]: such
 /// systems are refused as absurd, as in `fts.tf/1` files.
 fn absurd(x: f64) -> bool {
     x.is_finite() && x != 0.0 && (x.abs() < f64::MIN_POSITIVE || x.abs() > MAX_COEFF_MAGNITUDE)
 }
 
-/// Reads a rectangular matrix (array of rows). `ncols_if_empty` gives the
-/// column count of a matrix with no rows (e.g. `b` of a static gain).
-fn get_matrix(
-    obj: &Map<String, Value>,
-    source: &str,
-    key: &str,
-) -> Result<(Vec<Vec<f64>>, Option<usize>), InputError> {
-    let rows = match obj.get(key) {
-        Some(Value::Array(a)) => a,
-        Some(_) => {
-            return Err(field_err(
-                source,
-                key,
-                "expected an array of rows (arrays of numbers)",
-            ));
-        }
-        None => return Err(field_err(source, key, "missing")),
-    };
+/// The `fts.ss/1` document as read (after its `format`); unknown keys are
+/// ignored.
+#[derive(Deserialize)]
+struct SsDoc {
+    /// Absent or `null` for continuous time.
+    #[serde(default)]
+    ts: Option<f64>,
+    a: Vec<Vec<f64>>,
+    b: Vec<Vec<f64>>,
+    c: Vec<Vec<f64>>,
+    d: Vec<Vec<f64>>,
+}
+
+/// Checks a matrix read as an array of rows: at most [`MAX_STATES`] rows of
+/// at most as many entries, all finite and not absurd, all rows the same
+/// length. Returns that length (`None` with no rows).
+fn check_matrix(rows: &[Vec<f64>], key: &str, at: At<'_>) -> Result<Option<usize>, InputError> {
     if rows.len() > MAX_STATES {
-        return Err(field_err(
-            source,
-            key,
-            format!(
-                "{} rows; at most {MAX_STATES} (states) are accepted",
-                rows.len()
-            ),
-        ));
+        let message = format!(
+            "{} rows; at most {MAX_STATES} (states) are accepted",
+            rows.len()
+        );
+        return Err(at.err(key, message));
     }
-    let mut out = Vec::with_capacity(rows.len());
     let mut ncols = None;
-    for (i, r) in rows.iter().enumerate() {
-        let Value::Array(r) = r else {
-            return Err(field_err(
-                source,
-                &format!("{key}[{i}]"),
-                "expected a row (array of numbers)",
-            ));
-        };
-        if r.len() > MAX_STATES {
-            return Err(field_err(
-                source,
-                &format!("{key}[{i}]"),
-                format!(
-                    "{} entries; at most {MAX_STATES} (states) are accepted",
-                    r.len()
-                ),
-            ));
+    for (i, row) in rows.iter().enumerate() {
+        let row_key = format!("{key}[{i}]");
+        if row.len() > MAX_STATES {
+            let message = format!(
+                "{} entries; at most {MAX_STATES} (states) are accepted",
+                row.len()
+            );
+            return Err(at.err(&row_key, message));
         }
-        let mut row = Vec::with_capacity(r.len());
-        for (j, v) in r.iter().enumerate() {
-            match v.as_f64() {
-                Some(x) if absurd(x) => {
-                    return Err(field_err(
-                        source,
-                        &format!("{key}[{i}][{j}]"),
-                        format!(
-                            "{x:e} is subnormal or beyond {MAX_COEFF_MAGNITUDE:e}; rescale the system (e.g. time in ms, gains in other units)"
-                        ),
-                    ));
-                }
-                Some(x) if x.is_finite() => row.push(x),
-                _ => {
-                    return Err(field_err(
-                        source,
-                        &format!("{key}[{i}][{j}]"),
-                        format!("expected a finite number, found {v}"),
-                    ));
-                }
-            }
+        for (j, &x) in row.iter().enumerate() {
+            let message = if absurd(x) {
+                format!(
+                    "{x:e} is subnormal or beyond {MAX_COEFF_MAGNITUDE:e}; rescale the system (e.g. time in ms, gains in other units)"
+                )
+            } else if !x.is_finite() {
+                format!("expected a finite number, found {x}")
+            } else {
+                continue;
+            };
+            return Err(at.err(&format!("{row_key}[{j}]"), message));
         }
         if let Some(nc) = ncols
             && nc != row.len()
         {
-            return Err(field_err(
-                source,
-                &format!("{key}[{i}]"),
-                format!("row has {} entries, earlier rows have {nc}", row.len()),
-            ));
+            let message = format!("row has {} entries, earlier rows have {nc}", row.len());
+            return Err(at.err(&row_key, message));
         }
         ncols = Some(row.len());
-        out.push(row);
     }
-    Ok((out, ncols))
+    Ok(ncols)
+}
+
+/// The dimensions of a system: states, inputs, outputs.
+struct Dims {
+    n: usize,
+    nu: usize,
+    ny: usize,
+}
+
+impl SsDoc {
+    /// Checks each matrix, then that their shapes agree.
+    fn dims(&self, at: At<'_>) -> Result<Dims, InputError> {
+        let an = check_matrix(&self.a, "a", at)?;
+        let bn = check_matrix(&self.b, "b", at)?;
+        let cn = check_matrix(&self.c, "c", at)?;
+        let dn = check_matrix(&self.d, "d", at)?;
+        let n = self.a.len();
+        if let Some(k) = an
+            && k != n
+        {
+            return Err(at.err("a", format!("A must be square: {n} rows of {k} entries")));
+        }
+        let dims = Dims {
+            n,
+            nu: dn.unwrap_or(0),
+            ny: self.d.len(),
+        };
+        check_d(&dims, at)?;
+        let (nu, ny) = (dims.nu, dims.ny);
+        let found = |cols: Option<usize>| cols.unwrap_or(0);
+        if self.b.len() != n {
+            let message = format!(
+                "B must have {n} rows (the states of A), found {}",
+                self.b.len()
+            );
+            return Err(at.err("b", message));
+        }
+        if n > 0 && bn != Some(nu) {
+            let message = format!(
+                "B must have {nu} columns (the inputs, as in D), found {}",
+                found(bn)
+            );
+            return Err(at.err("b", message));
+        }
+        if self.c.len() != ny {
+            let message = format!(
+                "C must have {ny} rows (the outputs, as in D), found {}",
+                self.c.len()
+            );
+            return Err(at.err("c", message));
+        }
+        if n > 0 && cn != Some(n) {
+            let message = format!(
+                "C must have {n} columns (the states of A), found {}",
+                found(cn)
+            );
+            return Err(at.err("c", message));
+        }
+        Ok(dims)
+    }
+}
+
+/// `d` has at least one and at most [`MAX_CHANNELS`] outputs and inputs.
+fn check_d(dims: &Dims, at: At<'_>) -> Result<(), InputError> {
+    let (ny, nu) = (dims.ny, dims.nu);
+    if ny == 0 {
+        return Err(at.err("d", "must have one row per output (at least one output)"));
+    }
+    if nu == 0 {
+        return Err(at.err("d", "must have one column per input (at least one input)"));
+    }
+    if ny > MAX_CHANNELS || nu > MAX_CHANNELS {
+        let message =
+            format!("{ny} outputs x {nu} inputs; at most {MAX_CHANNELS} of each are accepted");
+        return Err(at.err("d", message));
+    }
+    Ok(())
 }
 
 /// Parses an `fts.ss/1` document.
 pub fn parse_ss(text: &str, source: &str) -> Result<StateSpace, InputError> {
-    let value: Value = serde_json::from_str(text)
-        .map_err(|e| InputError::new(source, format!("invalid JSON: {e}")).at_line(e.line()))?;
-    let obj = value
-        .as_object()
-        .ok_or_else(|| InputError::new(source, "expected a JSON object"))?;
-    check_format(obj, source, SS_FORMAT)?;
-    let ts = match obj.get("ts") {
-        None | Some(Value::Null) => None,
-        Some(Value::Number(n)) => {
-            let t = n.as_f64().unwrap_or(f64::NAN);
-            if !(t.is_finite() && t > 0.0) {
-                return Err(field_err(
-                    source,
-                    "ts",
-                    "expected a positive number of seconds (or null for continuous time)",
-                ));
-            }
-            Some(t)
-        }
-        Some(_) => {
-            return Err(field_err(
-                source,
-                "ts",
-                "expected a number of seconds or null",
-            ));
-        }
-    };
-    let (a, an) = get_matrix(obj, source, "a")?;
-    let (b, bn) = get_matrix(obj, source, "b")?;
-    let (c, cn) = get_matrix(obj, source, "c")?;
-    let (d, dn) = get_matrix(obj, source, "d")?;
-    let n = a.len();
-    if let Some(k) = an
-        && k != n
+    let at = top(source);
+    let doc: SsDoc = from_value(parse_object(text, source, SS_FORMAT)?, at)?;
+    if let Some(t) = doc.ts
+        && !(t.is_finite() && t > 0.0)
     {
-        return Err(field_err(
-            source,
-            "a",
-            format!("A must be square: {n} rows of {k} entries"),
-        ));
+        let message = "expected a positive number of seconds (or null for continuous time)";
+        return Err(at.err("ts", message));
     }
-    let ny = d.len();
-    if ny == 0 {
-        return Err(field_err(
-            source,
-            "d",
-            "must have one row per output (at least one output)",
-        ));
-    }
-    let nu = dn.unwrap_or(0);
-    if nu == 0 {
-        return Err(field_err(
-            source,
-            "d",
-            "must have one column per input (at least one input)",
-        ));
-    }
-    if ny > MAX_CHANNELS || nu > MAX_CHANNELS {
-        return Err(field_err(
-            source,
-            "d",
-            format!("{ny} outputs x {nu} inputs; at most {MAX_CHANNELS} of each are accepted"),
-        ));
-    }
-    if b.len() != n {
-        return Err(field_err(
-            source,
-            "b",
-            format!("B must have {n} rows (the states of A), found {}", b.len()),
-        ));
-    }
-    if n > 0 && bn != Some(nu) {
-        return Err(field_err(
-            source,
-            "b",
-            format!(
-                "B must have {nu} columns (the inputs, as in D), found {}",
-                bn.unwrap_or(0)
-            ),
-        ));
-    }
-    if c.len() != ny {
-        return Err(field_err(
-            source,
-            "c",
-            format!(
-                "C must have {ny} rows (the outputs, as in D), found {}",
-                c.len()
-            ),
-        ));
-    }
-    if n > 0 && cn != Some(n) {
-        return Err(field_err(
-            source,
-            "c",
-            format!(
-                "C must have {n} columns (the states of A), found {}",
-                cn.unwrap_or(0)
-            ),
-        ));
-    }
+    let Dims { n, nu, ny } = doc.dims(at)?;
     let mk = |rows: &Vec<Vec<f64>>, r: usize, k: usize| {
         Mat::from_fn(r, k, |i, j| if k == 0 { 0.0 } else { rows[i][j] })
     };
-    StateSpace::new(
-        mk(&a, n, n),
-        mk(&b, n, nu),
-        mk(&c, ny, n),
-        mk(&d, ny, nu),
-        ts,
-    )
-    .map_err(|e| InputError::new(source, e.to_string()))
+    let (a, b) = (mk(&doc.a, n, n), mk(&doc.b, n, nu));
+    StateSpace::new(a, b, mk(&doc.c, ny, n), mk(&doc.d, ny, nu), doc.ts)
+        .map_err(|e| InputError::new(source, e.to_string()))
 }
 
 fn rows(m: &Mat<f64>) -> Value {
@@ -326,6 +276,32 @@ mod tests {
 
     const EX: &str = r#"{"format": "fts.ss/1", "ts": null,
      "a": [[0, 1], [-2, -3]], "b": [[0], [1]], "c": [[1, 0]], "d": [[0]]}"#;
+
+    /// Type errors name their path as the checks after them do.
+    #[test]
+    fn errors_name_their_path() {
+        let doc = |a: &str, ts: &str| {
+            format!(
+                r#"{{"format": "fts.ss/1", "ts": {ts}, "a": {a}, "b": [[0], [1]], "c": [[1, 0]], "d": [[0]]}}"#
+            )
+        };
+        for (a, ts, field, needle) in [
+            (
+                "[[0, 1], [-2, \"x\"]]",
+                "null",
+                "a[1][1]",
+                "expected a number",
+            ),
+            ("[[0, 1], 5]", "null", "a[1]", "expected an array"),
+            ("[[0, 1], [2]]", "null", "a[1]", "earlier rows have 2"),
+            ("[[0, 1], [2, 3]]", "\"x\"", "ts", "expected a number"),
+            ("[[0, 1], [2, 3]]", "-1", "ts", "positive"),
+        ] {
+            let e = parse_ss(&doc(a, ts), "s.json").unwrap_err();
+            assert_eq!(e.field.as_deref(), Some(field), "{e}");
+            assert!(e.message.contains(needle), "{e}");
+        }
+    }
 
     #[test]
     fn reads_interfaces_example_and_round_trips() {

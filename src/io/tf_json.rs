@@ -5,9 +5,10 @@
 //! parser, so a write/read cycle is bit-exact.
 
 use super::InputError;
+use super::serde_doc::{At, from_value, parse_object, top};
 use crate::lti::{ContinuousTf, DiscreteTf, TfError, TransferFunction};
-use serde::Serialize;
-use serde_json::{Map, Value};
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Number, Value};
 
 /// The format tag this module reads and writes.
 pub const TF_FORMAT: &str = "fts.tf/1";
@@ -51,93 +52,103 @@ pub(crate) fn check_coeffs(source: &str, field: &str, c: &[f64]) -> Result<(), I
     Ok(())
 }
 
+/// Refuses an empty polynomial, a non-finite coefficient (naming it, e.g.
+/// `num[3]`) and what [`check_coeffs`] refuses.
+pub(crate) fn check_poly(source: &str, field: &str, c: &[f64]) -> Result<(), InputError> {
+    if c.is_empty() {
+        return Err(field_err(source, field, "must not be empty"));
+    }
+    if let Some(i) = c.iter().position(|v| !v.is_finite()) {
+        let message = format!("expected a finite number, found {}", c[i]);
+        return Err(field_err(source, &format!("{field}[{i}]"), &message));
+    }
+    check_coeffs(source, field, c)
+}
+
+/// The `fts.tf/1` document as read (after its `format`); unknown keys are
+/// ignored.
+#[derive(Deserialize)]
+struct TfDoc {
+    var: String,
+    /// Required when discrete.
+    #[serde(default)]
+    ts: Option<f64>,
+    num: Vec<f64>,
+    den: Vec<f64>,
+    /// Any number here; checked as a whole number of samples when discrete,
+    /// as zero when continuous.
+    #[serde(default)]
+    delay: Option<Number>,
+}
+
 /// Parses an `fts.tf/1` document. Unknown fields are ignored; an unknown
 /// `format` is an error.
 pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError> {
-    let value: Value = serde_json::from_str(text)
-        .map_err(|e| InputError::new(source, format!("invalid JSON: {e}")).at_line(e.line()))?;
-    let obj = value
-        .as_object()
-        .ok_or_else(|| InputError::new(source, "expected a JSON object"))?;
-    check_format(obj, source, TF_FORMAT)?;
-    let var = get_str(obj, source, "var")?;
-    let num = get_f64_array(obj, source, "num")?;
-    let den = get_f64_array(obj, source, "den")?;
-    check_coeffs(source, "num", &num)?;
-    check_coeffs(source, "den", &den)?;
-    let tf_err = |e: TfError| {
-        let field = match &e {
-            TfError::BadDenominator(_) => "den",
-            TfError::NonFinite { which, .. } => which,
-            TfError::BadSampleTime(_) => "ts",
-            TfError::ZeroNumerator => "num",
-        };
-        InputError::new(source, e.to_string()).in_field(field)
-    };
-    match var {
-        "z^-1" => {
-            let ts = match obj.get("ts") {
-                Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
-                Some(_) => return Err(field_err(source, "ts", "expected a number of seconds")),
-                None => {
-                    return Err(field_err(
-                        source,
-                        "ts",
-                        "missing: a discrete transfer function (\"var\": \"z^-1\") needs its sample time",
-                    ));
-                }
-            };
-            let delay = match obj.get("delay") {
-                None | Some(Value::Null) => 0,
-                Some(Value::Number(n)) => match n.as_u64() {
-                    Some(d) if d <= MAX_DELAY => d as usize,
-                    Some(d) => {
-                        return Err(field_err(
-                            source,
-                            "delay",
-                            &format!("{d} samples; at most {MAX_DELAY} are accepted"),
-                        ));
-                    }
-                    None => {
-                        return Err(field_err(
-                            source,
-                            "delay",
-                            "expected a non-negative whole number of samples",
-                        ));
-                    }
-                },
-                Some(_) => {
-                    return Err(field_err(
-                        source,
-                        "delay",
-                        "expected a non-negative whole number of samples",
-                    ));
-                }
-            };
-            DiscreteTf::new(num, den, delay, ts)
-                .map(TransferFunction::Discrete)
-                .map_err(tf_err)
-        }
-        "s" => {
-            if let Some(Value::Number(n)) = obj.get("delay")
-                && n.as_f64() != Some(0.0)
-            {
-                return Err(field_err(
-                    source,
-                    "delay",
-                    "a continuous transfer function (\"var\": \"s\") has no sample delay",
-                ));
-            }
-            ContinuousTf::new(num, den)
-                .map(TransferFunction::Continuous)
-                .map_err(tf_err)
-        }
-        other => Err(field_err(
-            source,
+    let at = top(source);
+    let doc: TfDoc = from_value(parse_object(text, source, TF_FORMAT)?, at)?;
+    check_poly(source, "num", &doc.num)?;
+    check_poly(source, "den", &doc.den)?;
+    match doc.var.as_str() {
+        "z^-1" => doc.discrete(at),
+        "s" => doc.continuous(at),
+        other => Err(at.err(
             "var",
-            &format!("expected \"z^-1\" (discrete) or \"s\" (continuous), found {other:?}"),
+            format!("expected \"z^-1\" (discrete) or \"s\" (continuous), found {other:?}"),
         )),
     }
+}
+
+impl TfDoc {
+    fn discrete(self, at: At<'_>) -> Result<TransferFunction, InputError> {
+        let ts = self.ts.ok_or_else(|| {
+            at.err(
+                "ts",
+                "missing: a discrete transfer function (\"var\": \"z^-1\") needs its sample time",
+            )
+        })?;
+        let delay = match &self.delay {
+            None => 0,
+            Some(n) => match n.as_u64() {
+                Some(d) if d <= MAX_DELAY => d as usize,
+                Some(d) => {
+                    let message = format!("{d} samples; at most {MAX_DELAY} are accepted");
+                    return Err(at.err("delay", message));
+                }
+                None => {
+                    let message = "expected a non-negative whole number of samples";
+                    return Err(at.err("delay", message));
+                }
+            },
+        };
+        DiscreteTf::new(self.num, self.den, delay, ts)
+            .map(TransferFunction::Discrete)
+            .map_err(|e| tf_err(e, at))
+    }
+
+    fn continuous(self, at: At<'_>) -> Result<TransferFunction, InputError> {
+        if let Some(n) = &self.delay
+            && n.as_f64() != Some(0.0)
+        {
+            return Err(at.err(
+                "delay",
+                "a continuous transfer function (\"var\": \"s\") has no sample delay",
+            ));
+        }
+        ContinuousTf::new(self.num, self.den)
+            .map(TransferFunction::Continuous)
+            .map_err(|e| tf_err(e, at))
+    }
+}
+
+/// A model the constructors refuse, naming the field at fault.
+fn tf_err(e: TfError, at: At<'_>) -> InputError {
+    let field = match &e {
+        TfError::BadDenominator(_) => "den",
+        TfError::NonFinite { which, .. } => which,
+        TfError::BadSampleTime(_) => "ts",
+        TfError::ZeroNumerator => "num",
+    };
+    at.err(field, e.to_string())
 }
 
 #[derive(Serialize)]
@@ -210,46 +221,6 @@ pub fn check_format(
             &format!("missing; expected \"format\": {expected:?}"),
         )),
     }
-}
-
-/// A required string field.
-pub fn get_str<'a>(
-    obj: &'a Map<String, Value>,
-    source: &str,
-    key: &str,
-) -> Result<&'a str, InputError> {
-    match obj.get(key) {
-        Some(Value::String(s)) => Ok(s),
-        Some(_) => Err(field_err(source, key, "expected a string")),
-        None => Err(field_err(source, key, "missing")),
-    }
-}
-
-/// A required array of finite numbers.
-pub fn get_f64_array(
-    obj: &Map<String, Value>,
-    source: &str,
-    key: &str,
-) -> Result<Vec<f64>, InputError> {
-    let arr = match obj.get(key) {
-        Some(Value::Array(a)) => a,
-        Some(_) => return Err(field_err(source, key, "expected an array of numbers")),
-        None => return Err(field_err(source, key, "missing")),
-    };
-    if arr.is_empty() {
-        return Err(field_err(source, key, "must not be empty"));
-    }
-    arr.iter()
-        .enumerate()
-        .map(|(i, v)| match v.as_f64() {
-            Some(x) if x.is_finite() => Ok(x),
-            _ => Err(field_err(
-                source,
-                &format!("{key}[{i}]"),
-                &format!("expected a finite number, found {v}"),
-            )),
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -386,6 +357,19 @@ mod tests {
         assert_eq!(e.line, Some(2));
         let e = parse_tf(
             r#"{"format":"fts.tf/1","var":"z^-1","ts":1,"num":[1],"den":[1],"delay":-1}"#,
+            "p.json",
+        )
+        .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("delay"));
+        let e = parse_tf(
+            r#"{"format":"fts.tf/1","var":"z^-1","ts":"fast","num":[1],"den":[1]}"#,
+            "p.json",
+        )
+        .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("ts"));
+        assert!(e.message.contains("found string \"fast\""), "{e}");
+        let e = parse_tf(
+            r#"{"format":"fts.tf/1","var":"s","num":[1],"den":[1],"delay":2}"#,
             "p.json",
         )
         .unwrap_err();

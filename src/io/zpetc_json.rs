@@ -14,34 +14,16 @@
 //! the reference `preview` samples ahead.
 
 use super::InputError;
-use super::tf_json::{check_format, get_f64_array, get_str};
+use super::serde_doc::{At, Object, from_value, parse_object, top};
+use super::tf_json::check_poly;
 use crate::lti::{Poly, c64};
 use crate::synth::zpetc::{ClassifiedZero, StableInversion, ZeroStatus, Zpetc, ZpetcParams};
+use serde::Deserialize;
 use serde_json::{Value, json};
 
 /// The longest preview a file may declare, samples: the longest input delay
 /// of a model file plus the runtime's filter capacity.
 pub const MAX_PREVIEW: u64 = super::tf_json::MAX_DELAY + crate::runtime::MAX_FILTER_LEN as u64;
-
-/// A `preview` field: a whole number of samples up to [`MAX_PREVIEW`].
-pub(crate) fn read_preview(
-    value: Option<&Value>,
-    source: &str,
-    field: &str,
-) -> Result<usize, InputError> {
-    match value.and_then(Value::as_u64) {
-        Some(p) if p <= MAX_PREVIEW => Ok(p as usize),
-        Some(p) => Err(InputError::new(
-            source,
-            format!("{p} samples of preview; at most {MAX_PREVIEW} are accepted"),
-        )
-        .in_field(field)),
-        None => Err(
-            InputError::new(source, "expected a non-negative whole number of samples")
-                .in_field(field),
-        ),
-    }
-}
 
 /// The format tag.
 pub const ZPETC_FORMAT: &str = "fts.zpetc/1";
@@ -103,137 +85,152 @@ pub fn zpetc_to_string(z: &Zpetc) -> String {
     s
 }
 
-fn zero_list(
-    obj: &serde_json::Map<String, Value>,
-    source: &str,
-    key: &str,
-) -> Result<Vec<c64>, InputError> {
-    let bad = |msg: &str| InputError::new(source, msg).in_field(key);
-    match obj.get(key) {
-        None => Ok(Vec::new()),
-        Some(Value::Array(items)) => items
-            .iter()
-            .map(|v| match v.as_array().map(|a| a.as_slice()) {
-                Some([re, im]) => match (re.as_f64(), im.as_f64()) {
-                    (Some(re), Some(im)) if re.is_finite() && im.is_finite() => {
-                        Ok(c64::new(re, im))
-                    }
-                    _ => Err(bad("each zero must be [re, im] with finite numbers")),
-                },
-                _ => Err(bad("each zero must be [re, im]")),
-            })
-            .collect(),
-        Some(_) => Err(bad("expected an array of [re, im] pairs")),
+/// The `fts.zpetc/1` document as read (after its `format`); unknown keys
+/// are ignored.
+#[derive(Deserialize)]
+struct ZpetcDoc {
+    var: String,
+    ts: f64,
+    num: Vec<f64>,
+    den: Vec<f64>,
+    preview: u64,
+    #[serde(default)]
+    cancelled_zeros: Vec<[f64; 2]>,
+    #[serde(default)]
+    uncancelled_zeros: Vec<[f64; 2]>,
+    /// `null` (as a NaN is written) reads as the default.
+    #[serde(default)]
+    rho: Option<f64>,
+    #[serde(default)]
+    min_damping: Option<f64>,
+    #[serde(default)]
+    inverted_zeros: Vec<[f64; 2]>,
+    #[serde(default)]
+    series_terms: u64,
+    #[serde(default)]
+    stable_inversion: Option<Object<StableInversionDoc>>,
+}
+
+/// `stable_inversion`: each key defaults to [`StableInversion::default`].
+#[derive(Deserialize)]
+#[serde(default)]
+struct StableInversionDoc {
+    min_radius: f64,
+    tolerance: f64,
+    max_terms: f64,
+}
+
+impl Default for StableInversionDoc {
+    fn default() -> Self {
+        let d = StableInversion::default();
+        Self {
+            min_radius: d.min_radius,
+            tolerance: d.tolerance,
+            max_terms: d.max_terms as f64,
+        }
+    }
+}
+
+impl StableInversionDoc {
+    fn read(&self, at: At<'_>) -> Result<StableInversion, InputError> {
+        let positive = |key: &str, x: f64| {
+            if x.is_finite() && x > 0.0 {
+                Ok(x)
+            } else {
+                Err(at.err(key, "expected a positive number"))
+            }
+        };
+        Ok(StableInversion {
+            min_radius: positive("min_radius", self.min_radius)?,
+            tolerance: positive("tolerance", self.tolerance)?,
+            max_terms: positive("max_terms", self.max_terms)? as usize,
+        })
     }
 }
 
 /// Parses an `fts.zpetc/1` document.
 pub fn parse_zpetc(text: &str, source: &str) -> Result<Zpetc, InputError> {
-    let value: Value = serde_json::from_str(text)
-        .map_err(|e| InputError::new(source, format!("invalid JSON: {e}")).at_line(e.line()))?;
-    let obj = value
-        .as_object()
-        .ok_or_else(|| InputError::new(source, "expected a JSON object"))?;
-    check_format(obj, source, ZPETC_FORMAT)?;
-    if get_str(obj, source, "var")? != "z^-1" {
-        return Err(
-            InputError::new(source, "a ZPETC filter is discrete: expected \"z^-1\"")
-                .in_field("var"),
-        );
-    }
-    let ts = obj
-        .get("ts")
-        .and_then(Value::as_f64)
-        .filter(|t| t.is_finite() && *t > 0.0);
-    let ts = ts.ok_or_else(|| {
-        InputError::new(source, "expected a positive number of seconds").in_field("ts")
-    })?;
-    let num = get_f64_array(obj, source, "num")?;
-    let den = get_f64_array(obj, source, "den")?;
-    super::tf_json::check_coeffs(source, "num", &num)?;
-    super::tf_json::check_coeffs(source, "den", &den)?;
-    if den[0] == 0.0 {
-        return Err(InputError::new(source, "den[0] must be non-zero").in_field("den"));
-    }
-    let preview = read_preview(obj.get("preview"), source, "preview")?;
-    let defaults = ZpetcParams::default();
-    let params = ZpetcParams {
-        rho: obj
-            .get("rho")
-            .and_then(Value::as_f64)
-            .unwrap_or(defaults.rho),
-        min_damping: obj
-            .get("min_damping")
-            .and_then(Value::as_f64)
-            .unwrap_or(defaults.min_damping),
-        stable_inversion: match obj.get("stable_inversion") {
-            None | Some(Value::Null) => None,
-            Some(Value::Object(si)) => {
-                let field = |key: &str, fallback: f64| -> Result<f64, InputError> {
-                    match si.get(key) {
-                        None => Ok(fallback),
-                        Some(v) => {
-                            v.as_f64()
-                                .filter(|x| x.is_finite() && *x > 0.0)
-                                .ok_or_else(|| {
-                                    InputError::new(source, "expected a positive number")
-                                        .in_field(format!("stable_inversion.{key}"))
-                                })
-                        }
-                    }
-                };
-                let d = StableInversion::default();
-                Some(StableInversion {
-                    min_radius: field("min_radius", d.min_radius)?,
-                    tolerance: field("tolerance", d.tolerance)?,
-                    max_terms: field("max_terms", d.max_terms as f64)? as usize,
-                })
-            }
-            Some(_) => {
-                return Err(InputError::new(
-                    source,
-                    "expected an object {min_radius, tolerance, max_terms} or null",
-                )
-                .in_field("stable_inversion"));
-            }
-        },
-    };
-    let classify = |zero: c64, status| ClassifiedZero {
-        zero,
-        magnitude: zero.norm(),
-        damping: f64::NAN,
-        status,
-    };
-    let mut zeros: Vec<ClassifiedZero> = zero_list(obj, source, "cancelled_zeros")?
-        .into_iter()
-        .map(|z| classify(z, ZeroStatus::Cancelled))
-        .collect();
-    for z in zero_list(obj, source, "inverted_zeros")? {
-        zeros.push(classify(z, ZeroStatus::InvertedBySeries));
-    }
-    let series_terms = match obj.get("series_terms") {
-        None => 0,
-        Some(v) => v.as_u64().ok_or_else(|| {
-            InputError::new(source, "expected a non-negative whole number").in_field("series_terms")
-        })? as usize,
-    };
-    for z in zero_list(obj, source, "uncancelled_zeros")? {
-        let status = if z.norm() >= params.rho {
-            ZeroStatus::OutsideRadius
-        } else {
-            ZeroStatus::PoorlyDamped
+    let at = top(source);
+    let doc: ZpetcDoc = from_value(parse_object(text, source, ZPETC_FORMAT)?, at)?;
+    doc.zpetc(at)
+}
+
+impl ZpetcDoc {
+    /// The filter, once every field is checked.
+    fn zpetc(self, at: At<'_>) -> Result<Zpetc, InputError> {
+        if self.var != "z^-1" {
+            return Err(at.err("var", "a ZPETC filter is discrete: expected \"z^-1\""));
+        }
+        if !(self.ts.is_finite() && self.ts > 0.0) {
+            return Err(at.err("ts", "expected a positive number of seconds"));
+        }
+        check_poly(at.source, "num", &self.num)?;
+        check_poly(at.source, "den", &self.den)?;
+        if self.den[0] == 0.0 {
+            return Err(at.err("den", "den[0] must be non-zero"));
+        }
+        if self.preview > MAX_PREVIEW {
+            let p = self.preview;
+            let message = format!("{p} samples of preview; at most {MAX_PREVIEW} are accepted");
+            return Err(at.err("preview", message));
+        }
+        let defaults = ZpetcParams::default();
+        let params = ZpetcParams {
+            rho: self.rho.unwrap_or(defaults.rho),
+            min_damping: self.min_damping.unwrap_or(defaults.min_damping),
+            stable_inversion: match &self.stable_inversion {
+                Some(Object(si)) => Some(si.read(At {
+                    source: at.source,
+                    path: "stable_inversion",
+                })?),
+                None => None,
+            },
         };
-        zeros.push(classify(z, status));
+        let zeros = self.zeros(at, params.rho)?;
+        Ok(Zpetc {
+            num: Poly::new(self.num),
+            den: Poly::new(self.den),
+            preview: self.preview as usize,
+            series_terms: self.series_terms as usize,
+            ts: self.ts,
+            zeros,
+            params,
+        })
     }
-    Ok(Zpetc {
-        num: Poly::new(num),
-        den: Poly::new(den),
-        preview,
-        series_terms,
-        ts,
-        zeros,
-        params,
-    })
+
+    /// The listed zeros, classified: cancelled, inverted by the series, then
+    /// the uncancelled ones (outside `rho` or poorly damped).
+    fn zeros(&self, at: At<'_>, rho: f64) -> Result<Vec<ClassifiedZero>, InputError> {
+        let classify = |zero: c64, status| ClassifiedZero {
+            zero,
+            magnitude: zero.norm(),
+            damping: f64::NAN,
+            status,
+        };
+        let lists = [
+            ("cancelled_zeros", &self.cancelled_zeros),
+            ("inverted_zeros", &self.inverted_zeros),
+            ("uncancelled_zeros", &self.uncancelled_zeros),
+        ];
+        let mut zeros = Vec::new();
+        for (key, list) in lists {
+            for (i, &[re, im]) in list.iter().enumerate() {
+                if !(re.is_finite() && im.is_finite()) {
+                    let message = "each zero must be [re, im] with finite numbers";
+                    return Err(at.err(&format!("{key}[{i}]"), message));
+                }
+                let zero = c64::new(re, im);
+                let status = match key {
+                    "cancelled_zeros" => ZeroStatus::Cancelled,
+                    "inverted_zeros" => ZeroStatus::InvertedBySeries,
+                    _ if zero.norm() >= rho => ZeroStatus::OutsideRadius,
+                    _ => ZeroStatus::PoorlyDamped,
+                };
+                zeros.push(classify(zero, status));
+            }
+        }
+        Ok(zeros)
+    }
 }
 
 #[cfg(test)]
@@ -269,6 +266,42 @@ mod tests {
             parse_zpetc(&doc.to_string(), "z.json").unwrap().preview as u64,
             MAX_PREVIEW
         );
+    }
+
+    /// Each error names its path, from serde's type errors as from the
+    /// checks after them.
+    #[test]
+    fn errors_name_their_path() {
+        let head =
+            r#"{"format": "fts.zpetc/1", "var": "z^-1", "ts": 1e-4, "den": [1], "preview": 1"#;
+        for (tail, field, needle) in [
+            (r#", "num": [1, "a"]}"#, "num[1]", "expected a number"),
+            (r#", "num": []}"#, "num", "must not be empty"),
+            (
+                r#", "num": [1], "cancelled_zeros": [[1]]}"#,
+                "cancelled_zeros[0]",
+                "length 2",
+            ),
+            (
+                r#", "num": [1], "stable_inversion": {"tolerance": -1}}"#,
+                "stable_inversion.tolerance",
+                "positive",
+            ),
+            (
+                r#", "num": [1], "series_terms": null}"#,
+                "series_terms",
+                "found null",
+            ),
+            (
+                r#", "num": [1], "stable_inversion": [2]}"#,
+                "stable_inversion",
+                "an object",
+            ),
+        ] {
+            let e = parse_zpetc(&format!("{head}{tail}"), "z.json").unwrap_err();
+            assert_eq!(e.field.as_deref(), Some(field), "{e}");
+            assert!(e.message.contains(needle), "{e}");
+        }
     }
 
     #[test]

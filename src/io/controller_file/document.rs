@@ -18,9 +18,9 @@ use super::{
     Provenance, StateSpaceBlock, Units, ZpetcBlock,
 };
 use crate::io::InputError;
+use crate::io::serde_doc::{At, from_value};
 use crate::io::zpetc_json::MAX_PREVIEW;
 use crate::runtime::{PidSpec, PlayForm, SsAntiWindup};
-use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -214,97 +214,6 @@ impl ControllerFile {
             blocks,
             provenance: self.provenance.clone(),
         }
-    }
-}
-
-/// Where an error is: the file, and the path of the field within it.
-#[derive(Clone, Copy)]
-struct At<'a> {
-    source: &'a str,
-    path: &'a str,
-}
-
-impl At<'_> {
-    fn err(&self, key: &str, message: impl Into<String>) -> InputError {
-        InputError::new(self.source, message).in_field(join(self.path, key))
-    }
-}
-
-fn join(path: &str, key: &str) -> String {
-    match (path.is_empty(), key.is_empty()) {
-        (true, _) => key.to_owned(),
-        (false, true) => path.to_owned(),
-        (false, false) => format!("{path}.{key}"),
-    }
-}
-
-/// Deserialises `value` into `T`, an error naming its path below `at`.
-fn from_value<T: DeserializeOwned>(value: Value, at: At<'_>) -> Result<T, InputError> {
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let mut path = at.path.to_owned();
-        for segment in e.path().iter() {
-            use serde_path_to_error::Segment;
-            match segment {
-                Segment::Seq { index } => path.push_str(&format!("[{index}]")),
-                Segment::Map { key } | Segment::Enum { variant: key } => path = join(&path, key),
-                Segment::Unknown => path = join(&path, "?"),
-            }
-        }
-        let (key, message) = plain_message(&e.inner().to_string());
-        let field = join(&path, &key);
-        let e = InputError::new(at.source, message);
-        if field.is_empty() {
-            e
-        } else {
-            e.in_field(field)
-        }
-    })
-}
-
-/// serde's message in the words of the other readers (`expected "a" or
-/// "b", found "c"`), with the key a missing field error is about split off
-/// so it joins the path (the path of an unknown key already ends with it).
-fn plain_message(msg: &str) -> (String, String) {
-    let backticked = |prefix: &str| {
-        let (name, tail) = msg.strip_prefix(prefix)?.split_once('`')?;
-        Some((name.to_owned(), quoted(tail.trim_start_matches(", "))))
-    };
-    if let Some((key, _)) = backticked("missing field `") {
-        return (key, "missing".into());
-    }
-    if let Some((_, tail)) = backticked("unknown field `") {
-        return (String::new(), format!("unknown key; {tail}"));
-    }
-    if let Some((name, expected)) = backticked("unknown variant `") {
-        return (String::new(), format!("{expected}, found \"{name}\""));
-    }
-    for prefix in ["invalid type: ", "invalid value: "] {
-        if let Some((found, expected)) = msg
-            .strip_prefix(prefix)
-            .and_then(|rest| rest.rsplit_once(", expected "))
-        {
-            let (found, expected) = (plain_kind(found), plain_kind(expected));
-            return (String::new(), format!("expected {expected}, found {found}"));
-        }
-    }
-    (String::new(), msg.to_owned())
-}
-
-/// serde's `a` or `b` as JSON strings, `"a"` or `"b"`.
-fn quoted(names: &str) -> String {
-    names.replace('`', "\"")
-}
-
-/// serde's name of a Rust type or value in JSON's terms.
-fn plain_kind(kind: &str) -> String {
-    match kind {
-        "f64" => "a number".into(),
-        "u64" | "usize" => "a non-negative whole number".into(),
-        "a sequence" | "sequence" => "an array".into(),
-        "map" => "an object".into(),
-        k if k.starts_with("struct ") => "an object".into(),
-        // `integer `3``, `floating point `4.5``: the value without backticks.
-        k => k.replace('`', ""),
     }
 }
 
