@@ -4,7 +4,9 @@
 //! from the stages exactly as `fts emit` builds it); the files read here, the
 //! trace and plot written, the report rendered.
 
-use super::common::{bad, open_input, print_report, read_input, step_error, write_atomic};
+use super::common::{
+    bad, choice, name, open_input, print_report, read_input, step_error, write_atomic,
+};
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::{InputHash, Provenance, parse_controller, sha256_hex};
 use crate::io::timeseries::{ColumnRef, ReadParams, read_table};
@@ -16,17 +18,8 @@ use crate::synth::zpetc::{self as zpetc_mod, Zpetc, ZpetcParams};
 use crate::workflow::{
     ReferenceShape, SimController, SimPlant, Simulate, SimulateInputs, SimulateReport, StageModels,
 };
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::path::{Path, PathBuf};
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum ReferenceKind {
-    Sine,
-    Sweep,
-    FiveLeaf,
-    /// A step of --amplitude from --offset at --step-time, with rise/settling time and overshoot.
-    Step,
-}
 
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
@@ -43,8 +36,8 @@ pub struct SimulateArgs {
     #[arg(long, allow_hyphen_values = true, requires = "ss")]
     output_max: Option<f64>,
     /// Reference trajectory.
-    #[arg(long, value_enum, default_value_t = ReferenceKind::Sine)]
-    reference: ReferenceKind,
+    #[arg(long, value_parser = choice::<ReferenceShape>(), default_value = name(Simulate::default().reference))]
+    reference: ReferenceShape,
     /// Reference samples from a CSV instead (column `r`, or `--reference-column`), at the controller rate.
     #[arg(long, value_name = "REF.csv", conflicts_with = "reference")]
     reference_file: Option<PathBuf>,
@@ -119,15 +112,9 @@ pub struct SimulateArgs {
 impl SimulateArgs {
     /// The library step these flags stand for.
     fn step(&self) -> Simulate {
-        let ss = self.ss.step((self.output_min, self.output_max));
         Simulate {
             controller: self.controller.clone(),
-            reference: match self.reference {
-                ReferenceKind::Sine => ReferenceShape::Sine,
-                ReferenceKind::Sweep => ReferenceShape::Sweep,
-                ReferenceKind::FiveLeaf => ReferenceShape::FiveLeaf,
-                ReferenceKind::Step => ReferenceShape::Step,
-            },
+            reference: self.reference,
             amplitude: self.amplitude,
             freq: self.freq,
             f1: self.f1,
@@ -139,11 +126,11 @@ impl SimulateArgs {
             kp: self.kp,
             ki: self.ki,
             kd: self.kd,
-            output_min: ss.output_min,
-            output_max: ss.output_max,
-            c2d: ss.c2d,
-            prewarp: ss.prewarp,
-            ss_anti_windup: ss.ss_anti_windup,
+            output_min: self.output_min,
+            output_max: self.output_max,
+            c2d: self.ss.c2d,
+            prewarp: self.ss.prewarp,
+            ss_anti_windup: self.ss.ss_anti_windup,
         }
     }
 }

@@ -130,15 +130,15 @@ pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
     }
 }
 
-/// `count` log-spaced frequencies from a decade below the slowest pole
-/// to a decade above the fastest (empty without non-zero poles).
-fn log_grid(poles: &[c64], count: usize) -> Vec<f64> {
+/// `count` log-spaced frequencies from `margin` times below the slowest
+/// pole to `margin` times above the fastest (empty without non-zero poles).
+pub(crate) fn log_grid(poles: &[c64], count: usize, margin: f64) -> Vec<f64> {
     let mags = poles.iter().map(|p| p.norm()).filter(|&w| w > 0.0);
     let (lo, hi) = mags.fold((f64::INFINITY, 0.0f64), |(l, h), w| (l.min(w), h.max(w)));
     if !(lo.is_finite() && hi > 0.0) {
         return Vec::new();
     }
-    let (a, b) = ((lo / 10.0).log10(), (hi * 10.0).log10());
+    let (a, b) = ((lo / margin).log10(), (hi * margin).log10());
     (0..count)
         .map(|i| 10f64.powf(a + (b - a) * i as f64 / (count - 1) as f64))
         .collect()
@@ -166,7 +166,7 @@ fn hinf_continuous(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError>
     // R = D'D - gamma^2 I is nearly singular and the Hamiltonian's
     // imaginary eigenvalues are lost; a start from the grid's best point
     // keeps R well conditioned whenever the peak is finite.
-    cands.extend(log_grid(&poles, 64));
+    cands.extend(log_grid(&poles, 64, 10.0));
     for w in cands {
         let s = sys.sigma_at(w);
         if s > glb {

@@ -566,18 +566,9 @@ pub fn closed_loop_norm(cl: &StateSpace) -> f64 {
         return f64::INFINITY;
     };
     let poles = bal.poles().unwrap_or_default();
-    let (lo, hi) = poles
-        .iter()
-        .map(|z| z.norm())
-        .filter(|&w| w > 0.0)
-        .fold((f64::INFINITY, 0.0f64), |(l, h), w| (l.min(w), h.max(w)));
-    if !(lo.is_finite() && hi > 0.0) {
-        return bs;
-    }
-    let (a, b) = ((lo / 100.0).log10(), (hi * 100.0).log10());
     let nyquist = bal.ts.map(|t| std::f64::consts::PI / t);
-    (0..2000)
-        .map(|i| 10f64.powf(a + (b - a) * i as f64 / 1999.0))
+    crate::lti::norms::log_grid(&poles, 2000, 100.0)
+        .into_iter()
         .filter(|w| nyquist.is_none_or(|n| *w <= n))
         .map(|w| bal.sigma_at(w))
         .fold(bs, f64::max)

@@ -37,6 +37,18 @@ pub enum ReferenceShape {
     Step,
 }
 
+impl super::Choices for ReferenceShape {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("sine", ""),
+        ("sweep", ""),
+        ("five-leaf", ""),
+        (
+            "step",
+            "A step of `amplitude` from `offset` at `step_time`, with rise/settling time and overshoot",
+        ),
+    ];
+}
+
 /// Settings of a closed-loop tracking run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
