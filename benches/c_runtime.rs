@@ -51,6 +51,8 @@ fn pid_hc_zpetc() -> ControllerFile {
             output_max: 10.0,
         }),
         provenance: Provenance::default(),
+        repetitive: None,
+        feedforward_table: None,
     }
 }
 
@@ -83,6 +85,8 @@ fn state_space8() -> ControllerFile {
             discretisation: "given".into(),
         }),
         provenance: Provenance::default(),
+        repetitive: None,
+        feedforward_table: None,
     }
 }
 

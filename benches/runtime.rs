@@ -41,6 +41,7 @@ fn spec<'a>(thresholds: &'a [f64], weights: &'a [f64]) -> RuntimeSpec<'a> {
             output_min: 0.0,
             output_max: 10.0,
         }),
+        repetitive: None,
     }
 }
 
@@ -89,6 +90,7 @@ fn benches(c: &mut Criterion) {
             output_max: 10.0,
             anti_windup: SsAntiWindup::ConditionalUpdate,
         }),
+        repetitive: None,
     };
     let mut ss = RuntimeController::new(&ss_spec).unwrap();
     c.bench_function("runtime_step/ss8", |b| {
@@ -123,8 +125,14 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             let mut plant = VirtualFts::new(VirtualFtsParams::default_plant()).unwrap();
             let mut ctrl = RuntimeController::new(&spec(&thresholds, &weights)).unwrap();
-            closed_loop::run_into(&mut plant, &mut ctrl, black_box(&reference), &mut trace)
-                .unwrap();
+            closed_loop::run_into(
+                &mut plant,
+                &mut ctrl,
+                black_box(&reference),
+                &[],
+                &mut trace,
+            )
+            .unwrap();
             black_box(trace.command[n - 1])
         })
     });

@@ -2,16 +2,18 @@
 //! bit for bit: each controller's three C files are compiled with the system
 //! C compiler (`$CC`, else `cc`) together with the example loop
 //! `examples/c/fts_loop.c`, run over a 1e5-sample reference and measurement
-//! trace, and every r_f, u_ff and u compared with `fts::runtime`'s as f64
-//! bit patterns. The files also compile warning-free as C99 with gcc and
-//! clang and as C++ with g++ and clang++ (those installed).
+//! trace, and every r_f, c (repetitive output plus learned feedforward),
+//! u_ff and u compared with `fts::runtime`'s `step_signals` as f64 bit
+//! patterns, a learned feedforward table played by both sides. The files
+//! also compile warning-free as C99 with gcc and clang and as C++ with g++
+//! and clang++ (those installed).
 //!
 //! Without a C compiler the tests say so loudly on stderr and pass: CI
 //! machines always have gcc.
 
 use fts::io::controller_file::{
-    ControllerFile, Feedback, HysteresisBlock, ParallelPid, StateSpaceBlock, ZpetcBlock,
-    parse_controller, to_c_files,
+    ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, ParallelPid, RepetitiveBlock,
+    StateSpaceBlock, ZpetcBlock, parse_controller, to_c_files,
 };
 use fts::runtime::{PlayForm, RuntimeController, SsAntiWindup};
 use std::path::{Path, PathBuf};
@@ -127,6 +129,65 @@ fn feedforward_controller() -> ControllerFile {
     f
 }
 
+/// The demo's controller with a repetitive compensator of a whole period
+/// (`Q = 0.25 z + 0.5 + 0.25 z^-1`, phase lead 3) behind its ZPETC.
+fn repetitive_controller() -> ControllerFile {
+    let mut f = demo_controller();
+    f.repetitive = Some(RepetitiveBlock {
+        period: 100,
+        fraction: 0.0,
+        q: vec![0.5, 0.25],
+        lead: 3,
+        gain: 0.5,
+    });
+    f
+}
+
+/// A repetitive compensator of a fractional period (the interpolated
+/// delay), a wider `Q` and a longer lead, in front of the 8-state
+/// state-space controller and its ZPETC.
+fn fractional_repetitive_controller() -> ControllerFile {
+    let mut f = state_space_controller();
+    f.repetitive = Some(RepetitiveBlock {
+        period: 199,
+        fraction: 0.37,
+        q: vec![0.4, 0.2, 0.09],
+        lead: 5,
+        gain: 0.1,
+    });
+    f
+}
+
+/// A learned feedforward table shorter than the trace (so that its end,
+/// after which it plays 0, is crossed), as `fts ilc` writes one.
+fn table() -> FeedforwardTableBlock {
+    let tau = std::f64::consts::TAU;
+    FeedforwardTableBlock {
+        samples: (0..60_000)
+            .map(|k| {
+                let t = k as f64 * 1e-4;
+                0.3 * (tau * 50.0 * t + 0.4).sin() - 0.05 * (tau * 430.0 * t).cos()
+            })
+            .collect(),
+    }
+}
+
+/// The deadzone controller (filtered PID) with a learned feedforward table.
+fn table_controller() -> ControllerFile {
+    let mut f = deadzone_controller();
+    f.feedforward_table = Some(table());
+    f
+}
+
+/// Feedforward only, with both learning blocks: the command is the
+/// hysteresis inverse of r_f + v + f.
+fn feedforward_learning_controller() -> ControllerFile {
+    let mut f = feedforward_controller();
+    f.repetitive = fractional_repetitive_controller().repetitive;
+    f.feedforward_table = Some(table());
+    f
+}
+
 /// A long deterministic trace: reference around the HC's range with three
 /// tones and steps; measurement a lagging, noisy, offset copy with
 /// excursions that drive every controller into its limits.
@@ -167,16 +228,21 @@ fn write_trace(path: &Path, trace: &[(f64, f64)]) {
 }
 
 /// The Rust runtime over `trace`, as the example loop runs it: the
-/// reference `preview` samples ahead, the last value held beyond the end.
-fn rust_run(file: &ControllerFile, trace: &[(f64, f64)]) -> Vec<[f64; 3]> {
+/// reference `preview` samples ahead, the last value held beyond the end,
+/// the learned feedforward table (if any) played from the first sample.
+/// `[r_f, c, u_ff, u]` per sample.
+fn rust_run(file: &ControllerFile, trace: &[(f64, f64)]) -> Vec<[f64; 4]> {
     let mut rt = RuntimeController::new(&file.runtime_spec()).unwrap();
+    let mut table = file.feedforward_player();
+    assert_eq!(table.is_some(), file.feedforward_table.is_some());
     let p = rt.preview();
     let last = trace.last().unwrap().0;
     (0..trace.len())
         .map(|k| {
             let ahead = trace.get(k + p).map_or(last, |s| s.0);
-            let (rf, uff, u) = rt.step_traced(ahead, trace[k].1);
-            [rf, uff, u]
+            let learned = table.as_mut().map_or(0.0, |t| t.next_sample());
+            let s = rt.step_signals(ahead, trace[k].1, learned);
+            [s.filtered, s.correction, s.feedforward, s.command]
         })
         .collect()
 }
@@ -206,7 +272,7 @@ fn compile_loop(cc: &str, dir: &Path, file: &ControllerFile) -> PathBuf {
     exe
 }
 
-fn c_run(exe: &Path, dir: &Path, trace_csv: &Path) -> Vec<[f64; 3]> {
+fn c_run(exe: &Path, dir: &Path, trace_csv: &Path) -> Vec<[f64; 4]> {
     let commands = dir.join("commands.csv");
     let out = Command::new(exe)
         .arg(trace_csv)
@@ -220,13 +286,13 @@ fn c_run(exe: &Path, dir: &Path, trace_csv: &Path) -> Vec<[f64; 3]> {
     );
     let text = std::fs::read_to_string(&commands).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some("k,r_f,u_ff,u"));
+    assert_eq!(lines.next(), Some("k,r_f,c,u_ff,u"));
     lines
         .enumerate()
         .map(|(k, l)| {
             let v: Vec<&str> = l.split(',').collect();
             assert_eq!(v[0].parse::<usize>().unwrap(), k);
-            [1, 2, 3].map(|i| v[i].parse::<f64>().unwrap())
+            [1, 2, 3, 4].map(|i| v[i].parse::<f64>().unwrap())
         })
         .collect()
 }
@@ -242,7 +308,7 @@ fn assert_bit_identical(name: &str, file: &ControllerFile, limits_hit_at_least: 
     let rust = rust_run(file, &trace);
     assert_eq!(c.len(), SAMPLES, "{name}: one command per trace row");
     for (k, (a, b)) in c.iter().zip(&rust).enumerate() {
-        for (i, signal) in ["r_f", "u_ff", "u"].iter().enumerate() {
+        for (i, signal) in ["r_f", "c", "u_ff", "u"].iter().enumerate() {
             assert_eq!(
                 a[i].to_bits(),
                 b[i].to_bits(),
@@ -255,12 +321,25 @@ fn assert_bit_identical(name: &str, file: &ControllerFile, limits_hit_at_least: 
     // The comparison covered the saturated branches (anti-windup), not only
     // the linear ones.
     let (lo, hi) = file.command_limits();
-    let at_limit = rust.iter().filter(|s| s[2] == lo || s[2] == hi).count();
+    let at_limit = rust.iter().filter(|s| s[3] == lo || s[3] == hi).count();
     assert!(
         at_limit >= limits_hit_at_least,
         "{name}: only {at_limit} samples at the limits"
     );
+    // With a learning block the correction was exercised, not left at 0.
+    let corrected = rust.iter().filter(|s| s[1] != 0.0).count();
+    if file.repetitive.is_some() || file.feedforward_table.is_some() {
+        assert!(
+            corrected >= SAMPLES / 2,
+            "{name}: only {corrected} samples with a correction"
+        );
+    } else {
+        assert_eq!(corrected, 0, "{name}");
+    }
     assert!(rust.iter().all(|s| s.iter().all(|v| v.is_finite())));
+    eprintln!(
+        "{name}: {SAMPLES} samples bit-identical ({at_limit} at the limits, {corrected} corrected)"
+    );
 }
 
 #[test]
@@ -283,6 +362,34 @@ fn feedforward_only_is_bit_identical_in_c() {
     assert_bit_identical("HC+ZPETC, no feedback", &feedforward_controller(), 0);
 }
 
+#[test]
+fn repetitive_with_pid_hc_zpetc_is_bit_identical_in_c() {
+    assert_bit_identical("repetitive+PID+HC+ZPETC", &repetitive_controller(), 1000);
+}
+
+#[test]
+fn fractional_repetitive_with_state_space_is_bit_identical_in_c() {
+    assert_bit_identical(
+        "repetitive (fractional)+state space (8)+ZPETC",
+        &fractional_repetitive_controller(),
+        1000,
+    );
+}
+
+#[test]
+fn learned_feedforward_table_is_bit_identical_in_c() {
+    assert_bit_identical("table+MPI-deadzone+filtered PID", &table_controller(), 1000);
+}
+
+#[test]
+fn feedforward_only_with_repetitive_and_table_is_bit_identical_in_c() {
+    assert_bit_identical(
+        "repetitive+table+HC+ZPETC, no feedback",
+        &feedforward_learning_controller(),
+        0,
+    );
+}
+
 /// The generated files compile without a warning as C99 (gcc, clang) and as
 /// C++ (g++, clang++), each compiler that is installed.
 #[test]
@@ -296,6 +403,10 @@ fn c_files_compile_warning_free_as_c99_and_cpp() {
         deadzone_controller(),
         state_space_controller(),
         feedforward_controller(),
+        repetitive_controller(),
+        fractional_repetitive_controller(),
+        table_controller(),
+        feedforward_learning_controller(),
     ]
     .iter()
     .enumerate()
@@ -372,4 +483,51 @@ fn c_runtime_rejects_a_bad_spec_naming_the_field() {
     assert!(err.contains("field zpetc.den: invalid value"), "{err}");
     let rust = RuntimeController::new(&f.runtime_spec()).unwrap_err();
     assert!(rust.to_string().starts_with("zpetc.den"), "{rust}");
+}
+
+/// A repetitive block that the runtime refuses is refused by the C runtime
+/// with the same field; so is an empty learned table, by both players.
+#[test]
+fn c_runtime_rejects_a_bad_repetitive_block_naming_the_field() {
+    let Some(cc) = compiler() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let mut f = repetitive_controller();
+    // Q and the lead reach 1 + 3 samples ahead: the period must exceed 4.
+    f.repetitive.as_mut().unwrap().period = 4;
+    let exe = compile_loop(&cc, dir.path(), &f);
+    let csv = dir.path().join("trace.csv");
+    write_trace(&csv, &trace()[..10]);
+    let out = Command::new(&exe)
+        .arg(&csv)
+        .arg(dir.path().join("o.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("field repetitive.period: invalid value"),
+        "{err}"
+    );
+    let rust = RuntimeController::new(&f.runtime_spec()).unwrap_err();
+    assert!(rust.to_string().starts_with("repetitive.period"), "{rust}");
+
+    // An empty table: the header still declares a one-entry array, with
+    // FTS_FF_TABLE_LEN 0, which fts_table_init refuses.
+    let mut f = table_controller();
+    f.feedforward_table.as_mut().unwrap().samples.clear();
+    let sub = dir.path().join("empty");
+    std::fs::create_dir(&sub).unwrap();
+    let exe = compile_loop(&cc, &sub, &f);
+    let out = Command::new(&exe)
+        .arg(&csv)
+        .arg(sub.join("o.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("field feedforward_table.samples: empty or beyond the runtime's capacity"),
+        "{err}"
+    );
+    assert!(fts::runtime::FeedforwardTable::new(&[]).is_err());
 }

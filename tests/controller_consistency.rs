@@ -3,11 +3,14 @@
 //! (2) the runtime step loaded from the emitted JSON after a reload,
 //! (3) the runtime step loaded from the emitted C header after parsing,
 //! (4) the runtime step loaded directly from the in-memory coefficients.
+//! The learning blocks (a repetitive compensator and a learned feedforward
+//! table) too, with (1) an implementation of the repetitive equation on
+//! whole arrays written here.
 
 use fts::ident::hysteresis::HysteresisModel;
 use fts::io::controller_file::{
-    ControllerFile, Feedback, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_c_header,
-    parse_controller, to_c_header,
+    ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, Provenance, RepetitiveBlock,
+    Units, ZpetcBlock, parse_c_header, parse_controller, to_c_header,
 };
 use fts::io::hysteresis_json::parse_model;
 use fts::lti::DiscreteTf;
@@ -106,6 +109,8 @@ fn four_ways_bit_identical() {
         hysteresis: Some(HysteresisBlock::from_model(&inverse)),
         feedback: Feedback::Pid(PID),
         provenance: Provenance::default(),
+        repetitive: None,
+        feedforward_table: None,
     };
     let runtime_of = |f: &ControllerFile| {
         let mut rt = RuntimeController::new(&f.runtime_spec()).unwrap();
@@ -222,6 +227,8 @@ fn state_space_four_ways_bit_identical() {
         hysteresis: Some(HysteresisBlock::from_model(&inverse)),
         feedback: Feedback::StateSpace(block),
         provenance: Provenance::default(),
+        repetitive: None,
+        feedforward_table: None,
     };
     assert_eq!(file.stages_name(), "ss+hc+zpec");
     let runtime_of = |f: &ControllerFile| {
@@ -250,4 +257,188 @@ fn state_space_four_ways_bit_identical() {
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), &u| (a.min(u), b.max(u)));
     assert!(b - a > 1.0, "command range {a}..{b}");
+}
+
+/// `v(k)` of the repetitive equation from the whole histories of `v` and
+/// `e` (every signal 0 before sample 0), independently of the runtime's
+/// rings: `v(k) = sum_{i=-h..h} q_|i| D(k - i - N0)`,
+/// `D(j) = (1 - f) s(j) + f s(j - 1)`, `s(j) = v(j) + k_r e(j + m)`.
+fn repetitive_equation(rc: &RepetitiveBlock, v: &[f64], e: &[f64]) -> f64 {
+    let k = v.len() as isize;
+    let h = rc.q.len() as isize - 1;
+    let at = |x: &[f64], j: isize| if j < 0 { 0.0 } else { x[j as usize] };
+    let s = |j: isize| at(v, j) + rc.gain * at(e, j + rc.lead as isize);
+    let mut acc = 0.0;
+    for i in -h..=h {
+        let j = k - i - rc.period as isize;
+        let d = if rc.fraction == 0.0 {
+            s(j)
+        } else {
+            (1.0 - rc.fraction) * s(j) + rc.fraction * s(j - 1)
+        };
+        acc += rc.q[i.unsigned_abs()] * d;
+    }
+    acc
+}
+
+/// The [Li21] loop of `four_ways_bit_identical` with a repetitive
+/// compensator of the reference's period (300 Hz at 10 kHz: 33 1/3
+/// samples, a fractional period) and a learned feedforward table shorter
+/// than the run, four ways: (1) the synthesis objects plus
+/// [`repetitive_equation`], (2) JSON reload, (3) C header, (4) runtime from
+/// the in-memory blocks. The header and the JSON give back the same blocks.
+#[test]
+fn learning_blocks_four_ways_bit_identical() {
+    let (inverse, z) = models();
+    let preview = z.preview;
+    let rc = RepetitiveBlock {
+        period: 33,
+        fraction: 1.0 / 3.0,
+        q: vec![0.5, 0.2, 0.05],
+        lead: 4,
+        gain: 0.2,
+    };
+    let table = FeedforwardTableBlock {
+        samples: (0..4000)
+            .map(|k| 0.05 * (2.0 * std::f64::consts::PI * 300.0 * k as f64 * 1e-4 + 0.3).sin())
+            .collect(),
+    };
+    let file = ControllerFile {
+        ts: 1e-4,
+        units: Units::default(),
+        zpetc: Some(ZpetcBlock::from_zpetc(&z)),
+        hysteresis: Some(HysteresisBlock::from_model(&inverse)),
+        feedback: Feedback::Pid(PID),
+        provenance: Provenance::default(),
+        repetitive: Some(rc.clone()),
+        feedforward_table: Some(table.clone()),
+    };
+
+    // (1) in-memory objects; the repetitive error is r(k) - y(k) with r(k)
+    // the reference `preview` samples after it was passed ahead (the first
+    // value passed before that).
+    let mut filter = z.causal_filter();
+    let mut hyst_state = inverse.new_state();
+    let mut pid = Li21Pid::new(
+        PidGains {
+            kp: PID.kp,
+            ki: PID.ki,
+            kd: PID.kd,
+        },
+        OutputLimits {
+            min: 0.0,
+            max: 10.0,
+        },
+    )
+    .unwrap();
+    let (mut ahead, mut v, mut e) = (Vec::new(), Vec::new(), Vec::new());
+    let in_memory = run(
+        |r, y| {
+            let k = ahead.len();
+            ahead.push(r);
+            let rf = filter.step(r);
+            let rk = ahead[k.saturating_sub(preview)];
+            let vk = repetitive_equation(&rc, &v, &e);
+            v.push(vk);
+            e.push(rk - y);
+            let learned = table.samples.get(k).copied().unwrap_or(0.0);
+            let loop_reference = rf + (vk + learned);
+            let uff = inverse.step(&mut hyst_state, loop_reference);
+            pid.step(loop_reference, y, uff)
+        },
+        preview,
+    );
+
+    let runtime_of = |f: &ControllerFile| {
+        let mut rt = RuntimeController::new(&f.runtime_spec()).unwrap();
+        let mut player = f.feedforward_player().unwrap();
+        assert_eq!(player.len(), 4000);
+        run(
+            move |r, y| rt.step_signals(r, y, player.next_sample()).command,
+            preview,
+        )
+    };
+    let direct = runtime_of(&file);
+    let json = parse_controller(&file.to_json_string(), "c.json").unwrap();
+    assert_eq!(json, file, "JSON changed a block");
+    let header = parse_c_header(&to_c_header(&file), "c.h").unwrap();
+    // The header has no model name, units or provenance; every number is there.
+    let numbers = ControllerFile {
+        hysteresis: file.hysteresis.clone().map(|h| HysteresisBlock {
+            model: String::new(),
+            ..h
+        }),
+        ..file.clone()
+    };
+    assert_eq!(header, numbers, "C header changed a block");
+    let from_json = runtime_of(&json);
+    let from_header = runtime_of(&header);
+
+    assert_eq!(
+        in_memory, direct,
+        "runtime differs from the synthesis objects"
+    );
+    assert_eq!(in_memory, from_json, "JSON reload changed a command");
+    assert_eq!(in_memory, from_header, "C header changed a command");
+    // The learning blocks act: without them the commands differ.
+    let plain = runtime_of(&ControllerFile {
+        repetitive: None,
+        ..file.clone()
+    });
+    assert_ne!(plain, direct);
+    assert!(v.iter().filter(|x| **x != 0.0).count() > 5000);
+}
+
+/// The header of every combination of the learning blocks reads back to
+/// the same file (a table over many lines; a whole and a fractional period).
+#[test]
+fn c_header_round_trips_the_learning_blocks() {
+    let base = ControllerFile {
+        ts: 1e-4,
+        units: Units::default(),
+        zpetc: Some(ZpetcBlock {
+            preview: 2,
+            num: vec![0.5, -0.25, 0.1 + 0.2],
+            den: vec![1.0, -0.5],
+        }),
+        hysteresis: None,
+        feedback: Feedback::Pid(PID),
+        provenance: Provenance::default(),
+        repetitive: None,
+        feedforward_table: None,
+    };
+    let rc = |period, fraction| RepetitiveBlock {
+        period,
+        fraction,
+        q: vec![0.45, 0.2, 0.05, 1.0 / 30.0],
+        lead: 7,
+        gain: 1.0 / 3.0,
+    };
+    let table = FeedforwardTableBlock {
+        samples: (0..1001).map(|k| (k as f64 * 0.01).sin() / 7.0).collect(),
+    };
+    for repetitive in [None, Some(rc(400, 0.0)), Some(rc(12, 0.123456789))] {
+        for feedforward_table in [None, Some(table.clone())] {
+            for feedback in [Feedback::Pid(PID), Feedback::None] {
+                let f = ControllerFile {
+                    repetitive: repetitive.clone(),
+                    feedforward_table: feedforward_table.clone(),
+                    feedback,
+                    ..base.clone()
+                };
+                let text = to_c_header(&f);
+                let back = parse_c_header(&text, "c.h").unwrap_or_else(|e| panic!("{e}\n{text}"));
+                assert_eq!(back, f);
+                assert_eq!(parse_controller(&f.to_json_string(), "c.json").unwrap(), f);
+                assert_eq!(
+                    text.contains("#define FTS_HAS_REPETITIVE 1"),
+                    f.repetitive.is_some()
+                );
+                assert_eq!(
+                    text.contains("#define FTS_HAS_FEEDFORWARD_TABLE 1"),
+                    f.feedforward_table.is_some()
+                );
+            }
+        }
+    }
 }

@@ -87,6 +87,7 @@ fn runtime_controller_step_does_not_allocate() {
             output_min: 0.0,
             output_max: 10.0,
         }),
+        repetitive: None,
     };
     let mut rt = RuntimeController::new(&spec).unwrap();
     let before = allocations();
@@ -139,6 +140,7 @@ fn state_space_controller_step_does_not_allocate() {
             output_max: 1.0,
             anti_windup: SsAntiWindup::ConditionalUpdate,
         }),
+        repetitive: None,
     };
     let mut rt = RuntimeController::new(&spec).unwrap();
     let before = allocations();

@@ -2,19 +2,23 @@
  *
  * Reads a trace CSV (a header line, then rows "r,y": the reference r(k) and
  * the measurement y(k)), steps the controller that `fts emit --format c`
- * wrote into fts_controller.h once per row, and writes the commands as CSV
- * "k,r_f,u_ff,u" (%.17g: every double exactly). On hardware, y(k) comes
- * from the ADC and u(k) goes to the DAC at each timer tick; the controller
- * needs the reference FTS_PREVIEW samples ahead, which a machining
- * trajectory provides (beyond its end the last value is held, as in
- * fts simulate).
+ * wrote into fts_controller.h once per row, and writes the signals as CSV
+ * "k,r_f,c,u_ff,u" (%.17g: every double exactly): the filtered reference,
+ * the learning correction added to it (repetitive output plus learned
+ * feedforward; 0 without those blocks), the hysteresis feedforward and the
+ * command. On hardware, y(k) comes from the ADC and u(k) goes to the DAC at
+ * each timer tick; the controller needs the reference FTS_PREVIEW samples
+ * ahead, which a machining trajectory provides (beyond its end the last
+ * value is held, as in fts simulate). A learned feedforward table (fts ilc)
+ * is played from the first row, one sample per step, 0 past its end.
  *
  *     fts emit ... --format c -o ctl/
  *     cc -std=c99 -O2 -ffp-contract=off -Ictl examples/c/fts_loop.c ctl/fts_runtime.c -lm -o fts_loop
  *     ./fts_loop trace.csv commands.csv
  *
  * The controller state lives in one static fts_controller: no malloc, and
- * the only memory besides it is the look-ahead ring below. */
+ * the only memory besides it is the look-ahead ring below (and the table
+ * player, three words pointing into the header's FTS_FF_TABLE). */
 #include "fts_controller.h"
 
 #include <stdio.h>
@@ -51,8 +55,34 @@ static int read_row(FILE *in, row *out, long *line)
     return 0;
 }
 
-static fts_controller controller; /* about 20 KB: static storage, not the stack */
+static fts_controller controller; /* about 155 KB: static storage, not the stack */
 static row ring[RING];
+
+/* The learned feedforward f(k), when fts_controller.h has a table. */
+#if FTS_HAS_FEEDFORWARD_TABLE
+static fts_table table;
+
+static fts_status learned_init(const char **field)
+{
+    return fts_controller_table_init(&table, field);
+}
+
+static double learned_next(void)
+{
+    return fts_table_next(&table);
+}
+#else
+static fts_status learned_init(const char **field)
+{
+    (void)field;
+    return FTS_OK;
+}
+
+static double learned_next(void)
+{
+    return 0.0;
+}
+#endif
 
 int main(int argc, char **argv)
 {
@@ -69,6 +99,9 @@ int main(int argc, char **argv)
         return 2;
     }
     s = fts_controller_init(&controller, &field);
+    if (s == FTS_OK) {
+        s = learned_init(&field);
+    }
     if (s != FTS_OK) {
         fprintf(stderr, "fts_loop: error: fts_controller.h field %s: %s\n", field,
                 fts_status_text(s));
@@ -91,9 +124,9 @@ int main(int argc, char **argv)
         fclose(in);
         return 1;
     }
-    fprintf(out, "k,r_f,u_ff,u\n");
+    fprintf(out, "k,r_f,c,u_ff,u\n");
     for (k = 0;; ++k) {
-        double rf, uff, u, ahead;
+        double rf, c, uff, u, ahead;
         /* Keep rows k .. k + preview buffered (fewer at the end of the file). */
         while (!eof && count < preview + 1) {
             int got = read_row(in, &ring[(head + count) % RING], &line);
@@ -114,8 +147,8 @@ int main(int argc, char **argv)
             break;
         }
         ahead = count > preview ? ring[(head + preview) % RING].r : last_r;
-        u = fts_step_traced(&controller, ahead, ring[head].y, &rf, &uff);
-        fprintf(out, "%lu,%.17g,%.17g,%.17g\n", (unsigned long)k, rf, uff, u);
+        u = fts_step_signals(&controller, ahead, ring[head].y, learned_next(), &rf, &c, &uff);
+        fprintf(out, "%lu,%.17g,%.17g,%.17g,%.17g\n", (unsigned long)k, rf, c, uff, u);
         head = (head + 1) % RING;
         --count;
     }

@@ -12,6 +12,10 @@
 
 #define FTS_HAS_ZPETC 0
 
+#define FTS_HAS_REPETITIVE 0
+
+#define FTS_HAS_FEEDFORWARD_TABLE 0
+
 #define FTS_HAS_HYSTERESIS 0
 
 /* State-space feedback controller (tustin), e = r_f - x:

@@ -39,6 +39,7 @@ mod hysteresis;
 mod identify;
 mod identify_hysteresis;
 mod identify_linear;
+mod learning;
 mod loop_analysis;
 mod response;
 mod robust;
@@ -83,6 +84,10 @@ enum Command {
     Simulate(simulate::SimulateArgs),
     /// Build a zero phase error tracking (ZPETC) feedforward filter for a closed loop.
     Zpetc(zpetc::ZpetcArgs),
+    /// Design a plug-in repetitive compensator on a closed-loop model, with its stability condition.
+    Repetitive(learning::RepetitiveArgs),
+    /// Iterative learning control: repeat a trajectory, learn its feedforward, write it as a table.
+    Ilc(learning::IlcArgs),
     /// Empirical frequency response (Welch with coherence, or ETFE) of input/output data.
     Bode(bode::BodeArgs),
     /// Inspect transfer-function files.
@@ -283,6 +288,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Emit(args) => emit::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Zpetc(args) => zpetc::run(args),
+        Command::Repetitive(args) => learning::run_repetitive(args),
+        Command::Ilc(args) => learning::run_ilc(args),
         Command::Tf(cmd) => tf::run(cmd),
         Command::Bode(args) => bode::run(args),
         Command::Hinf(args) => robust::run_hinf(args),

@@ -8,21 +8,26 @@ use super::common::{
     bad, choice, name, open_input, print_report, read_input, step_error, write_atomic,
 };
 use crate::ident::hysteresis::HysteresisModel;
+use crate::io::controller_file::RepetitiveBlock;
 use crate::io::controller_file::{InputHash, Provenance, parse_controller, sha256_hex};
 use crate::io::timeseries::{ColumnRef, ReadParams, read_table};
 use crate::io::{hysteresis_json, plot, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
 use crate::lti::ss::StateSpace;
+use crate::sim::disturbance::Disturbance;
 use crate::sim::virtual_fts::VirtualFtsParams;
 use crate::synth::zpetc::{self as zpetc_mod, Zpetc, ZpetcParams};
+use crate::workflow::learning::{REPETITIVE_FORMAT, RepetitiveFile};
 use crate::workflow::{
     ReferenceShape, SimController, SimPlant, Simulate, SimulateInputs, SimulateReport, StageModels,
 };
 use clap::Args;
 use std::path::{Path, PathBuf};
 
+/// The loop a run drives: controller, reference, plant and disturbances
+/// (shared by `fts simulate` and `fts ilc`).
 #[derive(Debug, Args)]
-pub struct SimulateArgs {
+pub struct LoopArgs {
     /// Controller stages: pid, pid+hc, pid+zpec, pid+hc+zpec, or ss, ss+hc, ss+zpec, ss+hc+zpec
     /// with --ss (default: pid+hc+zpec, or ss with --ss).
     #[arg(long)]
@@ -81,9 +86,9 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "INV.json")]
     hysteresis: Option<PathBuf>,
     /// ZPETC filter (`fts.zpetc/1`); default: identified from the virtual FTS.
-    #[arg(long, value_name = "ZPETC.json", conflicts_with = "closed_loop")]
+    #[arg(long, value_name = "ZPETC.json")]
     zpetc: Option<PathBuf>,
-    /// Closed-loop model (`fts.tf/1`) to build the ZPETC from.
+    /// Closed-loop model (`fts.tf/1`): the ZPETC is built from it unless --zpetc is given, and `fts ilc` learns with it.
     #[arg(long, value_name = "CL.json")]
     closed_loop: Option<PathBuf>,
     /// A complete coefficient file (`fts.controller/1`) instead of stages and models.
@@ -98,6 +103,21 @@ pub struct SimulateArgs {
     /// PID derivative gain per sample (V/um), on the measurement.
     #[arg(long, default_value_t = Simulate::default().kd, allow_hyphen_values = true)]
     kd: f64,
+    /// Plug-in repetitive compensator (`fts.repetitive/1`, from `fts repetitive`) added to the stages.
+    #[arg(long, value_name = "RC.json", conflicts_with = "controller_file")]
+    repetitive: Option<PathBuf>,
+    /// Disturbance added to the plant's output, um: sines:A@HZ[@DEG],.. | spindle:A@HZ[,h2,h3,..] | file:PATH (one sample per controller period).
+    #[arg(long, value_name = "SPEC")]
+    output_disturbance: Option<String>,
+    /// Disturbance added to the command at the plant's input, V (same forms as --output-disturbance).
+    #[arg(long, value_name = "SPEC")]
+    input_disturbance: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub(super) run: LoopArgs,
     /// Write the trace (t, r, u, y, e) here.
     #[arg(short = 'o', long = "out", value_name = "TRACE.csv")]
     output: Option<PathBuf>,
@@ -109,10 +129,10 @@ pub struct SimulateArgs {
     json: bool,
 }
 
-impl SimulateArgs {
+impl LoopArgs {
     /// The library step these flags stand for.
-    fn step(&self) -> Simulate {
-        Simulate {
+    pub(super) fn step(&self) -> anyhow::Result<Simulate> {
+        Ok(Simulate {
             controller: self.controller.clone(),
             reference: self.reference,
             amplitude: self.amplitude,
@@ -131,13 +151,46 @@ impl SimulateArgs {
             c2d: self.ss.c2d,
             prewarp: self.ss.prewarp,
             ss_anti_windup: self.ss.ss_anti_windup,
-        }
+            output_disturbance: read_disturbance("--output-disturbance", &self.output_disturbance)?,
+            input_disturbance: read_disturbance("--input-disturbance", &self.input_disturbance)?,
+        })
     }
+
+    /// The plant, the controller and the reference samples these flags name.
+    pub(super) fn inputs(&self) -> anyhow::Result<SimulateInputs> {
+        Ok(SimulateInputs {
+            plant: read_plant(self)?,
+            controller: read_controller(self)?,
+            reference_samples: read_reference(self)?,
+        })
+    }
+}
+
+/// A `--*-disturbance` spec; `file:PATH` reads the first column of a CSV.
+fn read_disturbance(flag: &str, spec: &Option<String>) -> anyhow::Result<Option<Disturbance>> {
+    let Some(spec) = spec else {
+        return Ok(None);
+    };
+    if let Some(path) = spec.strip_prefix("file:") {
+        let path = Path::new(path);
+        let source = path.display().to_string();
+        let params = ReadParams {
+            columns: vec![ColumnRef::parse("1")],
+            min_rows: 1,
+            ..ReadParams::default()
+        };
+        let table = read_table(open_input(path)?, &source, &params)?;
+        let values = table.columns.into_iter().next().unwrap_or_default();
+        return Ok(Some(Disturbance::Samples { values }));
+    }
+    Disturbance::parse(spec)
+        .map(Some)
+        .map_err(|e| bad(format!("invalid value '{spec}' for '{flag} <SPEC>': {e}")))
 }
 
 /// The linear model of `--plant-tf` (behind `--plant-hysteresis`), else the
 /// virtual FTS of `--plant` or the embedded one.
-fn read_plant(args: &SimulateArgs) -> anyhow::Result<SimPlant> {
+fn read_plant(args: &LoopArgs) -> anyhow::Result<SimPlant> {
     let Some(path) = &args.plant_tf else {
         return Ok(SimPlant::Virtual(virtual_params(args)?));
     };
@@ -163,7 +216,7 @@ fn read_hysteresis(path: &Path) -> anyhow::Result<HysteresisModel> {
     Ok(hysteresis_json::parse_model(&read_input(path)?, &source)?.model)
 }
 
-fn virtual_params(args: &SimulateArgs) -> anyhow::Result<VirtualFtsParams> {
+fn virtual_params(args: &LoopArgs) -> anyhow::Result<VirtualFtsParams> {
     let Some(path) = &args.plant else {
         return Ok(VirtualFtsParams::default_plant());
     };
@@ -176,7 +229,7 @@ fn virtual_params(args: &SimulateArgs) -> anyhow::Result<VirtualFtsParams> {
 }
 
 /// Reference samples from `--reference-file`, with their description.
-fn read_reference(args: &SimulateArgs) -> anyhow::Result<Option<(Vec<f64>, String)>> {
+fn read_reference(args: &LoopArgs) -> anyhow::Result<Option<(Vec<f64>, String)>> {
     let Some(path) = &args.reference_file else {
         return Ok(None);
     };
@@ -191,7 +244,7 @@ fn read_reference(args: &SimulateArgs) -> anyhow::Result<Option<(Vec<f64>, Strin
     Ok(Some((samples, format!("reference {source}"))))
 }
 
-fn read_zpetc(args: &SimulateArgs) -> anyhow::Result<Option<Zpetc>> {
+fn read_zpetc(args: &LoopArgs) -> anyhow::Result<Option<Zpetc>> {
     if let Some(path) = &args.zpetc {
         let source = path.display().to_string();
         return Ok(Some(zpetc_json::parse_zpetc(&read_input(path)?, &source)?));
@@ -213,7 +266,7 @@ fn read_zpetc(args: &SimulateArgs) -> anyhow::Result<Option<Zpetc>> {
 
 /// `--controller-file`, or the models of the stages (`--ss`, `--hysteresis`,
 /// `--zpetc`/`--closed-loop`).
-fn read_controller(args: &SimulateArgs) -> anyhow::Result<SimController> {
+fn read_controller(args: &LoopArgs) -> anyhow::Result<SimController> {
     if let Some(path) = &args.controller_file {
         let source = path.display().to_string();
         let file = parse_controller(&read_input(path)?, &source)?;
@@ -231,12 +284,46 @@ fn read_controller(args: &SimulateArgs) -> anyhow::Result<SimController> {
         Some(path) => Some(read_hysteresis(path)?),
         None => None,
     };
+    let repetitive = match &args.repetitive {
+        Some(path) => Some(read_repetitive(path)?),
+        None => None,
+    };
     Ok(SimController::Stages(StageModels {
         ss,
         hysteresis,
         zpetc: read_zpetc(args)?,
+        repetitive,
+        closed_loop: read_closed_loop(args)?,
         provenance,
     }))
+}
+
+/// A `fts.repetitive/1` design file's block.
+pub(super) fn read_repetitive(path: &Path) -> anyhow::Result<RepetitiveBlock> {
+    let source = path.display().to_string();
+    let file: RepetitiveFile = serde_json::from_str(&read_input(path)?)
+        .map_err(|e| bad(format!("{source} line {}: {e}", e.line())))?;
+    if file.format != REPETITIVE_FORMAT {
+        return Err(bad(format!(
+            "{source} field 'format': expected \"{REPETITIVE_FORMAT}\", found {:?}",
+            file.format
+        )));
+    }
+    Ok(file.block())
+}
+
+/// The `--closed-loop` model, when given.
+fn read_closed_loop(args: &LoopArgs) -> anyhow::Result<Option<crate::lti::DiscreteTf>> {
+    let Some(path) = &args.closed_loop else {
+        return Ok(None);
+    };
+    let source = path.display().to_string();
+    match tf_json::parse_tf(&read_input(path)?, &source)? {
+        TransferFunction::Discrete(g) => Ok(Some(g)),
+        _ => Err(bad(format!(
+            "{source} field 'var': the closed-loop model must be discrete (\"z^-1\")"
+        ))),
+    }
 }
 
 /// Reads a `--ss` controller and records its hash.
@@ -256,15 +343,10 @@ fn read_ss(path: &Path, provenance: &mut Provenance) -> anyhow::Result<(StateSpa
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
-    let plant = read_plant(&args)?;
-    let controller = read_controller(&args)?;
-    let inputs = SimulateInputs {
-        plant,
-        controller,
-        reference_samples: read_reference(&args)?,
-    };
+    let inputs = args.run.inputs()?;
     let report = args
-        .step()
+        .run
+        .step()?
         .run_observed(inputs, &mut |note| eprintln!("{note}"))
         .map_err(step_error)?;
     write_outputs(&args, &report)?;

@@ -21,8 +21,8 @@ pub use c_header::{C_RUNTIME_C, C_RUNTIME_H, parse_c_header, to_c_files, to_c_he
 use super::InputError;
 use super::tf_json::check_format;
 use crate::runtime::{
-    FeedbackSpec, HysteresisSpec, PidFilteredSpec, PidSpec, PlayForm, RuntimeSpec, SsAntiWindup,
-    StateSpaceSpec, ZpetcSpec,
+    FeedbackSpec, FeedforwardTable, HysteresisSpec, PidFilteredSpec, PidSpec, PlayForm,
+    RepetitiveSpec, RuntimeSpec, SsAntiWindup, StateSpaceSpec, ZpetcSpec,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -85,6 +85,41 @@ pub struct ZpetcBlock {
     pub num: Vec<f64>,
     /// Causal denominator, ascending `z^-1`.
     pub den: Vec<f64>,
+}
+
+/// Plug-in repetitive compensator block (`fts repetitive`; the runtime's
+/// `RepetitiveSpec`): `v(k) = Q(z) [v(k - N) + k_r e(k - N + m)]` on the
+/// tracking error `e = r - y`, added to the loop's reference.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RepetitiveBlock {
+    /// Whole samples of the period `N0`.
+    pub period: usize,
+    /// Fractional part of the period, in `[0, 1)`.
+    #[serde(default)]
+    pub fraction: f64,
+    /// Zero-phase low-pass taps `[q_0, q_1, .., q_h]`.
+    pub q: Vec<f64>,
+    /// Phase lead `m`, samples.
+    pub lead: usize,
+    /// Learning gain `k_r`.
+    pub gain: f64,
+}
+
+impl RepetitiveBlock {
+    /// The period in samples, `N0 + f`.
+    pub fn period_samples(&self) -> f64 {
+        self.period as f64 + self.fraction
+    }
+}
+
+/// Learned feedforward table block (`fts ilc`): `f(k)` added to the loop's
+/// reference at controller sample `k` of a run, 0 past its end.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedforwardTableBlock {
+    /// `f(0), f(1), ..`, reference units.
+    pub samples: Vec<f64>,
 }
 
 /// Inverse hysteresis feedforward block.
@@ -415,6 +450,10 @@ pub struct ControllerFile {
     pub units: Units,
     /// Optional ZPETC.
     pub zpetc: Option<ZpetcBlock>,
+    /// Optional plug-in repetitive compensator.
+    pub repetitive: Option<RepetitiveBlock>,
+    /// Optional learned feedforward table.
+    pub feedforward_table: Option<FeedforwardTableBlock>,
     /// Optional HC feedforward.
     pub hysteresis: Option<HysteresisBlock>,
     /// The feedback controller (PID or state space).
@@ -456,7 +495,28 @@ impl ControllerFile {
                     anti_windup: k.anti_windup,
                 }),
             },
+            repetitive: self.repetitive.as_ref().map(|r| RepetitiveSpec {
+                period: r.period,
+                fraction: r.fraction,
+                q: &r.q,
+                lead: r.lead,
+                gain: r.gain,
+            }),
         }
+    }
+
+    /// A player of the learned feedforward table, when there is one.
+    pub fn feedforward_player(&self) -> Option<FeedforwardTable<'_>> {
+        self.feedforward_table
+            .as_ref()
+            .and_then(|t| FeedforwardTable::new(&t.samples).ok())
+    }
+
+    /// The learned feedforward samples (empty without a table).
+    pub fn learned_feedforward(&self) -> &[f64] {
+        self.feedforward_table
+            .as_ref()
+            .map_or(&[], |t| t.samples.as_slice())
     }
 
     /// The command limits `(min, max)`; infinite where the state-space
@@ -511,6 +571,12 @@ impl ControllerFile {
         if self.zpetc.is_some() {
             v.push("zpetc");
         }
+        if self.repetitive.is_some() {
+            v.push("repetitive");
+        }
+        if self.feedforward_table.is_some() {
+            v.push("feedforward_table");
+        }
         if self.hysteresis.is_some() {
             v.push("hysteresis_inverse");
         }
@@ -543,9 +609,15 @@ impl ControllerFile {
                 InputError::new(source, "expected a positive number of seconds").in_field("ts"),
             );
         }
+        let invalid = |e: crate::runtime::RuntimeError| {
+            InputError::new(source, e.to_string()).in_field(runtime_field(&e))
+        };
+        if let Some(t) = &self.feedforward_table {
+            FeedforwardTable::new(&t.samples).map_err(invalid)?;
+        }
         crate::runtime::RuntimeController::new(&self.runtime_spec())
             .map(|_| ())
-            .map_err(|e| InputError::new(source, e.to_string()).in_field(runtime_field(&e)))
+            .map_err(invalid)
     }
 }
 
@@ -622,6 +694,8 @@ mod tests {
                     sha256: sha256_hex(b"abc"),
                 }],
             },
+            repetitive: None,
+            feedforward_table: None,
         }
     }
 

@@ -115,6 +115,7 @@ mod tests {
                 output_min: -1e9,
                 output_max: 1e9,
             }),
+            repetitive: None,
         };
         let mut rt = crate::runtime::RuntimeController::new(&spec).unwrap();
         let mut filter = TdfFilter::from_coeffs(&num, &den, 0);

@@ -11,8 +11,12 @@ pub struct Trace {
     pub ts: f64,
     /// Reference `r(k)`.
     pub reference: Vec<f64>,
-    /// ZPETC-filtered reference `r_f(k)` (equal to `r` without ZPETC).
+    /// The loop's reference `r_f(k) + c(k)`: the ZPETC-filtered reference
+    /// (`r` without ZPETC) plus the learning correction.
     pub filtered_reference: Vec<f64>,
+    /// The learning correction `c(k)`: repetitive output plus learned
+    /// feedforward (0 without either).
+    pub correction: Vec<f64>,
     /// Feedforward `u_ff(k)`.
     pub feedforward: Vec<f64>,
     /// Command `u(k)`.
@@ -65,8 +69,19 @@ pub fn run<P: Plant>(
     controller: &mut RuntimeController,
     reference: &[f64],
 ) -> Result<Trace, Divergence> {
+    run_learned(plant, controller, reference, &[])
+}
+
+/// [`run`] with a learned feedforward `learned[k]` (an ILC table; 0 past
+/// its end) added to the loop's reference at sample `k`.
+pub fn run_learned<P: Plant>(
+    plant: &mut P,
+    controller: &mut RuntimeController,
+    reference: &[f64],
+    learned: &[f64],
+) -> Result<Trace, Divergence> {
     let mut trace = Trace::default();
-    run_into(plant, controller, reference, &mut trace)?;
+    run_into(plant, controller, reference, learned, &mut trace)?;
     Ok(trace)
 }
 
@@ -90,6 +105,7 @@ pub fn run_into<P: Plant>(
     plant: &mut P,
     controller: &mut RuntimeController,
     reference: &[f64],
+    learned: &[f64],
     trace: &mut Trace,
 ) -> Result<(), Divergence> {
     let n = reference.len();
@@ -100,6 +116,7 @@ pub fn run_into<P: Plant>(
     trace.reference.extend_from_slice(reference);
     for v in [
         &mut trace.filtered_reference,
+        &mut trace.correction,
         &mut trace.feedforward,
         &mut trace.command,
         &mut trace.measurement,
@@ -114,8 +131,11 @@ pub fn run_into<P: Plant>(
         let ahead = *reference.get(k + preview).unwrap_or(&last);
         trace.position.push(plant.true_output());
         let y = plant.measure();
-        let (rf, uff, u) = controller.step_traced(ahead, y);
+        let f = learned.get(k).copied().unwrap_or(0.0);
+        let s = controller.step_signals(ahead, y, f);
+        let (rf, uff, u) = (s.filtered + s.correction, s.feedforward, s.command);
         trace.filtered_reference.push(rf);
+        trace.correction.push(s.correction);
         trace.feedforward.push(uff);
         trace.command.push(u);
         trace.measurement.push(y);
@@ -212,6 +232,7 @@ mod tests {
                 output_min: 0.0,
                 output_max: 10.0,
             }),
+            repetitive: None,
         })
         .unwrap()
     }

@@ -263,6 +263,8 @@ pub fn build_controller(
         },
         feedback,
         provenance,
+        repetitive: None,
+        feedforward_table: None,
     };
     // Round trip through the file format, so simulation runs on exactly the
     // bytes a real-time loop would load.

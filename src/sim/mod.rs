@@ -2,6 +2,7 @@
 //! and closed-loop runs through the runtime controller step.
 
 pub mod closed_loop;
+pub mod disturbance;
 pub mod experiment;
 pub mod reference;
 pub mod virtual_fts;

@@ -16,6 +16,7 @@ pub mod ding22;
 pub mod experiment;
 pub mod identify;
 mod identify_hysteresis;
+pub mod learning;
 pub mod response;
 pub mod robust;
 pub mod simulate;

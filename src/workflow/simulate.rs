@@ -6,11 +6,14 @@
 use super::{AntiWindup, Discretisation, SsController, StepError, Validate};
 use crate::ident::excite::ExciteError;
 use crate::ident::hysteresis::HysteresisModel;
-use crate::io::controller_file::{ControllerFile, Feedback, Provenance, StateSpaceBlock};
+use crate::io::controller_file::{
+    ControllerFile, Feedback, Provenance, RepetitiveBlock, StateSpaceBlock,
+};
 use crate::lti::DiscreteTf;
 use crate::lti::response::NoStepInfo;
 use crate::lti::ss::StateSpace;
 use crate::runtime::{PidSpec, RuntimeController};
+use crate::sim::disturbance::{Disturbance, Disturbed};
 use crate::sim::experiment::{self, DEFAULT_PID, ExperimentParams, IdentifiedModels};
 use crate::sim::reference::{self, Reference, ReferenceTiming, StepTracking};
 use crate::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
@@ -99,6 +102,11 @@ pub struct Simulate {
     /// State handling of a state-space controller under saturation;
     /// default conditional-update.
     pub ss_anti_windup: AntiWindup,
+    /// Disturbance added to the plant's output (um), e.g. a spindle-synchronous
+    /// error motion; default none.
+    pub output_disturbance: Option<Disturbance>,
+    /// Disturbance added to the command at the plant's input (V); default none.
+    pub input_disturbance: Option<Disturbance>,
 }
 
 impl Default for Simulate {
@@ -122,6 +130,8 @@ impl Default for Simulate {
             c2d: Discretisation::Tustin,
             prewarp: None,
             ss_anti_windup: AntiWindup::ConditionalUpdate,
+            output_disturbance: None,
+            input_disturbance: None,
         }
     }
 }
@@ -130,6 +140,15 @@ impl Validate for Simulate {
     fn validate(&self) -> Result<(), StepError> {
         if let Some(text) = &self.controller {
             Stages::parse(text).map_err(|e| StepError::setting("controller", e.to_string()))?;
+        }
+        for (field, d) in [
+            ("output_disturbance", &self.output_disturbance),
+            ("input_disturbance", &self.input_disturbance),
+        ] {
+            if let Some(d) = d {
+                d.validate()
+                    .map_err(|e| StepError::setting(field, e.to_string()))?;
+            }
         }
         Ok(())
     }
@@ -178,8 +197,33 @@ pub struct StageModels {
     pub hysteresis: Option<HysteresisModel>,
     /// ZPETC pre-filter.
     pub zpetc: Option<Zpetc>,
+    /// Plug-in repetitive compensator, added to any stages.
+    pub repetitive: Option<RepetitiveBlock>,
+    /// The closed-loop model (loop reference to output), given or
+    /// identified with the other models; for learning control.
+    pub closed_loop: Option<DiscreteTf>,
     /// Version and input hashes recorded in the controller file.
     pub provenance: Provenance,
+}
+
+/// A loop ready to run ([`Simulate::prepare`]).
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// The coefficient file.
+    pub file: ControllerFile,
+    /// Where its models came from.
+    pub models: String,
+    /// The reference.
+    pub reference: Reference,
+    /// Whether the reference came from samples rather than a shape.
+    pub reference_from_file: bool,
+    /// The plant.
+    pub plant: SimPlant,
+    /// The virtual FTS parameters (also the amplifier limits of a model plant).
+    pub vparams: VirtualFtsParams,
+    /// The closed-loop model, when the controller was built from stages
+    /// whose models were identified or given with one.
+    pub closed_loop: Option<DiscreteTf>,
 }
 
 /// What [`Simulate::run`] drives.
@@ -226,6 +270,28 @@ impl Simulate {
         inputs: SimulateInputs,
         note: &mut dyn FnMut(&str),
     ) -> Result<SimulateReport, StepError> {
+        let prepared = self.prepare(inputs, note)?;
+        let trace = self.run_prepared(&prepared, 0, prepared.file.learned_feedforward())?;
+        let step = (!prepared.reference_from_file)
+            .then(|| self.step_figures(&trace, &prepared.reference))
+            .flatten();
+        Ok(SimulateReport::new(
+            prepared.file,
+            prepared.models,
+            prepared.reference,
+            trace,
+            step,
+        ))
+    }
+
+    /// Everything a run needs, resolved once: the coefficient file (built
+    /// from the stages, identifying missing models), the reference and the
+    /// plant; for repeated runs ([`crate::workflow::learning::Ilc`]).
+    pub fn prepare(
+        &self,
+        inputs: SimulateInputs,
+        note: &mut dyn FnMut(&str),
+    ) -> Result<Prepared, StepError> {
         self.validate()?;
         let mut vparams = amplifier_plant(&inputs.plant);
         if let Some(seed) = self.seed {
@@ -233,20 +299,53 @@ impl Simulate {
         }
         let ts = inputs.plant.ts();
         let model_plant = matches!(inputs.plant, SimPlant::Model { .. });
+        let mut loop_model = None;
         let (file, models) = match inputs.controller {
             SimController::File { file, source } => (
                 checked_file(file, &source, ts)?,
                 format!("coefficient file {source}"),
             ),
-            SimController::Stages(m) => self.controller(m, &vparams, ts, model_plant, note)?,
+            SimController::Stages(mut m) => {
+                let built = self.controller(&mut m, &vparams, ts, model_plant, note)?;
+                loop_model = m.closed_loop.take();
+                built
+            }
         };
-        let from_file = inputs.reference_samples.is_some();
+        let reference_from_file = inputs.reference_samples.is_some();
         let reference = self.reference(inputs.reference_samples, ts, file.preview())?;
-        let trace = self.drive(inputs.plant, vparams, &file, &reference)?;
-        let step = (!from_file)
-            .then(|| self.step_figures(&trace, &reference))
-            .flatten();
-        Ok(SimulateReport::new(file, models, reference, trace, step))
+        Ok(Prepared {
+            file,
+            models,
+            reference,
+            reference_from_file,
+            plant: inputs.plant,
+            vparams,
+            closed_loop: loop_model,
+        })
+    }
+
+    /// One run of a prepared loop with the learned feedforward `learned`;
+    /// `run` offsets the plant's noise seed, so repeated trials see fresh noise.
+    pub fn run_prepared(
+        &self,
+        prepared: &Prepared,
+        run: u64,
+        learned: &[f64],
+    ) -> Result<closed_loop::Trace, StepError> {
+        let mut vparams = prepared.vparams.clone();
+        vparams.seed = vparams.seed.wrapping_add(run);
+        let mut file = prepared.file.clone();
+        file.feedforward_table =
+            (!learned.is_empty()).then(|| crate::io::controller_file::FeedforwardTableBlock {
+                samples: learned.to_vec(),
+            });
+        self.drive(
+            prepared.plant.clone(),
+            vparams,
+            &file,
+            &prepared.reference,
+            run,
+        )
     }
 
     /// Runs the file's controller on the plant along the reference.
@@ -256,12 +355,25 @@ impl Simulate {
         vparams: VirtualFtsParams,
         file: &ControllerFile,
         reference: &Reference,
+        run: u64,
     ) -> Result<closed_loop::Trace, StepError> {
+        let n = reference.samples.len();
+        let ts = plant.ts();
+        let sampled = |d: &Option<Disturbance>| d.as_ref().map_or(Vec::new(), |d| d.samples(n, ts));
+        let (input, output) = (
+            sampled(&self.input_disturbance),
+            sampled(&self.output_disturbance),
+        );
         match plant {
             SimPlant::Virtual(_) => {
-                let mut plant = VirtualFts::new(vparams)
+                let plant = VirtualFts::new(vparams)
                     .map_err(|e| StepError::input(format!("plant: {e}")))?;
-                run_on(&mut plant, file, reference, None)
+                run_on(
+                    &mut Disturbed::new(plant, input, output),
+                    file,
+                    reference,
+                    None,
+                )
             }
             SimPlant::Model {
                 tf,
@@ -269,9 +381,10 @@ impl Simulate {
                 source,
             } => {
                 let limits = file.command_limits();
-                let seed = self.seed.unwrap_or(1);
-                let mut plant = ModelPlant::new(&tf, hysteresis, limits, 0.0, seed)
+                let seed = self.seed.unwrap_or(1).wrapping_add(run);
+                let plant = ModelPlant::new(&tf, hysteresis, limits, 0.0, seed)
                     .map_err(|e| StepError::input(format!("{source}: {e}")))?;
+                let mut plant = Disturbed::new(plant, input, output);
                 run_on(&mut plant, file, reference, Some((&tf, &source)))
             }
         }
@@ -308,14 +421,14 @@ impl Simulate {
     /// models came from.
     fn controller(
         &self,
-        mut m: StageModels,
+        m: &mut StageModels,
         plant: &VirtualFtsParams,
         ts: f64,
         model_plant: bool,
         note: &mut dyn FnMut(&str),
     ) -> Result<(ControllerFile, String), StepError> {
         let stages = self.stages(m.ss.is_some())?;
-        let block = self.feedback_block(stages, &m, plant, ts, model_plant)?;
+        let block = self.feedback_block(stages, m, plant, ts, model_plant)?;
         if let Some((sys, source)) = &m.ss
             && let Some(warning) = fast_poles_warning(sys, ts, source)
         {
@@ -341,22 +454,27 @@ impl Simulate {
             note(
                 "identifying HC and ZPETC models from the virtual FTS (simulated measurements only)...",
             );
-            origin = identify_missing(&mut m, plant, pid)?;
+            origin = identify_missing(m, plant, pid)?;
         }
         let feedback = match (block, stages.feedback) {
             (Some(k), _) => Feedback::StateSpace(k),
             (None, FeedbackKind::None) => Feedback::None,
             (None, _) => Feedback::Pid(pid),
         };
-        let file = experiment::build_controller(
+        let mut file = experiment::build_controller(
             stages,
             ts,
             feedback,
             m.hysteresis.as_ref(),
             m.zpetc.as_ref(),
-            m.provenance,
+            m.provenance.clone(),
         )
         .map_err(StepError::input)?;
+        if let Some(r) = m.repetitive.clone() {
+            file.repetitive = Some(r);
+            file.validate("repetitive")
+                .map_err(|e| StepError::setting("repetitive", e.to_string()))?;
+        }
         Ok((file, origin))
     }
 
@@ -543,6 +661,7 @@ fn identify_missing(
     let origin = identified_origin(&models, &params);
     m.hysteresis = m.hysteresis.take().or(Some(models.inverse.model));
     m.zpetc = m.zpetc.take().or(Some(models.zpetc));
+    m.closed_loop = m.closed_loop.take().or(Some(models.closed_loop.tf));
     Ok(origin)
 }
 
@@ -570,8 +689,13 @@ fn run_on<P: Plant>(
 ) -> Result<closed_loop::Trace, StepError> {
     let mut rt = RuntimeController::new(&file.runtime_spec())
         .map_err(|e| StepError::input(format!("controller: {e}")))?;
-    closed_loop::run(plant, &mut rt, &reference.samples)
-        .map_err(|d| StepError::computation(format!("{d}; {}", likely_cause(file, plant_model))))
+    closed_loop::run_learned(
+        plant,
+        &mut rt,
+        &reference.samples,
+        file.learned_feedforward(),
+    )
+    .map_err(|d| StepError::computation(format!("{d}; {}", likely_cause(file, plant_model))))
 }
 
 /// Why a loop most likely diverged, from the stability of the models it is

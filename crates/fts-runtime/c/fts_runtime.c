@@ -16,6 +16,21 @@ typedef union {
     uint64_t i;
 } fts_bits;
 
+/* The repetitive compensator's rings (Rust LEAD_RING, REFERENCE_RING). */
+#define FTS_LEAD_RING ((size_t)FTS_MAX_LEAD + 1)
+#define FTS_REFERENCE_RING ((size_t)FTS_MAX_RC_PREVIEW + 1)
+#define FTS_POWER_OF_TWO(n) ((n) != 0 && ((n) & ((n) - 1)) == 0)
+
+/* Every ring length is a power of two no longer than the memory, so one
+ * counter modulo FTS_MAX_PERIOD indexes them all (a compile-time check:
+ * the array length is negative otherwise). */
+typedef char fts_ring_lengths_are_powers_of_two
+    [(FTS_POWER_OF_TWO((size_t)FTS_MAX_PERIOD) && FTS_POWER_OF_TWO(FTS_LEAD_RING) &&
+      FTS_POWER_OF_TWO(FTS_REFERENCE_RING) && FTS_LEAD_RING <= (size_t)FTS_MAX_PERIOD &&
+      FTS_REFERENCE_RING <= (size_t)FTS_MAX_PERIOD)
+         ? 1
+         : -1];
+
 static uint64_t bits_of(double x)
 {
     fts_bits b;
@@ -278,6 +293,43 @@ static fts_status init_ss(fts_controller *c, const fts_ss_spec *k, const char **
     return FTS_OK;
 }
 
+/* The repetitive block's checks, in the order of Rust RepetitiveBlock::new;
+ * preview is the ZPETC's look-ahead, undone to form the error. */
+static fts_status init_repetitive(fts_controller *c, const fts_repetitive_spec *r,
+                                  size_t preview, const char **field)
+{
+    size_t half;
+    FTS_CHECK(copy_into(r->q, r->q_len, c->rc_q, FTS_MAX_Q_HALF + 1), "repetitive.q");
+    half = r->q_len - 1;
+    FTS_CHECK(finite_or(r->gain), "repetitive.gain");
+    FTS_CHECK(finite_or(r->fraction), "repetitive.fraction");
+    if (!(r->fraction >= 0.0 && r->fraction < 1.0)) {
+        FTS_FAIL(FTS_ERR_INVALID, "repetitive.fraction");
+    }
+    if (r->lead > FTS_MAX_LEAD) {
+        FTS_FAIL(FTS_ERR_BAD_LENGTH, "repetitive.lead");
+    }
+    /* Q and the lead reach half + lead samples ahead inside the period; one
+     * more keeps v(k) from depending on itself. */
+    if (r->period <= half + r->lead) {
+        FTS_FAIL(FTS_ERR_INVALID, "repetitive.period");
+    }
+    /* period + half + 2 > FTS_MAX_PERIOD, without overflow. */
+    if (half + 2 > (size_t)FTS_MAX_PERIOD || r->period > (size_t)FTS_MAX_PERIOD - half - 2) {
+        FTS_FAIL(FTS_ERR_BAD_LENGTH, "repetitive.period");
+    }
+    if (preview > FTS_MAX_RC_PREVIEW) {
+        FTS_FAIL(FTS_ERR_BAD_LENGTH, "repetitive.preview");
+    }
+    c->has_repetitive = 1;
+    c->rc_period = r->period;
+    c->rc_fraction = r->fraction;
+    c->rc_half = half;
+    c->rc_lead = r->lead;
+    c->rc_gain = r->gain;
+    return FTS_OK;
+}
+
 fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **field)
 {
     const char *unused = NULL;
@@ -290,6 +342,7 @@ fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **fiel
     ctl->order = 0;
     ctl->has_hysteresis = 0;
     ctl->feedback = FTS_FEEDBACK_NONE;
+    ctl->has_repetitive = 0;
     if (spec->zpetc != NULL) {
         fts_status s = init_zpetc(ctl, spec->zpetc, field);
         if (s != FTS_OK) {
@@ -325,6 +378,13 @@ fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **fiel
         FTS_FAIL(FTS_ERR_INVALID, "feedback");
     }
     ctl->feedback = spec->feedback;
+    if (spec->repetitive != NULL) {
+        size_t preview = spec->zpetc != NULL ? spec->zpetc->preview : 0;
+        fts_status s = init_repetitive(ctl, spec->repetitive, preview, field);
+        if (s != FTS_OK) {
+            return s;
+        }
+    }
     fts_reset(ctl);
     return FTS_OK;
 }
@@ -338,6 +398,14 @@ void fts_reset(fts_controller *ctl)
     ctl->previous_measurement = 0.0;
     ctl->started = 0;
     zero(ctl->x, FTS_MAX_SS_ORDER);
+    /* The rings are only read with a repetitive block: cleared then. */
+    if (ctl->has_repetitive) {
+        zero(ctl->rc_memory, FTS_MAX_PERIOD);
+        zero(ctl->rc_outputs, FTS_LEAD_RING);
+        zero(ctl->rc_references, FTS_REFERENCE_RING);
+    }
+    ctl->rc_k = 0;
+    ctl->rc_started = 0;
 }
 
 size_t fts_preview(const fts_controller *ctl)
@@ -484,27 +552,88 @@ static double ss_step(fts_controller *c, double error, double feedforward)
     return command;
 }
 
-double fts_step_traced(fts_controller *ctl, double reference_ahead, double measurement,
-                       double *filtered, double *feedforward)
+/* The reference r(k) from r(k + preview) (Rust delayed_reference): a delay
+ * line filled with the first value passed, so that a loop starting
+ * mid-stroke does not learn a step that was never asked for. */
+static double rc_delayed_reference(fts_controller *c, double reference_ahead, size_t preview)
+{
+    size_t now;
+    if (!c->rc_started) {
+        size_t i;
+        for (i = 0; i < FTS_REFERENCE_RING; ++i) {
+            c->rc_references[i] = reference_ahead;
+        }
+        c->rc_started = 1;
+    }
+    now = c->rc_k % FTS_REFERENCE_RING;
+    c->rc_references[now] = reference_ahead;
+    return c->rc_references[(now + FTS_REFERENCE_RING - preview) % FTS_REFERENCE_RING];
+}
+
+/* D(j) = (1 - f) d(j) + f d(j - 1) at the memory index of j (Rust delayed). */
+static double rc_delayed(const fts_controller *c, size_t index)
+{
+    double d = c->rc_memory[index % FTS_MAX_PERIOD];
+    double older;
+    if (c->rc_fraction == 0.0) {
+        return d;
+    }
+    older = c->rc_memory[(index + FTS_MAX_PERIOD - 1) % FTS_MAX_PERIOD];
+    return (1.0 - c->rc_fraction) * d + c->rc_fraction * older;
+}
+
+/* One repetitive sample (Rust RepetitiveBlock::step): returns
+ * v(k) = sum_{i=-h..h} q[|i|] D(k - i - period), summed in that order, then
+ * completes d(k - lead) = v(k - lead) + gain e(k). */
+static double rc_step(fts_controller *c, double error)
+{
+    size_t i, k = c->rc_k, h = c->rc_half, m = c->rc_lead;
+    double acc = 0.0, v_lead;
+    for (i = 0; i <= 2 * h; ++i) {
+        size_t tap = i < h ? h - i : i - h;
+        /* k - (i - h) - period, shifted by a whole memory to stay unsigned. */
+        size_t index = k + FTS_MAX_PERIOD + h - i - c->rc_period;
+        acc += c->rc_q[tap] * rc_delayed(c, index);
+    }
+    c->rc_outputs[k % FTS_LEAD_RING] = acc;
+    /* v(j) for j < 0 is 0: the rings start at rest. */
+    v_lead = c->rc_outputs[(k + FTS_LEAD_RING - m) % FTS_LEAD_RING];
+    c->rc_memory[(k + FTS_MAX_PERIOD - m) % FTS_MAX_PERIOD] = v_lead + c->rc_gain * error;
+    c->rc_k = (k + 1) % FTS_MAX_PERIOD;
+    return acc;
+}
+
+double fts_step_signals(fts_controller *ctl, double reference_ahead, double measurement,
+                        double learned, double *filtered, double *correction,
+                        double *feedforward)
 {
     double rf = ctl->has_zpetc ? tdf2_step(ctl, reference_ahead) : reference_ahead;
-    double uff = ctl->has_hysteresis ? hysteresis_step(ctl, rf) : 0.0;
-    double u;
+    double repetitive = 0.0, corr, loop_reference, uff, u;
+    if (ctl->has_repetitive) {
+        double reference = rc_delayed_reference(ctl, reference_ahead, fts_preview(ctl));
+        repetitive = rc_step(ctl, reference - measurement);
+    }
+    corr = repetitive + learned;
+    loop_reference = rf + corr;
+    uff = ctl->has_hysteresis ? hysteresis_step(ctl, loop_reference) : 0.0;
     switch (ctl->feedback) {
     case FTS_FEEDBACK_PID:
     case FTS_FEEDBACK_PID_FILTERED:
-        u = pid_step(ctl, rf, measurement, uff);
+        u = pid_step(ctl, loop_reference, measurement, uff);
         break;
     case FTS_FEEDBACK_STATE_SPACE:
-        u = ss_step(ctl, rf - measurement, uff);
+        u = ss_step(ctl, loop_reference - measurement, uff);
         break;
     case FTS_FEEDBACK_NONE:
     default:
-        u = ctl->has_hysteresis ? uff : rf;
+        u = ctl->has_hysteresis ? uff : loop_reference;
         break;
     }
     if (filtered != NULL) {
         *filtered = rf;
+    }
+    if (correction != NULL) {
+        *correction = corr;
     }
     if (feedforward != NULL) {
         *feedforward = uff;
@@ -512,9 +641,52 @@ double fts_step_traced(fts_controller *ctl, double reference_ahead, double measu
     return u;
 }
 
+double fts_step_traced(fts_controller *ctl, double reference_ahead, double measurement,
+                       double *filtered, double *feedforward)
+{
+    double rf, corr;
+    double u = fts_step_signals(ctl, reference_ahead, measurement, 0.0, &rf, &corr, feedforward);
+    if (filtered != NULL) {
+        *filtered = rf + corr;
+    }
+    return u;
+}
+
 double fts_step(fts_controller *ctl, double reference_ahead, double measurement)
 {
-    return fts_step_traced(ctl, reference_ahead, measurement, NULL, NULL);
+    return fts_step_signals(ctl, reference_ahead, measurement, 0.0, NULL, NULL, NULL);
+}
+
+fts_status fts_table_init(fts_table *t, const double *samples, size_t len, const char **field)
+{
+    const char *unused = NULL;
+    if (field == NULL) {
+        field = &unused;
+    }
+    *field = NULL;
+    t->samples = NULL;
+    t->len = 0;
+    t->next = 0;
+    if (len == 0 || samples == NULL) {
+        FTS_FAIL(FTS_ERR_BAD_LENGTH, "feedforward_table.samples");
+    }
+    FTS_CHECK(all_finite(samples, len), "feedforward_table.samples");
+    t->samples = samples;
+    t->len = len;
+    return FTS_OK;
+}
+
+double fts_table_next(fts_table *t)
+{
+    if (t->next < t->len) {
+        return t->samples[t->next++];
+    }
+    return 0.0;
+}
+
+void fts_table_rewind(fts_table *t)
+{
+    t->next = 0;
 }
 
 const char *fts_status_text(fts_status status)

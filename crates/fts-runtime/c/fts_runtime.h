@@ -4,9 +4,21 @@
  *
  * Per sample k, in signal order ([Li21] Fig. 5):
  *   r_f  = ZPETC num/den on r(k + preview)          (r_f = r without ZPETC)
- *   u_ff = inverse hysteresis of r_f                 (0 without the block)
- *   u    = clamp(u_ff + feedback(r_f - x), min, max) (PID, filtered PID or
- *          state space; without feedback: u_ff with a hysteresis block, else r_f)
+ *   v    = repetitive compensator on e(k) = r(k) - x(k), r(k) the reference
+ *          passed preview samples earlier           (0 without the block)
+ *   c    = v + f, f the learned feedforward sample passed by the caller
+ *          (an fts_table played once per step; 0 without one)
+ *   r_l  = r_f + c, the loop's reference
+ *   u_ff = inverse hysteresis of r_l                 (0 without the block)
+ *   u    = clamp(u_ff + feedback(r_l - x), min, max) (PID, filtered PID or
+ *          state space; without feedback: u_ff with a hysteresis block, else r_l)
+ *
+ * The repetitive compensator (Tomizuka, Tsao & Chew 1989) is the plug-in
+ *   v(k) = Q(z) [ v(k - N) + gain e(k - N + lead) ],
+ * Q(z) = q[0] + sum_i q[i] (z^i + z^-i) zero phase, N = period + fraction
+ * samples with the fractional delay read by linear interpolation
+ * z^-N ~ (1 - fraction) z^-period + fraction z^-(period + 1); its memory is
+ * the ring rc_memory (FTS_MAX_PERIOD samples) inside fts_controller.
  *
  * Fixed capacity, no malloc, no globals: all state lives in the caller's
  * fts_controller. The arithmetic is the Rust step's, operation for operation;
@@ -38,6 +50,25 @@ extern "C" {
 #ifndef FTS_MAX_SS_ORDER
 #define FTS_MAX_SS_ORDER 16
 #endif
+/* The repetitive compensator's memory, samples: a period of up to
+ * FTS_MAX_PERIOD - h - 2 samples (h = q_len - 1). FTS_MAX_PERIOD,
+ * FTS_MAX_LEAD + 1 and FTS_MAX_RC_PREVIEW + 1 are ring lengths and must be
+ * powers of two no longer than FTS_MAX_PERIOD (checked when compiling
+ * fts_runtime.c). The rings are 138 KB of fts_controller; a target
+ * without a repetitive block may define FTS_MAX_PERIOD 1, FTS_MAX_LEAD 0 and
+ * FTS_MAX_RC_PREVIEW 0 (fts_init then refuses any repetitive block). */
+#ifndef FTS_MAX_PERIOD
+#define FTS_MAX_PERIOD 16384
+#endif
+#ifndef FTS_MAX_Q_HALF
+#define FTS_MAX_Q_HALF 32 /* most one-sided taps of Q, q[1] .. q[h] */
+#endif
+#ifndef FTS_MAX_LEAD
+#define FTS_MAX_LEAD 255 /* most samples of phase lead */
+#endif
+#ifndef FTS_MAX_RC_PREVIEW
+#define FTS_MAX_RC_PREVIEW 1023 /* most ZPETC preview the repetitive block can undo */
+#endif
 
 /* Why a specification cannot be loaded (the Rust RuntimeError). */
 typedef enum fts_status {
@@ -46,7 +77,8 @@ typedef enum fts_status {
     FTS_ERR_ORDER_TOO_HIGH = 2,  /* more states than FTS_MAX_SS_ORDER */
     FTS_ERR_LENGTH_MISMATCH = 3, /* two partner lists differ in length */
     FTS_ERR_NON_FINITE = 4,      /* NaN or infinity */
-    FTS_ERR_INVALID = 5          /* den[0] = 0, unordered limits, pole outside [0, 1) */
+    FTS_ERR_INVALID = 5          /* den[0] = 0, unordered limits, pole or fraction
+                                    outside [0, 1), period not beyond h + lead */
 } fts_status;
 
 typedef enum fts_play_form {
@@ -114,6 +146,23 @@ typedef struct fts_ss_spec {
     int conditional_update; /* hold x while saturated and C (x+ - x) points further out */
 } fts_ss_spec;
 
+/* Plug-in repetitive compensator on the tracking error e = r - x (r the
+ * reference undelayed by the ZPETC preview), its output added to r_f:
+ *   v(k) = sum_{i=-h..h} q[|i|] D(k - i - period) with
+ *   D(j) = (1 - fraction) d(j) + fraction d(j - 1), d(j) = v(j) + gain e(j + lead),
+ * every signal 0 before the first step. Needs period > h + lead (h = q_len - 1),
+ * period + h + 2 <= FTS_MAX_PERIOD, q_len <= FTS_MAX_Q_HALF + 1,
+ * lead <= FTS_MAX_LEAD, fraction in [0, 1) and the ZPETC preview at most
+ * FTS_MAX_RC_PREVIEW. */
+typedef struct fts_repetitive_spec {
+    size_t period;   /* whole samples of the period, N0 */
+    double fraction; /* fractional part of the period, in [0, 1) */
+    const double *q; /* zero-phase low-pass taps q[0], q[1] .. q[h] */
+    size_t q_len;
+    size_t lead;     /* phase lead m, samples */
+    double gain;     /* learning gain k_r */
+} fts_repetitive_spec;
+
 /* A whole controller; NULL blocks are absent. */
 typedef struct fts_spec {
     const fts_zpetc_spec *zpetc;
@@ -121,10 +170,12 @@ typedef struct fts_spec {
     fts_feedback_kind feedback;
     fts_pid_spec pid;   /* FTS_FEEDBACK_PID and FTS_FEEDBACK_PID_FILTERED */
     fts_ss_spec ss;     /* FTS_FEEDBACK_STATE_SPACE */
+    const fts_repetitive_spec *repetitive; /* NULL: no repetitive compensator */
 } fts_spec;
 
-/* A loaded controller with its state: the caller owns it (static storage or
- * stack; it is about 20 KB with the default capacities). */
+/* A loaded controller with its state: the caller owns it (static storage;
+ * it is about 155 KB with the default capacities, 138 KB of which are the
+ * repetitive compensator's rings: see FTS_MAX_PERIOD). */
 typedef struct fts_controller {
     int has_zpetc;
     size_t preview;
@@ -162,14 +213,37 @@ typedef struct fts_controller {
     double ss_max;
     int conditional_update;
     double x[FTS_MAX_SS_ORDER];
+
+    int has_repetitive;
+    size_t rc_period;
+    double rc_fraction;
+    size_t rc_half;
+    double rc_q[FTS_MAX_Q_HALF + 1];
+    size_t rc_lead;
+    double rc_gain;
+    double rc_memory[FTS_MAX_PERIOD];            /* d(j) at j mod FTS_MAX_PERIOD */
+    double rc_outputs[FTS_MAX_LEAD + 1];         /* v(j) at j mod (FTS_MAX_LEAD + 1) */
+    double rc_references[FTS_MAX_RC_PREVIEW + 1]; /* r(j + preview) */
+    size_t rc_k;                                 /* samples stepped, mod FTS_MAX_PERIOD */
+    int rc_started;
 } fts_controller;
+
+/* A learned feedforward table (fts ilc) played one sample per step: pass
+ * fts_table_next() as the learned input of fts_step_signals. The samples
+ * stay the caller's (a static const array in flash): nothing is copied. */
+typedef struct fts_table {
+    const double *samples;
+    size_t len;
+    size_t next;
+} fts_table;
 
 /* Checks and copies the coefficients; the controller starts at rest. On an
  * error *field (when field is not NULL) names the offending list, e.g.
  * "zpetc.den", as the Rust runtime does, and ctl is unusable. */
 fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **field);
 
-/* Back to rest: filter, operators, integrator, derivative and states cleared. */
+/* Back to rest: filter, operators, integrator, derivative, states and the
+ * repetitive memory cleared. */
 void fts_reset(fts_controller *ctl);
 
 /* Samples of reference look-ahead the caller must supply. */
@@ -178,9 +252,30 @@ size_t fts_preview(const fts_controller *ctl);
 /* One command: reference_ahead is r(k + preview), measurement is x(k). */
 double fts_step(fts_controller *ctl, double reference_ahead, double measurement);
 
-/* The same, with the intermediate signals r_f and u_ff (either pointer may be NULL). */
+/* The same, with the intermediate signals r_f + c (the loop's reference: the
+ * filtered reference plus the repetitive correction) and u_ff (either pointer
+ * may be NULL). */
 double fts_step_traced(fts_controller *ctl, double reference_ahead, double measurement,
                        double *filtered, double *feedforward);
+
+/* One command with the learned feedforward sample f(k) (fts_table_next(); 0.0
+ * without a table) added to the loop's reference, and every signal: r_f,
+ * the correction c = v + f, u_ff (each pointer may be NULL). fts_step is
+ * this with learned = 0.0. */
+double fts_step_signals(fts_controller *ctl, double reference_ahead, double measurement,
+                        double learned, double *filtered, double *correction,
+                        double *feedforward);
+
+/* A player at the table's start. Refuses an empty table (FTS_ERR_BAD_LENGTH)
+ * and a non-finite sample (FTS_ERR_NON_FINITE), *field (when field is not
+ * NULL) naming "feedforward_table.samples"; a refused player plays zeros. */
+fts_status fts_table_init(fts_table *t, const double *samples, size_t len, const char **field);
+
+/* The next sample, 0.0 once the table is exhausted. */
+double fts_table_next(fts_table *t);
+
+/* Back to the first sample (a new run). */
+void fts_table_rewind(fts_table *t);
 
 /* +infinity, for state-space limits that are absent (-fts_infinity() below). */
 double fts_infinity(void);

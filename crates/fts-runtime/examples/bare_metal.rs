@@ -55,6 +55,7 @@ pub unsafe extern "C" fn fts_rs_init(storage: *mut MaybeUninit<RuntimeController
             output_min: 0.0,
             output_max: 10.0,
         }),
+        repetitive: None,
     };
     match RuntimeController::new(&spec) {
         Ok(c) => {

@@ -34,6 +34,10 @@
 #[cfg(test)]
 extern crate std;
 
+mod repetitive;
+use repetitive::RepetitiveBlock;
+pub use repetitive::{MAX_LEAD, MAX_PERIOD, MAX_Q_HALF, MAX_RC_PREVIEW, RepetitiveSpec};
+
 /// The cube root, self-contained so that every build of the Rust and the C
 /// runtime computes the same bits: the platform's `cbrt` differs between C
 /// libraries (and Rust's `f64::cbrt` may resolve to either). FreeBSD's
@@ -305,6 +309,9 @@ pub struct RuntimeSpec<'a> {
     pub hysteresis: Option<HysteresisSpec<'a>>,
     /// The feedback controller.
     pub feedback: FeedbackSpec<'a>,
+    /// Optional plug-in repetitive compensator on the tracking error,
+    /// added to the loop's reference ([`RepetitiveSpec`]).
+    pub repetitive: Option<RepetitiveSpec<'a>>,
 }
 
 #[derive(Debug, Clone)]
@@ -377,6 +384,21 @@ pub struct RuntimeController {
     zpetc: Option<ZpetcBlock>,
     hysteresis: Option<HysteresisBlock>,
     feedback: Feedback,
+    repetitive: Option<RepetitiveBlock>,
+}
+
+/// The signals of one step, for traces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepSignals {
+    /// The ZPETC-filtered reference `r_f(k)` (the reference without ZPETC).
+    pub filtered: f64,
+    /// The learning correction added to it: the repetitive output `v(k)`
+    /// plus the learned feedforward `f(k)` passed in.
+    pub correction: f64,
+    /// The inverse-hysteresis feedforward `u_ff(k)`.
+    pub feedforward: f64,
+    /// The command `u(k)`.
+    pub command: f64,
 }
 
 fn copy_into<const N: usize>(
@@ -535,10 +557,16 @@ impl RuntimeController {
             }
             FeedbackSpec::StateSpace(k) => Feedback::StateSpace(ss_block(k)?),
         };
+        let preview = spec.zpetc.map_or(0, |z| z.preview);
+        let repetitive = match &spec.repetitive {
+            None => None,
+            Some(r) => Some(RepetitiveBlock::new(r, preview)?),
+        };
         Ok(Self {
             zpetc,
             hysteresis,
             feedback,
+            repetitive,
         })
     }
 
@@ -570,6 +598,9 @@ impl RuntimeController {
             }
             Feedback::StateSpace(k) => k.x = [0.0; MAX_SS_ORDER],
         }
+        if let Some(r) = &mut self.repetitive {
+            r.reset();
+        }
     }
 
     /// The command limits `(min, max)` of the feedback stage (infinite when absent).
@@ -590,21 +621,50 @@ impl RuntimeController {
         self.step_traced(reference_ahead, measurement).2
     }
 
-    /// One step with the intermediate signals, for traces: `(r_f, u_ff, u)`.
+    /// One step with the intermediate signals, for traces: `(r_f + c, u_ff, u)`
+    /// with `c` the repetitive correction (0 without that block).
     #[inline]
     pub fn step_traced(&mut self, reference_ahead: f64, measurement: f64) -> (f64, f64, f64) {
+        let s = self.step_signals(reference_ahead, measurement, 0.0);
+        (s.filtered + s.correction, s.feedforward, s.command)
+    }
+
+    /// One step with a learned feedforward sample `learned = f(k)` (an
+    /// iterative-learning table played back by [`FeedforwardTable`]; 0
+    /// without one) added, with the repetitive output, to the filtered
+    /// reference ahead of the inverse hysteresis and the feedback
+    /// controller: the loop follows `r_f(k) + v(k) + f(k)`.
+    #[inline]
+    pub fn step_signals(
+        &mut self,
+        reference_ahead: f64,
+        measurement: f64,
+        learned: f64,
+    ) -> StepSignals {
         let filtered = match &mut self.zpetc {
             Some(z) => tdf2_step(z, reference_ahead),
             None => reference_ahead,
         };
+        let preview = self.zpetc.as_ref().map_or(0, |z| z.preview);
+        let repetitive = match &mut self.repetitive {
+            Some(r) => {
+                let reference = r.delayed_reference(reference_ahead, preview);
+                r.step(reference - measurement)
+            }
+            None => 0.0,
+        };
+        let correction = repetitive + learned;
+        let loop_reference = filtered + correction;
         let feedforward = match &mut self.hysteresis {
-            Some(h) => hysteresis_step(h, filtered),
+            Some(h) => hysteresis_step(h, loop_reference),
             None => 0.0,
         };
         let command = match &mut self.feedback {
             Feedback::None if self.hysteresis.is_some() => feedforward,
-            Feedback::None => filtered,
-            Feedback::PidFiltered(p) => pid_filtered_step(p, filtered, measurement, feedforward),
+            Feedback::None => loop_reference,
+            Feedback::PidFiltered(p) => {
+                pid_filtered_step(p, loop_reference, measurement, feedforward)
+            }
             Feedback::Pid(p) => {
                 let mut previous = if p.started {
                     Some(p.previous_measurement)
@@ -615,7 +675,7 @@ impl RuntimeController {
                     &p.spec,
                     &mut p.integral,
                     &mut previous,
-                    filtered,
+                    loop_reference,
                     measurement,
                     feedforward,
                 );
@@ -623,9 +683,71 @@ impl RuntimeController {
                 p.started = true;
                 command
             }
-            Feedback::StateSpace(k) => ss_step(k, filtered - measurement, feedforward),
+            Feedback::StateSpace(k) => ss_step(k, loop_reference - measurement, feedforward),
         };
-        (filtered, feedforward, command)
+        StepSignals {
+            filtered,
+            correction,
+            feedforward,
+            command,
+        }
+    }
+}
+
+/// A learned feedforward table played back one sample per step (an
+/// iterative-learning result, `fts ilc`): `next()` returns `f(k)` for the
+/// `k`-th call, then 0 past the end. The samples are the caller's (a
+/// `static` array in flash on a target), so the table has no capacity limit
+/// and the player neither copies nor allocates.
+#[derive(Debug, Clone)]
+pub struct FeedforwardTable<'a> {
+    samples: &'a [f64],
+    next: usize,
+}
+
+impl<'a> FeedforwardTable<'a> {
+    /// A player at the table's start; refuses an empty or non-finite table.
+    pub fn new(samples: &'a [f64]) -> Result<Self, RuntimeError> {
+        if samples.is_empty() {
+            return Err(RuntimeError::BadLength {
+                field: "feedforward_table.samples",
+                len: 0,
+                max: usize::MAX,
+            });
+        }
+        if samples.iter().any(|v| !v.is_finite()) {
+            return Err(RuntimeError::NonFinite {
+                field: "feedforward_table.samples",
+            });
+        }
+        Ok(Self { samples, next: 0 })
+    }
+
+    /// The next sample, 0 once the table is exhausted.
+    #[inline]
+    pub fn next_sample(&mut self) -> f64 {
+        match self.samples.get(self.next) {
+            Some(&v) => {
+                self.next += 1;
+                v
+            }
+            None => 0.0,
+        }
+    }
+
+    /// Back to the first sample.
+    pub fn rewind(&mut self) {
+        self.next = 0;
+    }
+
+    /// Samples in the table.
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Never true: an empty table is refused by [`FeedforwardTable::new`].
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
     }
 }
 
@@ -957,6 +1079,7 @@ mod tests {
             }),
             hysteresis: None,
             feedback: FeedbackSpec::Pid(PID),
+            repetitive: None,
         };
         assert!(matches!(
             RuntimeController::new(&spec),
@@ -973,6 +1096,7 @@ mod tests {
             }),
             hysteresis: None,
             feedback: FeedbackSpec::Pid(PID),
+            repetitive: None,
         };
         assert!(matches!(
             RuntimeController::new(&spec),
@@ -991,6 +1115,7 @@ mod tests {
                 dead_zone_weights: &[],
             }),
             feedback: FeedbackSpec::Pid(PID),
+            repetitive: None,
         };
         assert!(matches!(
             RuntimeController::new(&spec),
@@ -1005,6 +1130,7 @@ mod tests {
                 kp: f64::NAN,
                 ..PID
             }),
+            repetitive: None,
         };
         assert!(matches!(
             RuntimeController::new(&spec),
@@ -1025,6 +1151,7 @@ mod tests {
                 output_max: f64::INFINITY,
                 anti_windup: SsAntiWindup::ConditionalUpdate,
             }),
+            repetitive: None,
         }
     }
 
@@ -1079,6 +1206,7 @@ mod tests {
                     output_max: 1.0,
                     anti_windup: aw,
                 }),
+                repetitive: None,
             };
             let mut rt = RuntimeController::new(&spec).unwrap();
             for _ in 0..100 {

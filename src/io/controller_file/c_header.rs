@@ -5,8 +5,9 @@
 
 use super::document::{anti_windup_name, operator_name};
 use super::{
-    CONTROLLER_FORMAT, ControllerFile, Feedback, HysteresisBlock, PARALLEL_PID_DISCRETISATION,
-    ParallelPid, Provenance, StateSpaceBlock, Units, ZpetcBlock,
+    CONTROLLER_FORMAT, ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock,
+    PARALLEL_PID_DISCRETISATION, ParallelPid, Provenance, RepetitiveBlock, StateSpaceBlock, Units,
+    ZpetcBlock,
 };
 use crate::io::InputError;
 use crate::runtime::{PidSpec, PlayForm, SsAntiWindup};
@@ -32,6 +33,34 @@ fn c_array(out: &mut String, name: &str, values: &[f64]) {
     out.push_str(" };\n");
 }
 
+/// Values per line of a long array (the learned feedforward table): the
+/// reader takes an array over several lines up to its `}`.
+const VALUES_PER_LINE: usize = 6;
+
+/// [`c_array`] with [`VALUES_PER_LINE`] values per line, for tables of
+/// thousands of samples.
+fn c_array_wrapped(out: &mut String, name: &str, values: &[f64]) {
+    let _ = writeln!(out, "#define {name}_LEN {}", values.len());
+    let _ = write!(
+        out,
+        "static const double {name}[{}] = {{",
+        values.len().max(1)
+    );
+    if values.is_empty() {
+        out.push_str(" 0.0");
+    }
+    for (i, v) in values.iter().enumerate() {
+        if i > 0 {
+            out.push(',');
+        }
+        if i % VALUES_PER_LINE == 0 {
+            out.push_str("\n   ");
+        }
+        let _ = write!(out, " {}", c_double(*v));
+    }
+    out.push_str("\n};\n");
+}
+
 /// Shortest round-trip decimal in C syntax (always with an exponent, so the
 /// literal is a double).
 fn c_double(v: f64) -> String {
@@ -48,6 +77,14 @@ pub fn to_c_header(file: &ControllerFile) -> String {
         c_array(&mut out, "FTS_ZPETC_DEN", &z.den);
     } else {
         out.push_str("\n#define FTS_HAS_ZPETC 0\n");
+    }
+    match &file.repetitive {
+        Some(r) => write_repetitive(&mut out, r),
+        None => out.push_str("\n#define FTS_HAS_REPETITIVE 0\n"),
+    }
+    match &file.feedforward_table {
+        Some(t) => write_feedforward_table(&mut out, t),
+        None => out.push_str("\n#define FTS_HAS_FEEDFORWARD_TABLE 0\n"),
     }
     match &file.hysteresis {
         Some(h) => write_hysteresis(&mut out, h),
@@ -89,6 +126,24 @@ fn write_defines(out: &mut String, defines: &[(&str, f64)]) {
     for (name, v) in defines {
         let _ = writeln!(out, "#define {name} {}", c_double(*v));
     }
+}
+
+fn write_repetitive(out: &mut String, r: &RepetitiveBlock) {
+    out.push_str(
+        "\n/* Plug-in repetitive compensator on e(k) = r(k) - x(k) (r(k): the reference passed FTS_PREVIEW samples before), its v added to r_f:\n *   v(k) = Q(z) [v(k - N) + GAIN e(k - N + LEAD)], Q(z) = Q[0] + sum_i Q[i] (z^i + z^-i),\n *   N = PERIOD + FRACTION samples, z^-N ~ (1 - FRACTION) z^-PERIOD + FRACTION z^-(PERIOD + 1). */\n#define FTS_HAS_REPETITIVE 1\n",
+    );
+    let _ = writeln!(out, "#define FTS_RC_PERIOD {}", r.period);
+    write_defines(out, &[("FTS_RC_FRACTION", r.fraction)]);
+    let _ = writeln!(out, "#define FTS_RC_LEAD {}", r.lead);
+    write_defines(out, &[("FTS_RC_GAIN", r.gain)]);
+    c_array(out, "FTS_RC_Q", &r.q);
+}
+
+fn write_feedforward_table(out: &mut String, t: &FeedforwardTableBlock) {
+    out.push_str(
+        "\n/* Learned feedforward table (fts ilc): f(k) = FTS_FF_TABLE[k] added to r_f at sample k of a run,\n * 0 past its end (an fts_table player: fts_table_init, fts_table_next). */\n#define FTS_HAS_FEEDFORWARD_TABLE 1\n",
+    );
+    c_array_wrapped(out, "FTS_FF_TABLE", &t.samples);
 }
 
 fn write_hysteresis(out: &mut String, h: &HysteresisBlock) {
@@ -205,7 +260,9 @@ pub const C_RUNTIME_C: &str = include_str!("../../../crates/fts-runtime/c/fts_ru
 
 /// The three files of `fts emit --format c`, `(name, text)`:
 /// `fts_controller.h` (the numbers of [`to_c_header`] plus
-/// `fts_controller_init`, which loads them into an `fts_controller`),
+/// `fts_controller_init`, which loads them into an `fts_controller`, and
+/// with a learned feedforward table `fts_controller_table_init`, which
+/// starts an `fts_table` player of it),
 /// `fts_runtime.h` and `fts_runtime.c` (the step).
 pub fn to_c_files(file: &ControllerFile) -> [(&'static str, String); 3] {
     let header = to_c_header(file);
@@ -222,14 +279,23 @@ pub fn to_c_files(file: &ControllerFile) -> [(&'static str, String); 3] {
     ]
 }
 
-/// `fts_controller_init`: the `fts_spec` of the arrays above, then `fts_init`.
+/// `fts_controller_init`: the `fts_spec` of the arrays above, then
+/// `fts_init`; with a table, `fts_controller_table_init`.
 fn c_loader(file: &ControllerFile) -> String {
     let mut decl = String::from("    fts_spec spec;\n");
-    let mut body = String::from("    spec.zpetc = NULL;\n    spec.hysteresis = NULL;\n");
+    let mut body = String::from(
+        "    spec.zpetc = NULL;\n    spec.hysteresis = NULL;\n    spec.repetitive = NULL;\n",
+    );
     if file.zpetc.is_some() {
         decl.push_str("    fts_zpetc_spec zpetc;\n");
         body.push_str(
             "    zpetc.preview = FTS_PREVIEW;\n    zpetc.num = FTS_ZPETC_NUM;\n    zpetc.num_len = FTS_ZPETC_NUM_LEN;\n    zpetc.den = FTS_ZPETC_DEN;\n    zpetc.den_len = FTS_ZPETC_DEN_LEN;\n    spec.zpetc = &zpetc;\n",
+        );
+    }
+    if file.repetitive.is_some() {
+        decl.push_str("    fts_repetitive_spec repetitive;\n");
+        body.push_str(
+            "    repetitive.period = FTS_RC_PERIOD;\n    repetitive.fraction = FTS_RC_FRACTION;\n    repetitive.q = FTS_RC_Q;\n    repetitive.q_len = FTS_RC_Q_LEN;\n    repetitive.lead = FTS_RC_LEAD;\n    repetitive.gain = FTS_RC_GAIN;\n    spec.repetitive = &repetitive;\n",
         );
     }
     if let Some(h) = &file.hysteresis {
@@ -287,8 +353,13 @@ fn c_loader(file: &ControllerFile) -> String {
             );
         }
     }
+    let table = if file.feedforward_table.is_some() {
+        "\n/* Starts *t at the first sample of FTS_FF_TABLE: pass fts_table_next(t), once\n * per step, as the learned input of fts_step_signals (fts_table_rewind(t) for\n * the next run). FTS_OK, or the reason with *field naming the table. */\nstatic inline fts_status fts_controller_table_init(fts_table *t, const char **field)\n{\n    return fts_table_init(t, FTS_FF_TABLE, FTS_FF_TABLE_LEN, field);\n}\n"
+    } else {
+        ""
+    };
     format!(
-        "\n/* The step: fts_runtime.h / fts_runtime.c (compile with -ffp-contract=off). */\n#include <stddef.h>\n#include \"fts_runtime.h\"\n\n/* Loads the coefficients above into *ctl, at rest. FTS_OK, or the reason with\n * *field (when field is not NULL) naming the offending list. */\nstatic inline fts_status fts_controller_init(fts_controller *ctl, const char **field)\n{{\n{decl}{body}    return fts_init(ctl, &spec, field);\n}}\n"
+        "\n/* The step: fts_runtime.h / fts_runtime.c (compile with -ffp-contract=off). */\n#include <stddef.h>\n#include \"fts_runtime.h\"\n\n/* Loads the coefficients above into *ctl, at rest. FTS_OK, or the reason with\n * *field (when field is not NULL) naming the offending list. */\nstatic inline fts_status fts_controller_init(fts_controller *ctl, const char **field)\n{{\n{decl}{body}    return fts_init(ctl, &spec, field);\n}}\n{table}"
     )
 }
 
@@ -311,6 +382,8 @@ pub fn parse_c_header(text: &str, source: &str) -> Result<ControllerFile, InputE
         hysteresis: h.hysteresis()?,
         feedback: h.feedback()?,
         provenance: Provenance::default(),
+        repetitive: h.repetitive()?,
+        feedforward_table: h.feedforward_table(),
     };
     file.validate(source)?;
     Ok(file)
@@ -331,14 +404,22 @@ impl<'a> Header<'a> {
             defines: HashMap::new(),
             arrays: HashMap::new(),
         };
-        for (n, line) in text.lines().enumerate() {
+        let mut lines = text.lines().enumerate();
+        while let Some((n, line)) = lines.next() {
             let line = line.trim();
             if let Some(rest) = line.strip_prefix("#define ") {
                 if let Some((name, value)) = rest.split_once(' ') {
                     h.defines.insert(name.to_owned(), value.trim().to_owned());
                 }
             } else if let Some(rest) = line.strip_prefix("static const double ") {
-                let (name, values) = h.array_line(rest, n + 1)?;
+                // A long array runs over several lines, up to its `}`.
+                let mut array = rest.to_owned();
+                while !array.contains('}') {
+                    let Some((_, more)) = lines.next() else { break };
+                    array.push(' ');
+                    array.push_str(more.trim());
+                }
+                let (name, values) = h.array_line(&array, n + 1)?;
                 h.arrays.insert(name, values);
             }
         }
@@ -378,6 +459,16 @@ impl<'a> Header<'a> {
             .ok_or_else(|| InputError::new(self.source, "missing or not a number").in_field(k))
     }
 
+    /// A whole number (a period, a lead).
+    fn whole(&self, k: &str) -> Result<usize, InputError> {
+        self.defines
+            .get(k)
+            .and_then(|s| s.parse::<usize>().ok())
+            .ok_or_else(|| {
+                InputError::new(self.source, "missing or not a whole number").in_field(k)
+            })
+    }
+
     fn array(&self, k: &str) -> Vec<f64> {
         self.arrays.get(k).cloned().unwrap_or_default()
     }
@@ -400,6 +491,26 @@ impl<'a> Header<'a> {
             num: self.array("FTS_ZPETC_NUM"),
             den: self.array("FTS_ZPETC_DEN"),
         }))
+    }
+
+    fn repetitive(&self) -> Result<Option<RepetitiveBlock>, InputError> {
+        if !self.flag("FTS_HAS_REPETITIVE") {
+            return Ok(None);
+        }
+        Ok(Some(RepetitiveBlock {
+            period: self.whole("FTS_RC_PERIOD")?,
+            fraction: self.number("FTS_RC_FRACTION")?,
+            q: self.array("FTS_RC_Q"),
+            lead: self.whole("FTS_RC_LEAD")?,
+            gain: self.number("FTS_RC_GAIN")?,
+        }))
+    }
+
+    fn feedforward_table(&self) -> Option<FeedforwardTableBlock> {
+        self.flag("FTS_HAS_FEEDFORWARD_TABLE")
+            .then(|| FeedforwardTableBlock {
+                samples: self.array("FTS_FF_TABLE"),
+            })
     }
 
     fn hysteresis(&self) -> Result<Option<HysteresisBlock>, InputError> {

@@ -14,8 +14,8 @@
 //! way a type error names its place, e.g. `blocks[2].a[1][0]`.
 
 use super::{
-    ControllerFile, Feedback, HysteresisBlock, PARALLEL_PID_DISCRETISATION, ParallelPid,
-    Provenance, StateSpaceBlock, Units, ZpetcBlock,
+    ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, PARALLEL_PID_DISCRETISATION,
+    ParallelPid, Provenance, RepetitiveBlock, StateSpaceBlock, Units, ZpetcBlock,
 };
 use crate::io::InputError;
 use crate::io::serde_doc::{At, from_value};
@@ -45,6 +45,8 @@ pub(super) struct Document<B> {
 #[serde(tag = "type", rename_all = "snake_case")]
 pub(super) enum Block<'a> {
     Zpetc(&'a ZpetcBlock),
+    Repetitive(&'a RepetitiveBlock),
+    FeedforwardTable(&'a FeedforwardTableBlock),
     HysteresisInverse(&'a HysteresisBlock),
     Pid(PidDoc),
     StateSpace(StateSpaceDoc),
@@ -52,14 +54,20 @@ pub(super) enum Block<'a> {
 }
 
 /// The block type names in signal order; `pid`, `state_space` and
-/// `no_feedback` are alternatives at the same place in the chain.
-const ORDER: [&str; 5] = [
+/// `no_feedback` (from [`FIRST_FEEDBACK`] on) are alternatives at the same
+/// place in the chain.
+const ORDER: [&str; 7] = [
     "zpetc",
+    "repetitive",
+    "feedforward_table",
     "hysteresis_inverse",
     "pid",
     "state_space",
     "no_feedback",
 ];
+
+/// Where the feedback alternatives start in [`ORDER`].
+const FIRST_FEEDBACK: usize = 4;
 
 /// `{"type": "no_feedback"}`: nothing besides its tag.
 #[derive(Serialize, Deserialize)]
@@ -197,6 +205,12 @@ impl ControllerFile {
         if let Some(z) = &self.zpetc {
             blocks.push(Block::Zpetc(z));
         }
+        if let Some(r) = &self.repetitive {
+            blocks.push(Block::Repetitive(r));
+        }
+        if let Some(t) = &self.feedforward_table {
+            blocks.push(Block::FeedforwardTable(t));
+        }
         if let Some(h) = &self.hysteresis {
             blocks.push(Block::HysteresisInverse(h));
         }
@@ -235,6 +249,8 @@ pub(super) fn read(value: Value, source: &str) -> Result<ControllerFile, InputEr
         ts: doc.ts,
         units: doc.units,
         zpetc: stages.zpetc,
+        repetitive: stages.repetitive,
+        feedforward_table: stages.feedforward_table,
         hysteresis: stages.hysteresis,
         feedback: stages.feedback.ok_or_else(|| {
             top.err(
@@ -274,6 +290,8 @@ fn check_whole(file: &ControllerFile, preview: Option<u64>, at: At<'_>) -> Resul
 #[derive(Default)]
 struct Stages {
     zpetc: Option<ZpetcBlock>,
+    repetitive: Option<RepetitiveBlock>,
+    feedforward_table: Option<FeedforwardTableBlock>,
     hysteresis: Option<HysteresisBlock>,
     feedback: Option<Feedback>,
 }
@@ -290,6 +308,12 @@ impl Stages {
         chain.admit(&kind).map_err(|m| at.err("type", m))?;
         match kind.as_str() {
             "zpetc" => self.zpetc = Some(zpetc(from_value(rest, at)?, at)?),
+            "repetitive" => self.repetitive = Some(from_value(rest, at)?),
+            "feedforward_table" => {
+                let t: FeedforwardTableBlock = from_value(rest, at)?;
+                not_empty(&t.samples, "samples", at)?;
+                self.feedforward_table = Some(t);
+            }
             "hysteresis_inverse" => self.hysteresis = Some(hysteresis(from_value(rest, at)?, at)?),
             "pid" => self.feedback = Some(from_value::<PidDoc>(rest, at)?.feedback(ts, at)?),
             "state_space" => {
@@ -326,7 +350,7 @@ struct Chain {
 
 impl Chain {
     fn admit(&mut self, kind: &str) -> Result<(), String> {
-        let is_feedback = ORDER[2..].contains(&kind);
+        let is_feedback = ORDER[FIRST_FEEDBACK..].contains(&kind);
         if let Some(first) = &self.feedback
             && is_feedback
         {
@@ -334,7 +358,10 @@ impl Chain {
                 "a second feedback block {kind:?} after {first:?}: exactly one of \"pid\", \"state_space\" and \"no_feedback\" is allowed"
             ));
         }
-        let rank = ORDER.iter().position(|k| *k == kind).map(|r| r.min(2));
+        let rank = ORDER
+            .iter()
+            .position(|k| *k == kind)
+            .map(|r| r.min(FIRST_FEEDBACK));
         let Some(rank) = rank else {
             return Err(format!(
                 "unknown block type {kind:?}; known blocks, in signal order: {}",

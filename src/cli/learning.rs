@@ -1,0 +1,208 @@
+//! `fts repetitive --tf CL.json (--period N | --period-s S | --spindle-hz F)`
+//! and `fts ilc [loop flags] [--trials N]`: flags into
+//! [`DesignRepetitive`] and [`Ilc`], the files read and written here.
+
+use super::common::{bad, print_report, read_input, step_error, write_atomic};
+use super::simulate::LoopArgs;
+use crate::io::{plot, tf_json};
+use crate::lti::{DiscreteTf, TransferFunction};
+use crate::workflow::learning::{DesignRepetitive, Ilc, IlcReport};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Args)]
+pub struct RepetitiveArgs {
+    /// Closed-loop model (`fts.tf/1`, discrete): loop reference to output, at the controller's rate.
+    #[arg(long = "tf", value_name = "CL.json")]
+    tf: PathBuf,
+    /// Period in samples (fractional periods are interpolated).
+    #[arg(long, value_name = "SAMPLES", group = "period_given")]
+    period: Option<f64>,
+    /// Period in seconds.
+    #[arg(long, value_name = "SECONDS", group = "period_given")]
+    period_s: Option<f64>,
+    /// Spindle frequency, Hz: the period is one revolution.
+    #[arg(long, value_name = "HZ", group = "period_given")]
+    spindle_hz: Option<f64>,
+    /// Learning gain k_r.
+    #[arg(long, default_value_t = DesignRepetitive::default().gain)]
+    gain: f64,
+    /// Phase lead m, samples (default: the lead with the largest stability margin).
+    #[arg(long)]
+    lead: Option<usize>,
+    /// Largest lead tried.
+    #[arg(long, default_value_t = DesignRepetitive::default().max_lead)]
+    max_lead: usize,
+    /// Cutoff of the zero-phase low-pass Q, Hz (default: a quarter of the sampling rate).
+    #[arg(long, value_name = "HZ", conflicts_with = "q")]
+    q_cutoff: Option<f64>,
+    /// One-sided taps of Q.
+    #[arg(long, default_value_t = DesignRepetitive::default().q_taps)]
+    q_taps: usize,
+    /// Q's taps q0,q1,.. as given.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    q: Option<Vec<f64>>,
+    /// Write the design (`fts.repetitive/1`) here.
+    #[arg(short = 'o', long = "out", value_name = "RC.json")]
+    output: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+fn read_discrete(path: &Path, what: &str) -> anyhow::Result<DiscreteTf> {
+    let source = path.display().to_string();
+    match tf_json::parse_tf(&read_input(path)?, &source)? {
+        TransferFunction::Discrete(g) => Ok(g),
+        _ => Err(bad(format!(
+            "{source} field 'var': the {what} must be discrete (\"z^-1\")"
+        ))),
+    }
+}
+
+pub fn run_repetitive(args: RepetitiveArgs) -> anyhow::Result<()> {
+    if args.period.is_none() && args.period_s.is_none() && args.spindle_hz.is_none() {
+        return Err(bad(
+            "give the period: --period SAMPLES, --period-s SECONDS or --spindle-hz HZ",
+        ));
+    }
+    let step = DesignRepetitive {
+        period: args.period,
+        period_s: args.period_s,
+        spindle_hz: args.spindle_hz,
+        gain: args.gain,
+        lead: args.lead,
+        max_lead: args.max_lead,
+        q_cutoff: args.q_cutoff,
+        q_taps: args.q_taps,
+        q: args.q.clone(),
+    };
+    let model = read_discrete(&args.tf, "closed-loop model")?;
+    let report = step.run(&model).map_err(step_error)?;
+    if let Some(path) = &args.output {
+        let mut text = serde_json::to_string_pretty(&report)?;
+        text.push('\n');
+        write_atomic(path, text.as_bytes())?;
+    }
+    print_report(&report, args.json)?;
+    if let (Some(p), false) = (&args.output, args.json) {
+        say!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+#[derive(Debug, Args)]
+pub struct IlcArgs {
+    #[command(flatten)]
+    run: LoopArgs,
+    /// Learning trials after the first run.
+    #[arg(long, default_value_t = Ilc::default().trials)]
+    trials: usize,
+    /// Learning gain a in f <- Q (f + a L e).
+    #[arg(long = "learning-gain", value_name = "A", default_value_t = Ilc::default().gain)]
+    gain: f64,
+    /// Cutoff of the zero-phase low-pass Q, Hz.
+    #[arg(long, value_name = "HZ", default_value_t = Ilc::default().q_cutoff)]
+    q_cutoff: f64,
+    /// One-sided taps of Q.
+    #[arg(long, default_value_t = Ilc::default().q_taps)]
+    q_taps: usize,
+    /// Run even when the convergence condition fails on the model (the error grows as predicted).
+    #[arg(long)]
+    allow_divergence: bool,
+    /// Write the controller with the learned feedforward table (`fts.controller/1`) here.
+    #[arg(short = 'o', long = "out", value_name = "CTRL.json")]
+    output: Option<PathBuf>,
+    /// Plot the error per trial and the last trial's error to this SVG.
+    #[arg(long, value_name = "ILC.svg")]
+    plot: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run_ilc(args: IlcArgs) -> anyhow::Result<()> {
+    let step = Ilc {
+        trials: args.trials,
+        gain: args.gain,
+        q_cutoff: args.q_cutoff,
+        q_taps: args.q_taps,
+        allow_divergence: args.allow_divergence,
+    };
+    let simulate = args.run.step()?;
+    let inputs = args.run.inputs()?;
+    let report = step
+        .run(
+            &simulate,
+            inputs,
+            None,
+            &mut |note| eprintln!("{note}"),
+            &mut |row| {
+                eprintln!(
+                    "trial {:>3}: max error {:.4} ({:.3} %)",
+                    row.trial, row.max_error, row.max_error_percent
+                )
+            },
+        )
+        .map_err(step_error)?;
+    if let Some(path) = &args.output {
+        write_atomic(path, report.controller.to_json_string().as_bytes())?;
+    }
+    if let Some(path) = &args.plot {
+        write_atomic(path, ilc_plot(&report)?.as_bytes())?;
+    }
+    print_report(&report, args.json)?;
+    if !args.json {
+        for p in [&args.output, &args.plot].into_iter().flatten() {
+            say!("wrote {}", p.display());
+        }
+    }
+    if report.diverging {
+        return Err(anyhow::anyhow!(
+            "the learning diverges on the model (run with --allow-divergence); see the trial table"
+        ));
+    }
+    Ok(())
+}
+
+/// Max error per trial (log scale by its values) and the last trial's error.
+fn ilc_plot(report: &IlcReport) -> anyhow::Result<String> {
+    let trials: Vec<f64> = report.trials.iter().map(|r| r.trial as f64).collect();
+    let max: Vec<f64> = report.trials.iter().map(|r| r.max_error).collect();
+    let rms: Vec<f64> = report.trials.iter().map(|r| r.rms_error).collect();
+    let trace = &report.trace;
+    let t: Vec<f64> = (0..trace.reference.len())
+        .map(|k| k as f64 * trace.ts)
+        .collect();
+    let e = trace.error();
+    let title = format!("ILC: error per trial, {}", report.reference);
+    Ok(plot::panels_svg(&[
+        plot::Panel::lines(
+            &title,
+            "trial",
+            "tracking error (um)",
+            vec![
+                plot::Series {
+                    label: "max |e|",
+                    x: &trials,
+                    y: &max,
+                },
+                plot::Series {
+                    label: "rms e",
+                    x: &trials,
+                    y: &rms,
+                },
+            ],
+        ),
+        plot::Panel::lines(
+            "last trial's error",
+            "t (s)",
+            "e = r - y (um)",
+            vec![plot::Series {
+                label: "e",
+                x: &t,
+                y: &e,
+            }],
+        ),
+    ])?)
+}

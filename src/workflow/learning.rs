@@ -1,0 +1,560 @@
+//! Learning control as steps: the plug-in repetitive compensator designed
+//! on a closed-loop model (`fts repetitive`, manifest kind `repetitive`)
+//! and iterative learning control over repeated trials (`fts ilc`).
+
+use super::simulate::{Prepared, Simulate, SimulateInputs};
+use super::{StepError, Validate, positive};
+use crate::io::controller_file::{ControllerFile, FeedforwardTableBlock, RepetitiveBlock};
+use crate::lti::DiscreteTf;
+use crate::sim::closed_loop::{self, TrackingMetrics};
+use crate::synth::ilc::{self, IlcDesign, IlcParams};
+use crate::synth::repetitive::{
+    self, QFilter, RepetitiveDesign, RepetitiveError, RepetitiveParams,
+};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// Settings of a repetitive design (`fts repetitive`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DesignRepetitive {
+    /// Period in samples (may be fractional); or give `period_s` or `spindle_hz`.
+    pub period: Option<f64>,
+    /// Period in seconds.
+    pub period_s: Option<f64>,
+    /// Spindle frequency, Hz: the period is one revolution.
+    pub spindle_hz: Option<f64>,
+    /// Learning gain `k_r`; default 0.5 (\[Tang17\]).
+    pub gain: f64,
+    /// Phase lead in samples; default: the lead up to `max_lead` with the
+    /// largest stability margin.
+    pub lead: Option<usize>,
+    /// Largest lead tried; default 20.
+    pub max_lead: usize,
+    /// Cutoff of the zero-phase low-pass Q, Hz; default a quarter of the
+    /// sampling rate.
+    pub q_cutoff: Option<f64>,
+    /// One-sided taps of Q; default 8.
+    pub q_taps: usize,
+    /// Q's taps `[q0, q1, ..]` as given, instead of `q_cutoff`.
+    pub q: Option<Vec<f64>>,
+}
+
+impl Default for DesignRepetitive {
+    fn default() -> Self {
+        Self {
+            period: None,
+            period_s: None,
+            spindle_hz: None,
+            gain: 0.5,
+            lead: None,
+            max_lead: 20,
+            q_cutoff: None,
+            q_taps: 8,
+            q: None,
+        }
+    }
+}
+
+impl Validate for DesignRepetitive {
+    fn validate(&self) -> Result<(), StepError> {
+        let given = [
+            self.period.is_some(),
+            self.period_s.is_some(),
+            self.spindle_hz.is_some(),
+        ];
+        if given.iter().filter(|g| **g).count() != 1 {
+            return Err(StepError::setting(
+                "period",
+                "give exactly one of `period` (samples), `period_s` or `spindle_hz`",
+            ));
+        }
+        for (field, v) in [
+            ("period", self.period),
+            ("period_s", self.period_s),
+            ("spindle_hz", self.spindle_hz),
+            ("q_cutoff", self.q_cutoff),
+        ] {
+            if let Some(v) = v {
+                positive(field, v)?;
+            }
+        }
+        positive("gain", self.gain)?;
+        if self.q.is_some() && self.q_cutoff.is_some() {
+            return Err(StepError::setting(
+                "q",
+                "give `q` taps or `q_cutoff`, not both",
+            ));
+        }
+        if self.q_taps == 0 || self.q_taps > crate::runtime::MAX_Q_HALF {
+            return Err(StepError::setting(
+                "q_taps",
+                format!(
+                    "{} taps each side; expected 1 to {}",
+                    self.q_taps,
+                    crate::runtime::MAX_Q_HALF
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A designed compensator, its coefficient block and its checks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RepetitiveReport {
+    /// The design with its stability condition and harmonic attenuation.
+    pub design: RepetitiveDesign,
+    /// The block for the coefficient file.
+    pub block: RepetitiveBlock,
+}
+
+impl DesignRepetitive {
+    /// The period in samples at sample time `ts`.
+    pub fn period_samples(&self, ts: f64) -> f64 {
+        self.period
+            .or(self.period_s.map(|p| p / ts))
+            .or(self.spindle_hz.map(|f| 1.0 / (f * ts)))
+            .unwrap_or(0.0)
+    }
+
+    /// Designs the compensator on the closed loop `model` (loop reference
+    /// to output, at the runtime's sample time).
+    pub fn run(&self, model: &DiscreteTf) -> Result<RepetitiveReport, StepError> {
+        self.validate()?;
+        let ts = model.ts();
+        if let Some(f) = self.q_cutoff
+            && f > 0.5 / ts
+        {
+            return Err(StepError::setting(
+                "q_cutoff",
+                format!("{f} Hz is beyond the Nyquist frequency {} Hz", 0.5 / ts),
+            ));
+        }
+        let q = match (&self.q, self.q_cutoff) {
+            (Some(taps), _) => QFilter::Taps(taps.clone()),
+            (None, cutoff) => QFilter::LowPass {
+                cutoff_hz: cutoff.unwrap_or(0.25 / ts),
+                half_length: self.q_taps,
+            },
+        };
+        let params = RepetitiveParams {
+            q: Some(q),
+            lead: self.lead,
+            max_lead: self.max_lead,
+            gain: self.gain,
+            ..RepetitiveParams::new(self.period_samples(ts))
+        };
+        let design = repetitive::design(model, &params).map_err(|e| match e {
+            RepetitiveError::Setting(m) => StepError::setting("period", m),
+            other => StepError::computation(other.to_string()),
+        })?;
+        let block = RepetitiveBlock {
+            period: design.period,
+            fraction: design.fraction,
+            q: design.q.clone(),
+            lead: design.lead,
+            gain: design.gain,
+        };
+        Ok(RepetitiveReport { design, block })
+    }
+}
+
+impl fmt::Display for RepetitiveReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let d = &self.design;
+        writeln!(
+            f,
+            "repetitive compensator: period {} samples ({:.6} s, {:.3} Hz), Q {} taps each side (|Q| = 1/2 at {:.1} Hz), lead {} samples, gain {}",
+            d.period as f64 + d.fraction,
+            (d.period as f64 + d.fraction) * d.ts,
+            1.0 / ((d.period as f64 + d.fraction) * d.ts),
+            d.q.len() - 1,
+            d.q_cutoff_hz,
+            d.lead,
+            d.gain
+        )?;
+        writeln!(
+            f,
+            "stability: max |Q (1 - k_r z^m T)| = {:.4} at {:.1} Hz (< 1: stable; margin {:.4}; the periodic error contracts at least this much per period)",
+            d.rho,
+            d.rho_at_hz,
+            d.margin()
+        )?;
+        let scan: Vec<String> = d
+            .lead_scan
+            .iter()
+            .map(|(m, r)| format!("{m}:{r:.3}"))
+            .collect();
+        if scan.len() > 1 {
+            writeln!(f, "lead scan (m:rho): {}", scan.join(" "))?;
+        }
+        writeln!(
+            f,
+            "periodic error with / without the compensator, by harmonic:"
+        )?;
+        for h in d.harmonics.iter().take(10) {
+            writeln!(
+                f,
+                "  {:>3}  {:>9.2} Hz  {:>10.3e}  ({:.1} dB)",
+                h.harmonic,
+                h.freq_hz,
+                h.ratio,
+                20.0 * h.ratio.max(1e-300).log10()
+            )?;
+        }
+        if d.harmonics.len() > 10 {
+            writeln!(f, "  ... {} harmonics below Nyquist", d.harmonics.len())?;
+        }
+        Ok(())
+    }
+}
+
+impl Serialize for RepetitiveReport {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let d = &self.design;
+        serde_json::json!({
+            "format": REPETITIVE_FORMAT,
+            "ts": d.ts,
+            "period": d.period,
+            "fraction": d.fraction,
+            "q": d.q,
+            "lead": d.lead,
+            "gain": d.gain,
+            "design": {
+                "period_s": (d.period as f64 + d.fraction) * d.ts,
+                "rho": d.rho,
+                "rho_at_hz": d.rho_at_hz,
+                "margin": d.margin(),
+                "q_cutoff_hz": d.q_cutoff_hz,
+                "lead_scan": d.lead_scan,
+                "harmonics": d.harmonics,
+            },
+        })
+        .serialize(s)
+    }
+}
+
+/// The format tag of a repetitive design file.
+pub const REPETITIVE_FORMAT: &str = "fts.repetitive/1";
+
+/// A repetitive design file as read back: the block and its sample time.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct RepetitiveFile {
+    /// Format tag.
+    pub format: String,
+    /// Sample time, s.
+    pub ts: f64,
+    /// The block's settings.
+    #[serde(flatten)]
+    pub block: RepetitiveBlockDoc,
+}
+
+/// The block's fields in a design file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct RepetitiveBlockDoc {
+    /// Whole samples of the period.
+    pub period: usize,
+    /// Its fraction.
+    #[serde(default)]
+    pub fraction: f64,
+    /// Q taps.
+    pub q: Vec<f64>,
+    /// Lead.
+    pub lead: usize,
+    /// Gain.
+    pub gain: f64,
+}
+
+impl RepetitiveFile {
+    /// The coefficient-file block.
+    pub fn block(&self) -> RepetitiveBlock {
+        let b = &self.block;
+        RepetitiveBlock {
+            period: b.period,
+            fraction: b.fraction,
+            q: b.q.clone(),
+            lead: b.lead,
+            gain: b.gain,
+        }
+    }
+}
+
+/// Settings of iterative learning control (`fts ilc`): trials of the
+/// `simulate` loop with the learned feedforward of
+/// [`crate::synth::ilc`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Ilc {
+    /// Trials after the first (which learns from nothing); default 10.
+    pub trials: usize,
+    /// Learning gain; default 1.
+    pub gain: f64,
+    /// Cutoff of the zero-phase Q, Hz; default 2500.
+    pub q_cutoff: f64,
+    /// One-sided taps of Q; default 32.
+    pub q_taps: usize,
+    /// Run even when the convergence condition fails on the model
+    /// (the error then grows as predicted); default false.
+    pub allow_divergence: bool,
+}
+
+impl Default for Ilc {
+    fn default() -> Self {
+        let p = IlcParams::default();
+        Self {
+            trials: 10,
+            gain: p.gain,
+            q_cutoff: p.q_cutoff_hz,
+            q_taps: p.q_half_length,
+            allow_divergence: false,
+        }
+    }
+}
+
+impl Validate for Ilc {
+    fn validate(&self) -> Result<(), StepError> {
+        if self.trials == 0 || self.trials > 1000 {
+            return Err(StepError::setting(
+                "trials",
+                format!("{}; expected 1 to 1000 trials", self.trials),
+            ));
+        }
+        positive("gain", self.gain)?;
+        positive("q_cutoff", self.q_cutoff)?;
+        if self.q_taps == 0 || self.q_taps > 4096 {
+            return Err(StepError::setting(
+                "q_taps",
+                format!("{}; expected 1 to 4096 taps each side", self.q_taps),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One trial's figures over the evaluated window.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrialRow {
+    /// Trial number; 0 ran without learned feedforward.
+    pub trial: usize,
+    /// Max |e|, reference units.
+    pub max_error: f64,
+    /// RMS error.
+    pub rms_error: f64,
+    /// Max |e| in % of the amplitude.
+    pub max_error_percent: f64,
+    /// Samples with the command on a limit.
+    pub saturated_samples: usize,
+}
+
+impl From<(usize, TrackingMetrics)> for TrialRow {
+    fn from((trial, m): (usize, TrackingMetrics)) -> Self {
+        Self {
+            trial,
+            max_error: m.max_abs_error,
+            rms_error: m.rms_error,
+            max_error_percent: m.max_error_percent,
+            saturated_samples: m.saturated_samples,
+        }
+    }
+}
+
+/// What the trials learned.
+#[derive(Debug, Clone)]
+pub struct IlcReport {
+    /// The learning law and its convergence check.
+    pub design: IlcDesign,
+    /// The reference's description.
+    pub reference: String,
+    /// Where the loop's models came from.
+    pub models: String,
+    /// Trial 0 (no learning) to the last.
+    pub trials: Vec<TrialRow>,
+    /// The controller with the last learned feedforward as its table.
+    pub controller: ControllerFile,
+    /// The last trial's trace.
+    pub trace: closed_loop::Trace,
+    /// Whether the condition failed and the run went on anyway.
+    pub diverging: bool,
+}
+
+impl Ilc {
+    fn params(&self) -> IlcParams {
+        IlcParams {
+            gain: self.gain,
+            q_cutoff_hz: self.q_cutoff,
+            q_half_length: self.q_taps,
+            ..IlcParams::default()
+        }
+    }
+
+    /// Designs the law on `model` (or on the identified closed loop) and
+    /// runs the trials of `simulate` on its plant; `note` hears warnings,
+    /// `progress` each trial's figures as it ends.
+    pub fn run(
+        &self,
+        simulate: &Simulate,
+        inputs: SimulateInputs,
+        model: Option<DiscreteTf>,
+        note: &mut dyn FnMut(&str),
+        progress: &mut dyn FnMut(&TrialRow),
+    ) -> Result<IlcReport, StepError> {
+        self.validate()?;
+        let prepared = simulate.prepare(inputs, note)?;
+        let model = model.or(prepared.closed_loop.clone()).ok_or_else(|| {
+            StepError::setting(
+                "closed_loop",
+                "iterative learning needs the closed-loop model (`closed_loop` plant.json)",
+            )
+        })?;
+        let (design, diverging) = self.design(&model, note)?;
+        let mut learned = Vec::new();
+        let mut rows = Vec::with_capacity(self.trials + 1);
+        let mut trace = closed_loop::Trace::default();
+        for trial in 0..=self.trials {
+            trace = self.trial(simulate, &prepared, trial, &learned)?;
+            let row = TrialRow::from((trial, self.metrics(&prepared, &trace)));
+            progress(&row);
+            rows.push(row);
+            if trial < self.trials {
+                let current = learned_or_zero(&learned, trace.reference.len());
+                learned = design.update(&current, &trace.error());
+            }
+        }
+        let mut controller = prepared.file.clone();
+        controller.feedforward_table = Some(FeedforwardTableBlock {
+            samples: learned_or_zero(&learned, prepared.reference.samples.len()),
+        });
+        Ok(IlcReport {
+            design,
+            reference: prepared.reference.label.clone(),
+            models: prepared.models.clone(),
+            trials: rows,
+            controller,
+            trace,
+            diverging,
+        })
+    }
+
+    /// The learning law; a failing condition is an error unless allowed.
+    fn design(
+        &self,
+        model: &DiscreteTf,
+        note: &mut dyn FnMut(&str),
+    ) -> Result<(IlcDesign, bool), StepError> {
+        let design = ilc::design_unchecked(model, &self.params()).map_err(|e| match e {
+            ilc::IlcError::Setting(m) => StepError::setting("q_cutoff", m),
+            other => StepError::computation(other.to_string()),
+        })?;
+        if design.rho < 1.0 {
+            return Ok((design, false));
+        }
+        let message = ilc::IlcError::Diverges {
+            rho: design.rho,
+            at_hz: design.rho_at_hz,
+        }
+        .to_string();
+        if !self.allow_divergence {
+            return Err(StepError::computation(message));
+        }
+        note(&format!(
+            "warning: {message}; running anyway (`allow_divergence`): the error will grow"
+        ));
+        Ok((design, true))
+    }
+
+    fn trial(
+        &self,
+        simulate: &Simulate,
+        prepared: &Prepared,
+        trial: usize,
+        learned: &[f64],
+    ) -> Result<closed_loop::Trace, StepError> {
+        simulate.run_prepared(prepared, 1000 + trial as u64, learned)
+    }
+
+    fn metrics(&self, prepared: &Prepared, trace: &closed_loop::Trace) -> TrackingMetrics {
+        closed_loop::metrics(
+            trace,
+            prepared.reference.evaluated(),
+            prepared.file.command_limits(),
+        )
+    }
+}
+
+/// The learned samples, or zeros when no trial learned.
+fn learned_or_zero(learned: &[f64], n: usize) -> Vec<f64> {
+    if learned.is_empty() {
+        vec![0.0; n.max(1)]
+    } else {
+        learned.to_vec()
+    }
+}
+
+impl fmt::Display for IlcReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let d = &self.design;
+        writeln!(f, "reference: {}", self.reference)?;
+        writeln!(f, "models: {}", self.models)?;
+        writeln!(
+            f,
+            "learning: f <- Q (f + {} L e), L = stable inversion of the closed-loop model (preview {} samples), Q zero-phase {} taps each side",
+            d.gain,
+            d.learning.preview,
+            d.q.len() - 1
+        )?;
+        writeln!(
+            f,
+            "convergence on the model: max |Q| |1 - a L G| = {:.4} at {:.1} Hz ({}); tolerates a relative model error of {:.1} % (worst at {:.1} Hz)",
+            d.rho,
+            d.rho_at_hz,
+            if d.rho < 1.0 {
+                "< 1: converges monotonically"
+            } else {
+                ">= 1: DIVERGES"
+            },
+            100.0 * d.tolerated_model_error,
+            d.tolerated_at_hz
+        )?;
+        writeln!(f, "trial   max error   rms error   % of amplitude")?;
+        for r in &self.trials {
+            writeln!(
+                f,
+                "{:>5}   {:>9.4}   {:>9.4}   {:>8.3} %{}",
+                r.trial,
+                r.max_error,
+                r.rms_error,
+                r.max_error_percent,
+                if r.saturated_samples > 0 {
+                    format!("  ({} saturated samples)", r.saturated_samples)
+                } else {
+                    String::new()
+                }
+            )?;
+        }
+        Ok(())
+    }
+}
+
+impl Serialize for IlcReport {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let d = &self.design;
+        serde_json::json!({
+            "reference": self.reference,
+            "models": self.models,
+            "design": {
+                "gain": d.gain,
+                "q_taps": d.q.len() - 1,
+                "preview": d.learning.preview,
+                "rho": d.rho,
+                "rho_at_hz": d.rho_at_hz,
+                "converges": d.rho < 1.0,
+                "tolerated_model_error": d.tolerated_model_error,
+                "tolerated_at_hz": d.tolerated_at_hz,
+            },
+            "diverging": self.diverging,
+            "trials": self.trials,
+        })
+        .serialize(s)
+    }
+}
