@@ -9,7 +9,7 @@ use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_string};
 use crate::io::timeseries::{time_column, write_csv};
 use crate::io::{plot, tf_json, zpetc_json};
 use crate::lti::{Bode, TransferFunction, logspace};
-use crate::sim::experiment::{self, ExperimentParams, Progress, build_controller};
+use crate::sim::experiment::{self, ExperimentParams, LEARNED_STAGES, Progress, build_controller};
 use crate::synth::composite::Stages;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -54,6 +54,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     // Every file is made before the first is written.
     let mut files = model_files(&params, &result.models)?;
     files.push(("tracking.csv", table_csv(&result).into_bytes()));
+    if let (Some(learning), Some(model)) = (&result.learning, &result.models.learning) {
+        files.extend(learning_files(&params, model, learning, &files)?);
+    }
     for (name, bytes) in &files {
         write(&args.out, name, bytes)?;
     }
@@ -66,10 +69,8 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     print_models(&args, &params, &result.models, &check, elapsed)?;
     print_table(&params, &result)?;
-    say!(
-        "wrote {}: triangle.csv, inverse-hysteresis.json, hysteresis-loop.svg, sweep.csv, closed-loop.json, closed-loop-bode.svg, zpetc.json, controller.json, controller.h, tracking.csv",
-        args.out.display()
-    );
+    let names: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
+    say!("wrote {}: {}", args.out.display(), names.join(", "));
     Ok(())
 }
 
@@ -201,6 +202,79 @@ fn closed_loop_files(m: &experiment::IdentifiedModels, ts: f64) -> anyhow::Resul
     ])
 }
 
+/// Step 5's files: the wide-band record and the learning model, the error
+/// per trial, and the controller with the five-leaved trajectory's learned
+/// feedforward as its table (what a real-time loop plays back).
+fn learning_files(
+    params: &ExperimentParams,
+    model: &experiment::LearningModel,
+    learning: &experiment::LearningResult,
+    files: &[DemoFile],
+) -> anyhow::Result<Vec<DemoFile>> {
+    let (r, y) = &model.sweep;
+    let record = write_csv(
+        &["t", "u", "y"],
+        &[&time_column(r.len(), params.plant.ts), r, y],
+    );
+    let tf = TransferFunction::Discrete(model.model.tf.clone());
+    let mut out = vec![
+        ("learning-sweep.csv", record.into_bytes()),
+        (
+            "learning-model.json",
+            tf_json::tf_to_string(&tf).into_bytes(),
+        ),
+        ("ilc.svg", ilc_svg(learning)?.into_bytes()),
+    ];
+    let controller = files.iter().find(|(name, _)| *name == "controller.json");
+    let five_leaf = learning
+        .references
+        .iter()
+        .find(|r| r.reference.starts_with("five-leaf"));
+    if let (Some((_, bytes)), Some(learned)) = (controller, five_leaf) {
+        let mut file = crate::io::controller_file::parse_controller(
+            std::str::from_utf8(bytes)?,
+            "controller.json",
+        )?;
+        file.feedforward_table = Some(crate::io::controller_file::FeedforwardTableBlock {
+            samples: learned.feedforward.clone(),
+        });
+        out.push((
+            "controller-ilc-five-leaf.json",
+            file.to_json_string().into_bytes(),
+        ));
+    }
+    Ok(out)
+}
+
+/// Max error per trial for every reference, log scale.
+fn ilc_svg(learning: &experiment::LearningResult) -> anyhow::Result<String> {
+    let trials: Vec<f64> = (0..=learning.trials_run()).map(|t| t as f64).collect();
+    let errors: Vec<Vec<f64>> = learning
+        .references
+        .iter()
+        .map(|r| r.trials.iter().map(|m| m.max_error_percent).collect())
+        .collect();
+    let series = learning
+        .references
+        .iter()
+        .zip(&errors)
+        .map(|(r, e)| plot::Series {
+            label: &r.reference,
+            x: &trials,
+            y: e,
+        })
+        .collect();
+    Ok(plot::panels_svg(&[plot::Panel {
+        log_y: true,
+        ..plot::Panel::lines(
+            "iterative learning control on PID + HC + ZPEC: max error per trial",
+            "trial (0: no learning)",
+            "max |e|, % of the amplitude",
+            series,
+        )
+    }])?)
+}
+
 /// The coefficient file, with the hashes of the files it was made from.
 fn demo_controller(
     params: &ExperimentParams,
@@ -291,8 +365,37 @@ fn json_summary(
             "max_error_percent": r.metrics.max_error_percent,
             "saturated_samples": r.metrics.saturated_samples,
         })).collect::<Vec<_>>(),
+        "learning": result.learning.as_ref().map(|l| learning_json(l, result.models.learning.as_ref())),
         "out": dir.display().to_string(),
 
+    })
+}
+
+/// Step 5 in the JSON summary.
+fn learning_json(
+    learning: &experiment::LearningResult,
+    model: Option<&experiment::LearningModel>,
+) -> serde_json::Value {
+    let d = &learning.design;
+    json!({
+        "model": model.map(|m| json!({
+            "method": m.model.method,
+            "num": m.model.tf.num().coeffs(),
+            "den": m.model.tf.den().coeffs(),
+            "delay": m.model.tf.delay(),
+            "simulation_fit_percent": m.model.chosen_fit().simulation_percent,
+        })),
+        "gain": d.gain,
+        "q_cutoff_hz": d.q_cutoff_hz,
+        "rho": d.rho,
+        "rho_at_hz": d.rho_at_hz,
+        "tolerated_model_error": d.tolerated_model_error,
+        "references": learning.references.iter().map(|r| json!({
+            "reference": r.reference,
+            "max_abs_error": r.trials.iter().map(|m| m.max_abs_error).collect::<Vec<_>>(),
+            "max_error_percent": r.trials.iter().map(|m| m.max_error_percent).collect::<Vec<_>>(),
+            "rms_error": r.trials.iter().map(|m| m.rms_error).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
     })
 }
 
@@ -370,13 +473,19 @@ fn print_table(
             .find(|r| r.reference == reference && r.controller == controller)
             .map(|r| r.metrics)
     };
+    let ilc_header = result
+        .learning
+        .as_ref()
+        .map(|l| format!(" {:>9}", format!("+ILC({})", l.trials_run())))
+        .unwrap_or_default();
     say!("4. max tracking error (um), 5 um sines; fts (virtual FTS) | Li21 (paper):");
     say!(
-        "   {:>8} | {:>8} {:>8} {:>11} | {:>8} {:>8} {:>11}",
+        "   {:>8} | {:>8} {:>8} {:>11}{} | {:>8} {:>8} {:>11}",
         "freq",
         "PID",
         "PID+HC",
         "PID+HC+ZPEC",
+        ilc_header,
         "PID",
         "PID+HC",
         "PID+HC+ZPEC"
@@ -384,12 +493,18 @@ fn print_table(
     for (f, p_pid, p_hc, p_z) in LI21_TABLE {
         let label = format!("sine {} um at {f} Hz", params.sine_amplitude);
         let get = |c: &str| find(&label, c).map_or(f64::NAN, |m| m.max_abs_error);
+        let ilc = result
+            .learning
+            .as_ref()
+            .map(|_| format!(" {:>9.4}", get(LEARNED_STAGES)))
+            .unwrap_or_default();
         say!(
-            "   {:>6} Hz | {:>8.4} {:>8.4} {:>11.4} | {:>8.4} {:>8.4} {:>11.4}",
+            "   {:>6} Hz | {:>8.4} {:>8.4} {:>11.4}{} | {:>8.4} {:>8.4} {:>11.4}",
             f,
             get("pid"),
             get("pid+hc"),
             get("pid+hc+zpec"),
+            ilc,
             p_pid,
             p_hc,
             p_z
@@ -401,7 +516,7 @@ fn print_table(
         .filter(|r| !r.reference.starts_with("sine"))
     {
         say!(
-            "   {:<26} {:<12} max {:.4} um ({:.1} % of amplitude), rms {:.4} um{}",
+            "   {:<26} {:<15} max {:.4} um ({:.2} % of amplitude), rms {:.4} um{}",
             row.reference,
             row.controller,
             row.metrics.max_abs_error,
@@ -420,5 +535,46 @@ fn print_table(
     say!(
         "   (Li21: 0-1000 Hz sweep below 10 % over the band; five-leaved trajectory below 0.3 um)"
     );
+    if let Some(learning) = &result.learning {
+        print_learning(learning, result.models.learning.as_ref())?;
+    }
+    Ok(())
+}
+
+/// Step 5: the law, its convergence check and the error per trial.
+fn print_learning(
+    learning: &experiment::LearningResult,
+    model: Option<&experiment::LearningModel>,
+) -> anyhow::Result<()> {
+    let d = &learning.design;
+    if let Some(m) = model {
+        say!(
+            "5. learning model: the PID + HC loop swept 0-{} Hz at {} um, {} [{} {} {}], simulation fit {:.1} %",
+            m.sweep_f1,
+            m.sweep_amplitude,
+            m.model.method.to_uppercase(),
+            m.orders.na,
+            m.orders.nb,
+            m.orders.nk,
+            m.model.chosen_fit().simulation_percent
+        );
+    }
+    say!(
+        "   iterative learning control (+ILC): f <- Q (f + {} L e), Q {:.0} Hz; convergence on the learning model: max |Q| |1 - a L G| = {:.3} at {:.0} Hz (< 1), tolerated model error {:.1} %",
+        d.gain,
+        d.q_cutoff_hz,
+        d.rho,
+        d.rho_at_hz,
+        100.0 * d.tolerated_model_error
+    );
+    say!("   max error per trial, % of the amplitude (trial 0 without learning):");
+    for r in &learning.references {
+        let per_trial: Vec<String> = r
+            .trials
+            .iter()
+            .map(|m| format!("{:.2}", m.max_error_percent))
+            .collect();
+        say!("   {:<26} {}", r.reference, per_trial.join(" "));
+    }
     Ok(())
 }

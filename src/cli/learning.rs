@@ -165,7 +165,8 @@ pub fn run_ilc(args: IlcArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Max error per trial (log scale by its values) and the last trial's error.
+/// Max and RMS error per trial (log scale) and the last trial's error, its
+/// evaluated window shaded.
 fn ilc_plot(report: &IlcReport) -> anyhow::Result<String> {
     let trials: Vec<f64> = report.trials.iter().map(|r| r.trial as f64).collect();
     let max: Vec<f64> = report.trials.iter().map(|r| r.max_error).collect();
@@ -176,33 +177,44 @@ fn ilc_plot(report: &IlcReport) -> anyhow::Result<String> {
         .collect();
     let e = trace.error();
     let title = format!("ILC: error per trial, {}", report.reference);
+    let window = (
+        report.evaluated.start as f64 * trace.ts,
+        report.evaluated.end.saturating_sub(1) as f64 * trace.ts,
+        "evaluated",
+    );
     Ok(plot::panels_svg(&[
-        plot::Panel::lines(
-            &title,
-            "trial",
-            "tracking error (um)",
-            vec![
-                plot::Series {
-                    label: "max |e|",
-                    x: &trials,
-                    y: &max,
-                },
-                plot::Series {
-                    label: "rms e",
-                    x: &trials,
-                    y: &rms,
-                },
-            ],
-        ),
-        plot::Panel::lines(
-            "last trial's error",
-            "t (s)",
-            "e = r - y (um)",
-            vec![plot::Series {
-                label: "e",
-                x: &t,
-                y: &e,
-            }],
-        ),
+        plot::Panel {
+            log_y: true,
+            ..plot::Panel::lines(
+                &title,
+                "trial",
+                "tracking error (um)",
+                vec![
+                    plot::Series {
+                        label: "max |e|",
+                        x: &trials,
+                        y: &max,
+                    },
+                    plot::Series {
+                        label: "rms e",
+                        x: &trials,
+                        y: &rms,
+                    },
+                ],
+            )
+        },
+        plot::Panel {
+            shade: Some(window),
+            ..plot::Panel::lines(
+                "last trial's error",
+                "t (s)",
+                "e = r - y (um)",
+                vec![plot::Series {
+                    label: "e",
+                    x: &t,
+                    y: &e,
+                }],
+            )
+        },
     ])?)
 }

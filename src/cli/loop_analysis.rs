@@ -303,8 +303,7 @@ impl NyquistPoints {
                     plot::Style::Marker,
                 ),
             ],
-            log_x: false,
-            shade: None,
+            ..plot::Panel::default()
         }
     }
 }

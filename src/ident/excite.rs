@@ -412,12 +412,15 @@ pub fn five_leaf(p: &FiveLeafParams) -> Result<Vec<f64>, ExciteError> {
     )?;
     let n = samples(p.duration, p.ts)?;
     Ok((0..n)
-        .map(|k| {
-            let t = k as f64 * p.ts;
-            // [Li21] Eq. 13
-            p.offset + p.scale * (50.0 - 10.0 * t) * (200.0 * PI * t).sin()
-        })
+        .map(|k| p.offset + p.scale * five_leaf_at(k as f64 * p.ts))
         .collect())
+}
+
+/// \[Li21\] Eq. 13 at time `t` (s), unscaled: `(50 - 10 t) sin(200 pi t)`,
+/// um. Defined for negative `t` too (a lead-in that enters the pattern in
+/// motion evaluates it before its start).
+pub fn five_leaf_at(t: f64) -> f64 {
+    (50.0 - 10.0 * t) * (200.0 * PI * t).sin()
 }
 
 #[cfg(test)]

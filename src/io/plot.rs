@@ -94,6 +94,9 @@ pub struct Panel<'a> {
     pub series: Vec<(Series<'a>, Style)>,
     /// Logarithmic x axis (points with `x <= 0` are skipped).
     pub log_x: bool,
+    /// Logarithmic y axis (points with `y <= 0` are skipped), for errors
+    /// that fall by decades.
+    pub log_y: bool,
     /// Shade `[x0, x1]` and say what it is in the legend.
     pub shade: Option<(f64, f64, &'a str)>,
 }
@@ -185,7 +188,12 @@ fn draw_panel<DB: DrawingBackend>(
         .map(|(s, _)| s.clone())
         .collect();
     let (y0, y1) = bounds(if solid.is_empty() { &all } else { &solid }, |s| s.y);
-    let log_x = panel.log_x;
+    let (log_x, log_y) = (panel.log_x, panel.log_y);
+    let (y0, y1) = if log_y {
+        positive_range(&all, |s| s.y, y1)
+    } else {
+        (y0, y1)
+    };
     let mut builder = ChartBuilder::on(&plot_area);
     builder
         .caption(panel.title, ("sans-serif", 18))
@@ -213,8 +221,9 @@ fn draw_panel<DB: DrawingBackend>(
             }
             for (i, (s, style)) in panel.series.iter().enumerate() {
                 let color = COLORS[i % COLORS.len()];
-                let drawable =
-                    |(x, y): (&f64, &f64)| x.is_finite() && y.is_finite() && (!log_x || *x > 0.0);
+                let drawable = |(x, y): (&f64, &f64)| {
+                    x.is_finite() && y.is_finite() && (!log_x || *x > 0.0) && (!log_y || *y > 0.0)
+                };
                 let points =
                     s.x.iter()
                         .zip(s.y)
@@ -255,22 +264,42 @@ fn draw_panel<DB: DrawingBackend>(
             }
         }};
     }
-    if log_x {
-        let lo = all
-            .iter()
-            .flat_map(|s| s.x.iter().copied())
-            .filter(|v| *v > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        let lo = if lo.is_finite() { lo } else { 1.0 };
-        draw!(
+    let (lo, hi) = positive_range(&all, |s| s.x, x1);
+    match (log_x, log_y) {
+        (false, false) => draw!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(perr)?),
+        (true, false) => draw!(
             builder
-                .build_cartesian_2d((lo..x1.max(lo * 10.0)).log_scale(), y0..y1)
+                .build_cartesian_2d((lo..hi).log_scale(), y0..y1)
                 .map_err(perr)?
-        );
-    } else {
-        draw!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(perr)?);
+        ),
+        (false, true) => draw!(
+            builder
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .map_err(perr)?
+        ),
+        (true, true) => draw!(
+            builder
+                .build_cartesian_2d((lo..hi).log_scale(), (y0..y1).log_scale())
+                .map_err(perr)?
+        ),
     }
     Ok(())
+}
+
+/// A range for a logarithmic axis: from the smallest positive value of
+/// `axis` (1 when there is none) to `top`, at least a decade wide.
+fn positive_range<'a>(
+    series: &[Series<'a>],
+    axis: impl Fn(&Series<'a>) -> &'a [f64],
+    top: f64,
+) -> (f64, f64) {
+    let lo = series
+        .iter()
+        .flat_map(|s| axis(s).iter().copied())
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let lo = if lo.is_finite() { lo } else { 1.0 };
+    (lo, top.max(lo * 10.0))
 }
 
 /// Charts stacked vertically, 360 pixels each.
@@ -353,7 +382,7 @@ pub fn bode_panels<'a>(
             y_label: "magnitude (dB)",
             series: pick(&|i| &magnitudes_db[i], true),
             log_x: true,
-            shade: None,
+            ..Panel::default()
         },
         Panel {
             title: "",
@@ -361,7 +390,7 @@ pub fn bode_panels<'a>(
             y_label: "phase (deg)",
             series: pick(&|i| &curves[i].1.phase_deg, false),
             log_x: true,
-            shade: None,
+            ..Panel::default()
         },
     ]
 }

@@ -20,11 +20,13 @@ use crate::ident::hysteresis::{Identified, IdentifyParams, identify};
 use crate::ident::linear::{Fits, NoiseModel, fits};
 use crate::ident::oe::{OeParams, refine_arx};
 use crate::io::controller_file::{
-    ControllerFile, Feedback, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_controller,
+    ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, Provenance, Units,
+    ZpetcBlock, parse_controller,
 };
 use crate::lti::DiscreteTf;
 use crate::runtime::{PidSpec, RuntimeController};
 use crate::synth::composite::{FeedbackKind, Stages};
+use crate::synth::ilc::{self, IlcDesign, IlcParams};
 use crate::synth::zpetc::{self, StableInversion, Zpetc, ZpetcParams};
 
 /// The PID of the \[Li21\] loop on the embedded plant: `kp 0.02` V/um, `ki 0.15`
@@ -90,6 +92,9 @@ pub struct ExperimentParams {
     /// printed spans +-50 um, beyond a 10 um stroke; a tenth of it is the
     /// 5 um, 100 Hz pattern the paper's 0.3 um result fits.
     pub five_leaf_scale: f64,
+    /// Step 5, iterative learning control; `None` leaves it out. Default
+    /// [`LearningParams::default`].
+    pub learning: Option<LearningParams>,
 }
 
 impl Default for ExperimentParams {
@@ -116,6 +121,7 @@ impl Default for ExperimentParams {
             sine_freqs_hz: vec![10.0, 100.0, 500.0],
             sine_amplitude: 5.0,
             five_leaf_scale: 0.1,
+            learning: Some(LearningParams::default()),
         }
     }
 }
@@ -166,6 +172,16 @@ pub struct ClosedLoopModel {
     pub reason: String,
 }
 
+impl ClosedLoopModel {
+    /// The simulation fit of the model chosen (OE when `method` is `oe`).
+    pub fn chosen_fit(&self) -> &Fits {
+        match (&self.oe_fit, self.method) {
+            (Some(oe), "oe") => oe,
+            _ => &self.arx_fit,
+        }
+    }
+}
+
 /// One line of the tracking table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackingRow {
@@ -190,7 +206,108 @@ pub struct IdentifiedModels {
     pub closed_loop: ClosedLoopModel,
     /// The ZPETC.
     pub zpetc: Zpetc,
+    /// The learning model, when step 5 is asked for.
+    pub learning: Option<LearningModel>,
 }
+
+/// Step 5 of the experiment: iterative learning control ([`crate::synth::ilc`])
+/// on every reference of the tracking table, on top of PID + HC + ZPEC.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LearningParams {
+    /// Amplitude of the wide-band sweep the learning model is fitted to,
+    /// um. Default 1: the loop stays linear up to `sweep_f1`.
+    pub sweep_amplitude: f64,
+    /// Highest frequency of that sweep, Hz. Default 4500: the learning
+    /// filter `L` inverts the loop up to Q's cutoff, where the 0-1 kHz
+    /// model of step 2 is wrong (it has a pole at z = -0.999999).
+    pub sweep_f1: f64,
+    /// Orders of the learning model (ARX refined by OE). Default `[6 6 1]`.
+    pub orders: Orders,
+    /// The learning law. Default gain 0.7, Q cutoff 4 kHz with 32 taps:
+    /// the 2nd and 3rd harmonics of the residual hysteresis (to 3 kHz) are
+    /// learned, the model error near Nyquist is not.
+    pub ilc: IlcParams,
+    /// Trials after the first. Default 10.
+    pub trials: usize,
+}
+
+impl Default for LearningParams {
+    fn default() -> Self {
+        Self {
+            sweep_amplitude: 1.0,
+            sweep_f1: 4500.0,
+            orders: Orders::new(6, 6, 1),
+            ilc: IlcParams {
+                gain: 0.7,
+                q_cutoff_hz: 4000.0,
+                ..IlcParams::default()
+            },
+            trials: 10,
+        }
+    }
+}
+
+/// The model the learning law inverts, and its record.
+#[derive(Debug, Clone)]
+pub struct LearningModel {
+    /// Wide-band sweep record: reference fed to the loop and measurement (um).
+    pub sweep: (Vec<f64>, Vec<f64>),
+    /// Its highest frequency, Hz.
+    pub sweep_f1: f64,
+    /// Its amplitude, um.
+    pub sweep_amplitude: f64,
+    /// The orders fitted.
+    pub orders: Orders,
+    /// The fitted closed loop.
+    pub model: ClosedLoopModel,
+}
+
+/// What learning achieved on each reference.
+#[derive(Debug, Clone)]
+pub struct LearningResult {
+    /// The law and its convergence check on the learning model.
+    pub design: IlcDesign,
+    /// Per reference of the tracking table.
+    pub references: Vec<LearnedReference>,
+}
+
+/// Learning on one reference.
+#[derive(Debug, Clone)]
+pub struct LearnedReference {
+    /// The reference's description.
+    pub reference: String,
+    /// Trial 0 (no learning) to the last.
+    pub trials: Vec<TrackingMetrics>,
+    /// The feedforward the last trial played, one sample per controller
+    /// period from the reference's first sample: a `feedforward_table`.
+    pub feedforward: Vec<f64>,
+}
+
+impl LearningResult {
+    /// Learning trials run after trial 0.
+    pub fn trials_run(&self) -> usize {
+        self.references
+            .first()
+            .map_or(0, |r| r.trials.len().saturating_sub(1))
+    }
+
+    /// The table's rows: each reference's last trial.
+    fn rows(&self) -> Vec<TrackingRow> {
+        self.references
+            .iter()
+            .filter_map(|r| {
+                Some(TrackingRow {
+                    reference: r.reference.clone(),
+                    controller: LEARNED_STAGES,
+                    metrics: *r.trials.last()?,
+                })
+            })
+            .collect()
+    }
+}
+
+/// The table's name for PID + HC + ZPEC with the learned feedforward.
+pub const LEARNED_STAGES: &str = "pid+hc+zpec+ilc";
 
 /// Everything the experiment produced.
 #[derive(Debug, Clone)]
@@ -201,6 +318,8 @@ pub struct ExperimentResult {
     pub controller: ControllerFile,
     /// The tracking table.
     pub table: Vec<TrackingRow>,
+    /// Step 5, when asked for.
+    pub learning: Option<LearningResult>,
 }
 
 /// A pipeline stage, reported to the observer as it starts.
@@ -278,7 +397,8 @@ fn fresh_plant(params: &ExperimentParams, run: u64) -> Result<VirtualFts, Virtua
     VirtualFts::new(p)
 }
 
-/// Runs a controller file on a fresh plant along a reference.
+/// Runs a controller file on a fresh plant along a reference, playing its
+/// learned feedforward table if it has one.
 pub fn track(
     params: &ExperimentParams,
     run: u64,
@@ -288,7 +408,12 @@ pub fn track(
     let mut plant = fresh_plant(params, run)?;
     let mut rt = RuntimeController::new(&controller.runtime_spec())
         .map_err(|e| step_err("controller")(e.to_string()))?;
-    let trace = closed_loop::run(&mut plant, &mut rt, &reference.samples)?;
+    let trace = closed_loop::run_learned(
+        &mut plant,
+        &mut rt,
+        &reference.samples,
+        controller.learned_feedforward(),
+    )?;
     let metrics = closed_loop::metrics(&trace, reference.evaluated(), controller.command_limits());
     Ok((trace, metrics))
 }
@@ -367,8 +492,6 @@ pub fn identify_models(
     params: &ExperimentParams,
     observer: &mut dyn FnMut(Progress),
 ) -> Result<IdentifiedModels, ExperimentError> {
-    let ts = params.plant.ts;
-
     // 1. Open-loop triangles, inverse hysteresis identified directly.
     observer(Progress::Step("open-loop triangle excitation"));
     let (command, measured) = triangle_record(params)?;
@@ -380,13 +503,70 @@ pub fn identify_models(
 
     // 2. PID + HC closed loop, 0..f1 sweep.
     observer(Progress::Step("closed-loop sweep with PID + HC"));
-    let (mut r, mut y) = sweep_record(params, Some(&inverse.model))?;
-    let record = (r.clone(), y.clone());
+    let (r, y) = sweep_record(params, Some(&inverse.model))?;
+    let closed_loop = fit_closed_loop(params, params.orders, &r, &y, observer)?;
 
+    // 3. ZPETC.
+    observer(Progress::Step("ZPETC design"));
+    let zpetc = zpetc::design(&closed_loop.tf, &params.zpetc)
+        .map_err(|e| step_err("ZPETC")(e.to_string()))?;
+    let learning = match &params.learning {
+        Some(lp) => Some(learning_model(params, lp, &inverse, observer)?),
+        None => None,
+    };
+    Ok(IdentifiedModels {
+        triangle: (command, measured),
+        inverse,
+        sweep: (r, y),
+        closed_loop,
+        zpetc,
+        learning,
+    })
+}
+
+/// The learning model: the same PID + HC loop swept over `lp`'s wider
+/// band and fitted by output error, since `L` must invert the loop up to
+/// Q's cutoff, where the 0-1 kHz model is wrong (docs/learning.md).
+fn learning_model(
+    params: &ExperimentParams,
+    lp: &LearningParams,
+    inverse: &Identified,
+    observer: &mut dyn FnMut(Progress),
+) -> Result<LearningModel, ExperimentError> {
+    observer(Progress::Step("wide-band sweep for the learning model"));
+    let wide = ExperimentParams {
+        sweep_amplitude: lp.sweep_amplitude,
+        sweep_f1: lp.sweep_f1,
+        ..params.clone()
+    };
+    let (r, y) = sweep_record(&wide, Some(&inverse.model))?;
+    let model = fit_closed_loop(params, lp.orders, &r, &y, observer)?;
+    Ok(LearningModel {
+        sweep: (r, y),
+        sweep_f1: lp.sweep_f1,
+        sweep_amplitude: lp.sweep_amplitude,
+        orders: lp.orders,
+        model,
+    })
+}
+
+/// The closed-loop model of a sweep record `(r, y)`: ARX of `orders` by
+/// QR, refined by output error when that improves the simulation fit
+/// (`params.refine_oe`), near pole-zero cancellations removed
+/// (`params.minreal_tol`).
+fn fit_closed_loop(
+    params: &ExperimentParams,
+    orders: Orders,
+    r: &[f64],
+    y: &[f64],
+    observer: &mut dyn FnMut(Progress),
+) -> Result<ClosedLoopModel, ExperimentError> {
+    let ts = params.plant.ts;
+    let (mut r, mut y) = (r.to_vec(), y.to_vec());
     observer(Progress::Step("closed-loop ARX identification"));
     detrend(&mut r, Detrend::Mean);
     detrend(&mut y, Detrend::Mean);
-    let mut arx_params = ArxParams::new(params.orders);
+    let mut arx_params = ArxParams::new(orders);
     arx_params.ts = ts;
     let est = arx(&r, &y, &arx_params).map_err(|e| step_err("closed-loop ARX")(e.to_string()))?;
     let arx_tf = est
@@ -398,7 +578,7 @@ pub fn identify_models(
     let (mut arx_fit, mut oe_fit) = (None, None);
     if params.refine_oe {
         observer(Progress::Step("output-error refinement"));
-        let mut oe_params = OeParams::new(params.orders);
+        let mut oe_params = OeParams::new(orders);
         oe_params.ts = ts;
         let refined = refine_arx(&est.model, &r, &y, &oe_params);
         if let (true, Some(Ok(tf))) = (refined.chosen, refined.oe.as_ref().map(|o| o.model.tf())) {
@@ -417,7 +597,7 @@ pub fn identify_models(
         }
         None => (chosen.0.clone(), Vec::new()),
     };
-    let closed_loop = ClosedLoopModel {
+    Ok(ClosedLoopModel {
         tf,
         method: chosen.1,
         arx_fit,
@@ -427,18 +607,6 @@ pub fn identify_models(
         identified_tf: chosen.0,
         removed_pairs,
         reason,
-    };
-
-    // 3. ZPETC.
-    observer(Progress::Step("ZPETC design"));
-    let zpetc = zpetc::design(&closed_loop.tf, &params.zpetc)
-        .map_err(|e| step_err("ZPETC")(e.to_string()))?;
-    Ok(IdentifiedModels {
-        triangle: (command, measured),
-        inverse,
-        sweep: record,
-        closed_loop,
-        zpetc,
     })
 }
 
@@ -518,9 +686,65 @@ pub fn run(
         }
     }
     let controller = controllers.into_iter().last().expect("three controllers").1;
+    let learning = match (&params.learning, &models.learning) {
+        (Some(lp), Some(lm)) => {
+            let learned = learn_references(params, lp, lm, &controller, &references, observer)?;
+            table.extend(learned.rows());
+            Some(learned)
+        }
+        _ => None,
+    };
     Ok(ExperimentResult {
         models,
         controller,
         table,
+        learning,
+    })
+}
+
+/// Step 5: iterative learning control of every reference with the PID +
+/// HC + ZPEC controller, `lp.trials` trials each; the law is checked for
+/// convergence on the learning model first.
+fn learn_references(
+    params: &ExperimentParams,
+    lp: &LearningParams,
+    lm: &LearningModel,
+    controller: &ControllerFile,
+    references: &[Reference],
+    observer: &mut dyn FnMut(Progress),
+) -> Result<LearningResult, ExperimentError> {
+    observer(Progress::Step("iterative learning control"));
+    let design = ilc::design(&lm.model.tf, &lp.ilc).map_err(|e| step_err("ILC")(e.to_string()))?;
+    let mut learned = Vec::with_capacity(references.len());
+    for (i, reference) in references.iter().enumerate() {
+        let mut rows = Vec::with_capacity(lp.trials + 1);
+        let (feedforward, _) = design.run_trials(
+            lp.trials,
+            reference.ramp_end,
+            |trial, learned| {
+                let mut file = controller.clone();
+                file.feedforward_table = (!learned.is_empty()).then(|| FeedforwardTableBlock {
+                    samples: learned.to_vec(),
+                });
+                let run = 1000 * (i as u64 + 1) + trial as u64;
+                let (trace, metrics) = track(params, run, &file, reference)?;
+                rows.push(metrics);
+                Ok::<_, ExperimentError>(trace)
+            },
+            closed_loop::Trace::error,
+        )?;
+        observer(Progress::Tracking {
+            done: i + 1,
+            total: references.len(),
+        });
+        learned.push(LearnedReference {
+            reference: reference.label.clone(),
+            trials: rows,
+            feedforward,
+        });
+    }
+    Ok(LearningResult {
+        design,
+        references: learned,
     })
 }

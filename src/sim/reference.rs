@@ -19,6 +19,11 @@ pub struct Reference {
     pub evaluate_from: usize,
     /// One past the last evaluated sample; the samples after it are the tail.
     pub evaluate_to: usize,
+    /// First sample after the lead-in ramp. Before it the loop is leaving
+    /// rest; learning control ignores that error, which no feedforward can
+    /// remove (it would need commands before the first sample, or below
+    /// the amplifier's floor).
+    pub ramp_end: usize,
     /// Description for summaries, e.g. `sine 5 um at 500 Hz`.
     pub label: String,
 }
@@ -97,8 +102,34 @@ fn with_lead_in(
         samples,
         evaluate_from,
         evaluate_to,
+        ramp_end: ramp,
         label,
     }
+}
+
+/// [`with_lead_in`] whose hold fades the pattern in: over the hold the
+/// reference is `first + w(t) (pattern(t) - pattern(0))`, `t < 0` the time
+/// before the evaluated part and `w` a raised cosine from 0 to 1. The loop
+/// then enters the evaluated part in motion, with the pattern's own
+/// velocity, as a machine engages a periodic path, instead of meeting a
+/// velocity jump at its first evaluated sample.
+fn with_fade_in(
+    signal: Vec<f64>,
+    evaluated: usize,
+    timing: &ReferenceTiming,
+    pattern: impl Fn(f64) -> f64,
+    label: String,
+) -> Reference {
+    let mut r = with_lead_in(signal, evaluated, timing, 0, label);
+    let hold = r.evaluate_from - r.ramp_end;
+    let first = r.samples[r.evaluate_from];
+    let p0 = pattern(0.0);
+    for i in 0..hold {
+        let t = (i as f64 - hold as f64) * timing.ts;
+        let w = 0.5 * (1.0 - (PI * i as f64 / hold as f64).cos());
+        r.samples[r.ramp_end + i] = first + w * (pattern(t) - p0);
+    }
+    r
 }
 
 impl Reference {
@@ -188,6 +219,9 @@ pub fn sweep(
 }
 
 /// The five-leaved trajectory of \[Li21\] Eq. 13 times `scale`, plus `offset`.
+/// The hold before it fades the pattern in ([`with_fade_in`]), so the
+/// evaluated part starts in motion, not with a velocity jump of
+/// `scale` x 31 mm/s.
 pub fn five_leaf(
     scale: f64,
     offset: f64,
@@ -205,11 +239,11 @@ pub fn five_leaf(
         duration: timing.extended(duration),
         ..params
     })?;
-    Ok(with_lead_in(
+    Ok(with_fade_in(
         s,
         evaluated,
         timing,
-        0,
+        |t| scale * excite::five_leaf_at(t),
         format!("five-leaf x{scale}"),
     ))
 }
@@ -350,6 +384,35 @@ mod tests {
             .map(|w| (w[1] - w[0]).abs())
             .fold(0.0, f64::max);
         assert!(max_step < 0.32, "{max_step}");
+    }
+
+    /// The pattern is entered in motion: no step in the reference's
+    /// velocity at the first evaluated sample (before the fade-in it jumped
+    /// from 0 to 3.1 mm/s there), and the evaluated part is Eq. 13 itself.
+    #[test]
+    fn five_leaf_is_entered_with_its_own_velocity() {
+        let timing = ReferenceTiming::default();
+        let r = five_leaf(0.1, 7.0, 0.2, &timing).unwrap();
+        let k = r.evaluate_from;
+        assert_eq!(k, 1000);
+        assert_eq!(r.ramp_end, 500);
+        let v = |k: usize| (r.samples[k] - r.samples[k - 1]) / timing.ts;
+        let pattern_v = 0.1 * 50.0 * 200.0 * PI; // um/s at t = 0
+        assert!((v(k + 1) - pattern_v).abs() < 0.01 * pattern_v);
+        assert!(
+            (v(k) - v(k + 1)).abs() < 0.01 * pattern_v,
+            "{} {}",
+            v(k),
+            v(k + 1)
+        );
+        assert!((v(k - 1) - v(k)).abs() < 0.01 * pattern_v);
+        for j in [0, 37, 999] {
+            let t = j as f64 * timing.ts;
+            let eq13 = 7.0 + 0.1 * (50.0 - 10.0 * t) * (200.0 * PI * t).sin();
+            assert!((r.samples[k + j] - eq13).abs() < 1e-12);
+        }
+        // The ramp ends at rest on the offset, where the fade-in starts.
+        assert!((r.samples[r.ramp_end] - 7.0).abs() < 1e-12);
     }
 
     #[test]

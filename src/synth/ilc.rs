@@ -69,6 +69,8 @@ pub struct IlcDesign {
     pub q: Vec<f64>,
     /// Learning gain.
     pub gain: f64,
+    /// `Q`'s cutoff as designed (-6 dB), Hz.
+    pub q_cutoff_hz: f64,
     /// Sample time, s.
     pub ts: f64,
     /// Eq. (2) on the model.
@@ -173,6 +175,7 @@ pub fn design_unchecked(g: &DiscreteTf, params: &IlcParams) -> Result<IlcDesign,
         learning,
         q,
         gain: params.gain,
+        q_cutoff_hz: params.q_cutoff_hz,
         ts,
         rho,
         rho_at_hz: rho_at,
@@ -215,6 +218,36 @@ impl IlcDesign {
             .map(|(fk, lk)| fk + self.gain * lk)
             .collect();
         zero_phase(&self.q, &raw)
+    }
+
+    /// Runs a first trial without feedforward, then `trials` learning
+    /// trials: `run(j, f)` plays trial `j` with the feedforward `f` (empty
+    /// for trial 0) and returns its outcome, `error` that outcome's
+    /// tracking error `e = r - y` over the whole trial. Eq. (1) learns on a
+    /// window: the error before `learn_from` is taken as 0 (where the loop
+    /// leaves rest, the error is not the trajectory's and cannot be
+    /// learned; learning it would only grow `f` from trial to trial).
+    /// Returns the feedforward the last trial played and its outcome.
+    pub fn run_trials<T, E>(
+        &self,
+        trials: usize,
+        learn_from: usize,
+        mut run: impl FnMut(usize, &[f64]) -> Result<T, E>,
+        error: impl Fn(&T) -> Vec<f64>,
+    ) -> Result<(Vec<f64>, T), E> {
+        let mut learned = Vec::new();
+        let mut outcome = run(0, &learned)?;
+        for trial in 1..=trials {
+            let mut e = error(&outcome);
+            let window = learn_from.min(e.len());
+            e[..window].fill(0.0);
+            if learned.is_empty() {
+                learned = vec![0.0; e.len()];
+            }
+            learned = self.update(&learned, &e);
+            outcome = run(trial, &learned)?;
+        }
+        Ok((learned, outcome))
     }
 }
 

@@ -374,6 +374,8 @@ pub struct IlcReport {
     pub controller: ControllerFile,
     /// The last trial's trace.
     pub trace: closed_loop::Trace,
+    /// The samples the figures are computed over.
+    pub evaluated: std::ops::Range<usize>,
     /// Whether the condition failed and the run went on anyway.
     pub diverging: bool,
 }
@@ -408,19 +410,19 @@ impl Ilc {
             )
         })?;
         let (design, diverging) = self.design(&model, note)?;
-        let mut learned = Vec::new();
         let mut rows = Vec::with_capacity(self.trials + 1);
-        let mut trace = closed_loop::Trace::default();
-        for trial in 0..=self.trials {
-            trace = self.trial(simulate, &prepared, trial, &learned)?;
-            let row = TrialRow::from((trial, self.metrics(&prepared, &trace)));
-            progress(&row);
-            rows.push(row);
-            if trial < self.trials {
-                let current = learned_or_zero(&learned, trace.reference.len());
-                learned = design.update(&current, &trace.error());
-            }
-        }
+        let (learned, trace) = design.run_trials(
+            self.trials,
+            prepared.reference.ramp_end,
+            |trial, learned| {
+                let trace = simulate.run_prepared(&prepared, 1000 + trial as u64, learned)?;
+                let row = TrialRow::from((trial, self.metrics(&prepared, &trace)));
+                progress(&row);
+                rows.push(row);
+                Ok::<_, StepError>(trace)
+            },
+            closed_loop::Trace::error,
+        )?;
         let mut controller = prepared.file.clone();
         controller.feedforward_table = Some(FeedforwardTableBlock {
             samples: learned_or_zero(&learned, prepared.reference.samples.len()),
@@ -432,6 +434,7 @@ impl Ilc {
             trials: rows,
             controller,
             trace,
+            evaluated: prepared.reference.evaluated(),
             diverging,
         })
     }
@@ -461,16 +464,6 @@ impl Ilc {
             "warning: {message}; running anyway (`allow_divergence`): the error will grow"
         ));
         Ok((design, true))
-    }
-
-    fn trial(
-        &self,
-        simulate: &Simulate,
-        prepared: &Prepared,
-        trial: usize,
-        learned: &[f64],
-    ) -> Result<closed_loop::Trace, StepError> {
-        simulate.run_prepared(prepared, 1000 + trial as u64, learned)
     }
 
     fn metrics(&self, prepared: &Prepared, trace: &closed_loop::Trace) -> TrackingMetrics {
