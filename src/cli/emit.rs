@@ -18,6 +18,7 @@ use crate::io::{hysteresis_json, tf_json, zpetc_json};
 use crate::lti::ss::StateSpace;
 use crate::synth::zpetc::Zpetc;
 use crate::workflow::controller::closed_loop_zpetc;
+use crate::workflow::learning::RepetitiveFile;
 use crate::workflow::{
     AntiWindup, BuildController, BuildInputs, Discretisation, NoFeedback, PidForm, SsController,
 };
@@ -105,6 +106,9 @@ pub struct EmitArgs {
     /// Highest command, V (PID default 10; a state-space controller has no limit unless given).
     #[arg(long, allow_hyphen_values = true)]
     output_max: Option<f64>,
+    /// Plug-in repetitive compensator (`fts.repetitive/1`, from `fts repetitive`) added to the file; designed at the controller's sample time.
+    #[arg(long, value_name = "RC.json")]
+    repetitive: Option<PathBuf>,
     /// Sample time, s (taken from the ZPETC, closed-loop model or discrete --ss controller when given; they must agree).
     #[arg(long)]
     ts: Option<f64>,
@@ -217,11 +221,22 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
         }
         None => None,
     };
+    let repetitive = match &args.repetitive {
+        Some(p) => {
+            let (text, source) = hashed(p, "repetitive", &mut inputs)?;
+            Some((
+                RepetitiveFile::parse(&text, &source).map_err(step_error)?,
+                source,
+            ))
+        }
+        None => None,
+    };
     let report = step(args)
         .run(BuildInputs {
             hysteresis: inverse.as_ref(),
             zpetc: filter.as_ref(),
             ss: ss.as_ref().map(|(sys, source)| (sys, source.as_str())),
+            repetitive: repetitive.as_ref().map(|(f, source)| (f, source.as_str())),
             provenance: Provenance {
                 fts_version: env!("CARGO_PKG_VERSION").into(),
                 inputs,

@@ -80,9 +80,7 @@ pub fn run_repetitive(args: RepetitiveArgs) -> anyhow::Result<()> {
     let model = read_discrete(&args.tf, "closed-loop model")?;
     let report = step.run(&model).map_err(step_error)?;
     if let Some(path) = &args.output {
-        let mut text = serde_json::to_string_pretty(&report)?;
-        text.push('\n');
-        write_atomic(path, text.as_bytes())?;
+        write_atomic(path, report.file_text().as_bytes())?;
     }
     print_report(&report, args.json)?;
     if let (Some(p), false) = (&args.output, args.json) {

@@ -17,7 +17,7 @@ use crate::lti::ss::StateSpace;
 use crate::sim::disturbance::Disturbance;
 use crate::sim::virtual_fts::VirtualFtsParams;
 use crate::synth::zpetc::{self as zpetc_mod, Zpetc, ZpetcParams};
-use crate::workflow::learning::{REPETITIVE_FORMAT, RepetitiveFile};
+use crate::workflow::learning::RepetitiveFile;
 use crate::workflow::{
     ReferenceShape, SimController, SimPlant, Simulate, SimulateInputs, SimulateReport, StageModels,
 };
@@ -158,9 +158,10 @@ impl LoopArgs {
 
     /// The plant, the controller and the reference samples these flags name.
     pub(super) fn inputs(&self) -> anyhow::Result<SimulateInputs> {
+        let plant = read_plant(self)?;
         Ok(SimulateInputs {
-            plant: read_plant(self)?,
-            controller: read_controller(self)?,
+            controller: read_controller(self, plant.ts())?,
+            plant,
             reference_samples: read_reference(self)?,
         })
     }
@@ -266,7 +267,7 @@ fn read_zpetc(args: &LoopArgs) -> anyhow::Result<Option<Zpetc>> {
 
 /// `--controller-file`, or the models of the stages (`--ss`, `--hysteresis`,
 /// `--zpetc`/`--closed-loop`).
-fn read_controller(args: &LoopArgs) -> anyhow::Result<SimController> {
+fn read_controller(args: &LoopArgs, ts: f64) -> anyhow::Result<SimController> {
     if let Some(path) = &args.controller_file {
         let source = path.display().to_string();
         let file = parse_controller(&read_input(path)?, &source)?;
@@ -285,7 +286,7 @@ fn read_controller(args: &LoopArgs) -> anyhow::Result<SimController> {
         None => None,
     };
     let repetitive = match &args.repetitive {
-        Some(path) => Some(read_repetitive(path)?),
+        Some(path) => Some(read_repetitive(path, ts)?),
         None => None,
     };
     Ok(SimController::Stages(StageModels {
@@ -298,18 +299,12 @@ fn read_controller(args: &LoopArgs) -> anyhow::Result<SimController> {
     }))
 }
 
-/// A `fts.repetitive/1` design file's block.
-pub(super) fn read_repetitive(path: &Path) -> anyhow::Result<RepetitiveBlock> {
+/// A `fts.repetitive/1` design file's block, for a loop sampled every `ts` s.
+pub(super) fn read_repetitive(path: &Path, ts: f64) -> anyhow::Result<RepetitiveBlock> {
     let source = path.display().to_string();
-    let file: RepetitiveFile = serde_json::from_str(&read_input(path)?)
-        .map_err(|e| bad(format!("{source} line {}: {e}", e.line())))?;
-    if file.format != REPETITIVE_FORMAT {
-        return Err(bad(format!(
-            "{source} field 'format': expected \"{REPETITIVE_FORMAT}\", found {:?}",
-            file.format
-        )));
-    }
-    Ok(file.block())
+    RepetitiveFile::parse(&read_input(path)?, &source)
+        .and_then(|file| file.block_at(ts, &source))
+        .map_err(step_error)
 }
 
 /// The `--closed-loop` model, when given.
@@ -382,7 +377,7 @@ fn write_plot(path: &Path, report: &SimulateReport) -> anyhow::Result<()> {
         reference.evaluate_to.saturating_sub(1) as f64 * ts,
         "evaluated window (metrics)",
     ));
-    let svg = plot::panels_svg(&[
+    let mut panels = vec![
         plot::Panel {
             shade: window,
             ..plot::Panel::lines(
@@ -416,6 +411,23 @@ fn write_plot(path: &Path, report: &SimulateReport) -> anyhow::Result<()> {
                 }],
             )
         },
-    ])?;
-    write_atomic(path, svg.as_bytes())
+    ];
+    let periods = report.periods.as_deref().unwrap_or_default();
+    let period_numbers: Vec<f64> = (1..=periods.len()).map(|p| p as f64).collect();
+    if !periods.is_empty() {
+        panels.push(plot::Panel {
+            log_y: true,
+            ..plot::Panel::lines(
+                "repetitive compensator: convergence",
+                "period (from the end of the lead-in)",
+                "max |e| over the period (um)",
+                vec![plot::Series {
+                    label: "max |e|",
+                    x: &period_numbers,
+                    y: periods,
+                }],
+            )
+        });
+    }
+    write_atomic(path, plot::panels_svg(&panels)?.as_bytes())
 }

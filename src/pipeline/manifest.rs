@@ -7,6 +7,7 @@ use crate::io::InputError;
 use crate::io::timeseries::{
     ColumnRef, DEFAULT_TIME_JITTER, Delimiter, HeaderMode, IoColumns, Layout, TimeUnit,
 };
+use crate::workflow::learning::DesignRepetitive;
 use crate::workflow::{
     BuildController, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyOe,
     Mixsyn, StepError, Validate, VirtualSweep, VirtualTriangles, Weight,
@@ -74,6 +75,8 @@ pub enum Action {
     Oe(Box<LinearSpec<IdentifyOe>>),
     /// ZPETC design.
     Zpetc(DesignZpetc),
+    /// Plug-in repetitive compensator designed on a closed-loop model.
+    Repetitive(DesignRepetitive),
     /// Coefficient file: PID, state-space (an `ss` input) or no feedback.
     Controller(BuildController),
     /// A performance weight.
@@ -553,7 +556,7 @@ fn normalise(s: &str) -> Option<String> {
 }
 
 /// The step kinds, as listed in errors.
-const KINDS: &str = "\"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\"";
+const KINDS: &str = "\"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"repetitive\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\"";
 
 /// The step table's canonical settings hash: the table as JSON (sorted
 /// keys), the step name and the fts version.
@@ -589,6 +592,7 @@ fn step(
         "arx" => linear(&mut f).map(Action::Arx),
         "oe" => linear(&mut f).map(Action::Oe),
         "zpetc" => zpetc(&mut f),
+        "repetitive" => repetitive(&mut f),
         "controller" => controller(&mut f),
         "weight" => weight(&mut f),
         "mixsyn" => mixsyn(&mut f),
@@ -664,10 +668,16 @@ fn zpetc(f: &mut Fields<'_>) -> Result<Action, InputError> {
     Ok(Action::Zpetc(f.typed()?))
 }
 
+/// `kind = "repetitive"`: what `fts repetitive --tf` does.
+fn repetitive(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    files(f, &[("tf", true)], &[("out", true)])?;
+    Ok(Action::Repetitive(f.typed()?))
+}
+
 /// `kind = "controller"`: what `fts emit` does, its input options as input
 /// fields; it writes `out`, `header` or both.
 fn controller(f: &mut Fields<'_>) -> Result<Action, InputError> {
-    let inputs = ["hysteresis", "zpetc", "closed_loop", "ss"].map(|k| (k, false));
+    let inputs = ["hysteresis", "zpetc", "closed_loop", "ss", "repetitive"].map(|k| (k, false));
     files(f, &inputs, &[("out", false), ("header", false)])?;
     if f.outputs.is_empty() {
         return Err(f.err(

@@ -12,9 +12,11 @@ use crate::io::controller_file::{ControllerFile, InputHash, Provenance, to_c_hea
 use crate::io::hysteresis_json::{model_to_string, parse_model};
 use crate::io::timeseries::{IoData, read_io};
 use crate::io::{ss_json, tf_json, zpetc_json};
+use crate::lti::TransferFunction;
 use crate::lti::ss::StateSpace;
 use crate::workflow::controller::closed_loop_zpetc;
 use crate::workflow::identify::HysteresisInputs;
+use crate::workflow::learning::{DesignRepetitive, RepetitiveFile};
 use crate::workflow::robust::MixsynReport;
 use crate::workflow::{
     BuildController, BuildInputs, DesignZpetc, LinearInputs, LinearReport, Mixsyn, MixsynInputs,
@@ -564,6 +566,7 @@ fn execute(
             tf_file(step, spec.step.run(io.linear(&spec.columns)?))?,
         )],
         Action::Zpetc(spec) => vec![("out", zpetc(&io, spec)?)],
+        Action::Repetitive(spec) => vec![("out", repetitive(&io, spec)?)],
         Action::Controller(spec) => {
             let file = controller(&io, spec)?;
             vec![
@@ -646,6 +649,20 @@ fn zpetc(io: &Inputs<'_>, spec: &DesignZpetc) -> Result<Vec<u8>, PipelineError> 
     Ok(zpetc_json::zpetc_to_string(&report.filter).into_bytes())
 }
 
+/// A `repetitive` step: the compensator designed on the `tf` closed loop,
+/// written as `fts repetitive -o` writes it.
+fn repetitive(io: &Inputs<'_>, spec: &DesignRepetitive) -> Result<Vec<u8>, PipelineError> {
+    let err = |e: StepError| step_error(io.step, e);
+    let (text, src) = io.text("tf")?.expect("validated: tf is required");
+    let TransferFunction::Discrete(model) = tf_json::parse_tf(text, &src)? else {
+        return Err(err(StepError::input(format!(
+            "{src} field 'var': the closed-loop model must be discrete (\"z^-1\")"
+        ))));
+    };
+    let report = spec.run(&model).map_err(err)?;
+    Ok(report.file_text().into_bytes())
+}
+
 /// The coefficient file of a `controller` step: inputs hashed in the order
 /// `fts emit` records them.
 fn controller(io: &Inputs<'_>, spec: &BuildController) -> Result<ControllerFile, PipelineError> {
@@ -655,6 +672,7 @@ fn controller(io: &Inputs<'_>, spec: &BuildController) -> Result<ControllerFile,
         ("zpetc", "zpetc"),
         ("closed_loop", "closed_loop"),
         ("ss", "state_space"),
+        ("repetitive", "repetitive"),
     ]);
     let inverse = io.hysteresis("hysteresis")?;
     let filter = match (io.text("zpetc")?, io.text("closed_loop")?) {
@@ -665,11 +683,16 @@ fn controller(io: &Inputs<'_>, spec: &BuildController) -> Result<ControllerFile,
         (None, None) => None,
     };
     let ss = io.system("ss")?;
+    let repetitive = match io.text("repetitive")? {
+        Some((text, src)) => Some((RepetitiveFile::parse(text, &src).map_err(err)?, src)),
+        None => None,
+    };
     let report = spec
         .run(BuildInputs {
             hysteresis: inverse.as_ref(),
             zpetc: filter.as_ref(),
             ss: ss.as_ref().map(|(sys, src)| (sys, src.as_str())),
+            repetitive: repetitive.as_ref().map(|(f, src)| (f, src.as_str())),
             provenance,
         })
         .map_err(err)?;

@@ -173,6 +173,21 @@ pub struct TrackingMetrics {
     pub saturated_samples: usize,
 }
 
+/// The largest `|e|` over each whole period of `period` samples (may be
+/// fractional: period `p` covers `round(p T) .. round((p + 1) T)`) from
+/// sample `from` on: how a repetitive compensator's error contracts.
+pub fn max_error_per_period(error: &[f64], from: usize, period: f64) -> Vec<f64> {
+    if !(period.is_finite() && period >= 1.0) {
+        return Vec::new();
+    }
+    let edge = |p: usize| from + (p as f64 * period).round() as usize;
+    (0..)
+        .map(|p| (edge(p), edge(p + 1)))
+        .take_while(|&(_, end)| end <= error.len())
+        .map(|(start, end)| error[start..end].iter().fold(0.0f64, |m, e| m.max(e.abs())))
+        .collect()
+}
+
 /// Metrics over `trace[window]`; `limits` are the command limits, to count saturation.
 pub fn metrics(
     trace: &Trace,
@@ -217,6 +232,17 @@ pub fn metrics(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn period_maxima_follow_fractional_edges() {
+        let e: Vec<f64> = (0..12)
+            .map(|k| if k % 2 == 0 { -(k as f64) } else { 0.5 })
+            .collect();
+        // From 1, periods of 2.5 samples: [1, 4), [4, 6), [6, 9), [9, 11).
+        assert_eq!(max_error_per_period(&e, 1, 2.5), vec![2.0, 4.0, 8.0, 10.0]);
+        assert!(max_error_per_period(&e, 0, 0.5).is_empty());
+        assert!(max_error_per_period(&e, 20, 2.0).is_empty());
+    }
     use crate::lti::DiscreteTf;
     use crate::runtime::{FeedbackSpec, PidSpec, RuntimeSpec};
     use crate::sim::ModelPlant;

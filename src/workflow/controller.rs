@@ -4,11 +4,12 @@
 //! after an optional ZPETC and inverse hysteresis feedforward);
 //! [`SsController`] is its state-space part, shared with `fts simulate`.
 
+use super::learning::RepetitiveFile;
 use super::robust::prewarp_rad;
 use super::{Choices, StepError, Validate, positive};
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::{
-    ControllerFile, Feedback, ParallelPid, Provenance, StateSpaceBlock,
+    ControllerFile, Feedback, ParallelPid, Provenance, StateSpaceBlock, parse_controller,
 };
 use crate::lti::TransferFunction;
 use crate::lti::c2d::{C2dMethod, c2d};
@@ -185,6 +186,7 @@ impl SsController {
             hysteresis: inputs.hysteresis,
             zpetc: inputs.zpetc,
             ss: Some((inputs.ss, inputs.ss_source)),
+            repetitive: None,
             provenance: inputs.provenance,
         })
     }
@@ -316,6 +318,9 @@ pub struct BuildInputs<'a> {
     pub zpetc: Option<&'a Zpetc>,
     /// State-space feedback controller and its name (a file path), if any.
     pub ss: Option<(&'a StateSpace, &'a str)>,
+    /// Plug-in repetitive compensator (a `fts repetitive` design) and its
+    /// name, if any; its sample time must be the controller's.
+    pub repetitive: Option<(&'a RepetitiveFile, &'a str)>,
     /// Version and input hashes recorded in the file.
     pub provenance: Provenance,
 }
@@ -558,7 +563,7 @@ impl BuildController {
             hysteresis_compensation: inputs.hysteresis.is_some(),
             zpetc: inputs.zpetc.is_some(),
         };
-        let file = build_controller(
+        let mut file = build_controller(
             stages,
             ts,
             feedback,
@@ -567,6 +572,12 @@ impl BuildController {
             inputs.provenance,
         )
         .map_err(StepError::input)?;
+        if let Some((design, source)) = inputs.repetitive {
+            file.repetitive = Some(design.block_at(ts, source)?);
+            // Checked as a real-time loop would load it (capacity, taps).
+            file = parse_controller(&file.to_json_string(), source)
+                .map_err(|e| StepError::input(e.to_string()))?;
+        }
         Ok(ControllerReport { file })
     }
 }

@@ -160,6 +160,16 @@ impl DesignRepetitive {
     }
 }
 
+impl RepetitiveReport {
+    /// The design file (`fts.repetitive/1`, pretty JSON and a newline):
+    /// what `fts repetitive -o` and the manifest's `repetitive` step write.
+    pub fn file_text(&self) -> String {
+        let mut text = serde_json::to_string_pretty(self).expect("a report serialises");
+        text.push('\n');
+        text
+    }
+}
+
 impl fmt::Display for RepetitiveReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let d = &self.design;
@@ -238,45 +248,45 @@ impl Serialize for RepetitiveReport {
 /// The format tag of a repetitive design file.
 pub const REPETITIVE_FORMAT: &str = "fts.repetitive/1";
 
-/// A repetitive design file as read back: the block and its sample time.
+/// A repetitive design file as read back: the block and its sample time
+/// (the design's figures, written beside them, are for people).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 pub struct RepetitiveFile {
     /// Format tag.
     pub format: String,
     /// Sample time, s.
     pub ts: f64,
-    /// The block's settings.
+    /// The block's settings, at the top level of the file.
     #[serde(flatten)]
-    pub block: RepetitiveBlockDoc,
-}
-
-/// The block's fields in a design file.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-pub struct RepetitiveBlockDoc {
-    /// Whole samples of the period.
-    pub period: usize,
-    /// Its fraction.
-    #[serde(default)]
-    pub fraction: f64,
-    /// Q taps.
-    pub q: Vec<f64>,
-    /// Lead.
-    pub lead: usize,
-    /// Gain.
-    pub gain: f64,
+    pub block: RepetitiveBlock,
 }
 
 impl RepetitiveFile {
-    /// The coefficient-file block.
-    pub fn block(&self) -> RepetitiveBlock {
-        let b = &self.block;
-        RepetitiveBlock {
-            period: b.period,
-            fraction: b.fraction,
-            q: b.q.clone(),
-            lead: b.lead,
-            gain: b.gain,
+    /// Reads a design file (`fts.repetitive/1`); errors name `source` and
+    /// the line or field.
+    pub fn parse(text: &str, source: &str) -> Result<Self, StepError> {
+        let file: RepetitiveFile = serde_json::from_str(text)
+            .map_err(|e| StepError::input(format!("{source} line {}: {e}", e.line())))?;
+        if file.format != REPETITIVE_FORMAT {
+            return Err(StepError::input(format!(
+                "{source} field 'format': expected \"{REPETITIVE_FORMAT}\", found {:?}",
+                file.format
+            )));
         }
+        Ok(file)
+    }
+
+    /// The block for a loop sampled every `ts` s: a design made at another
+    /// rate has a different period in samples, a different Q and a
+    /// different lead, and is refused.
+    pub fn block_at(&self, ts: f64, source: &str) -> Result<RepetitiveBlock, StepError> {
+        if (self.ts - ts).abs() > 1e-9 * ts.abs() {
+            return Err(StepError::input(format!(
+                "{source} field 'ts': the compensator was designed for a {} s sample time, the loop runs at {ts} s; design it on a closed-loop model at the loop's rate",
+                self.ts
+            )));
+        }
+        Ok(self.block.clone())
     }
 }
 

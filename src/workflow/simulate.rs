@@ -738,6 +738,9 @@ pub struct SimulateReport {
     pub metrics: closed_loop::TrackingMetrics,
     /// Step figures of a step reference (`None` for other references).
     pub step: Option<Result<StepTracking, NoStepInfo>>,
+    /// With a repetitive compensator: the largest `|e|` over each of its
+    /// periods from the end of the lead-in ramp, how its error contracts.
+    pub periods: Option<Vec<f64>>,
 }
 
 impl SimulateReport {
@@ -749,6 +752,10 @@ impl SimulateReport {
         step: Option<Result<StepTracking, NoStepInfo>>,
     ) -> Self {
         let metrics = closed_loop::metrics(&trace, reference.evaluated(), file.command_limits());
+        let periods = file.repetitive.as_ref().map(|rc| {
+            let period = rc.period as f64 + rc.fraction;
+            closed_loop::max_error_per_period(&trace.error(), reference.ramp_end, period)
+        });
         Self {
             file,
             models,
@@ -756,6 +763,7 @@ impl SimulateReport {
             trace,
             metrics,
             step,
+            periods,
         }
     }
 
@@ -809,6 +817,7 @@ impl Serialize for SimulateReport {
             "preview": self.file.preview(),
             "ts": self.trace.ts,
             "models": self.models,
+            "max_error_per_period": self.periods,
         })
         .serialize(s)
     }
@@ -840,6 +849,9 @@ impl fmt::Display for SimulateReport {
             Some(Err(e)) => writeln!(f, "step: no figures: {e}")?,
             None => {}
         }
+        if let Some(periods) = &self.periods {
+            write_periods(f, periods)?;
+        }
         if m.saturated_samples > 0 {
             let (lo, hi) = self.file.command_limits();
             writeln!(
@@ -850,6 +862,27 @@ impl fmt::Display for SimulateReport {
         }
         Ok(())
     }
+}
+
+/// The repetitive compensator's convergence: max |e| per period, ten a line.
+fn write_periods(f: &mut fmt::Formatter<'_>, periods: &[f64]) -> fmt::Result {
+    let (Some(first), Some(last)) = (periods.first(), periods.last()) else {
+        return writeln!(
+            f,
+            "repetitive: the run is shorter than one period after the lead-in"
+        );
+    };
+    writeln!(
+        f,
+        "repetitive: max |e| per period from the end of the lead-in, {} periods: {first:.4} -> {last:.4} um ({:.1}x)",
+        periods.len(),
+        first / last
+    )?;
+    for (row, chunk) in periods.chunks(10).enumerate() {
+        let values: Vec<String> = chunk.iter().map(|v| format!("{v:.4}")).collect();
+        writeln!(f, "  {:>4}: {}", 10 * row + 1, values.join(" "))?;
+    }
+    Ok(())
 }
 
 /// The step figures' summary line.
