@@ -9,8 +9,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fts::runtime::{
-    FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RuntimeController, RuntimeSpec, SsAntiWindup,
-    StateSpaceSpec, ZpetcSpec,
+    FeedbackSpec, HysteresisSpec, PidSpec, PlayForm, RepetitiveSpec, RuntimeController,
+    RuntimeSpec, SsAntiWindup, StateSpaceSpec, ZpetcSpec,
 };
 use fts::sim::closed_loop;
 use fts::sim::virtual_fts::{VirtualFts, VirtualFtsParams};
@@ -42,6 +42,54 @@ fn spec<'a>(thresholds: &'a [f64], weights: &'a [f64]) -> RuntimeSpec<'a> {
             output_max: 10.0,
         }),
         repetitive: None,
+    }
+}
+
+/// The plug-in repetitive block at a period of N = 10 000 samples (1 s at
+/// 10 kHz), fractional, 16 Q taps each side, lead 5, behind the \[Li21\] PID
+/// (issue 16): its cost per sample is the step minus the PID alone.
+fn repetitive_benches(c: &mut Criterion) {
+    let q: Vec<f64> = (0..=16)
+        .map(|i| if i == 0 { 0.5 } else { 0.5 / 32.0 })
+        .collect();
+    let pid = PidSpec {
+        kp: 0.02,
+        ki: 0.15,
+        kd: 0.0,
+        output_min: 0.0,
+        output_max: 10.0,
+    };
+    let with_rc = RuntimeSpec {
+        zpetc: None,
+        hysteresis: None,
+        feedback: FeedbackSpec::Pid(pid),
+        repetitive: Some(RepetitiveSpec {
+            period: 10_000,
+            fraction: 0.5,
+            q: &q,
+            lead: 5,
+            gain: 0.5,
+        }),
+    };
+    let pid_only = RuntimeSpec {
+        repetitive: None,
+        ..with_rc
+    };
+    let refs: Vec<f64> = (0..4096)
+        .map(|k| 5.0 + 4.0 * (k as f64 * 0.03).sin())
+        .collect();
+    for (name, spec) in [
+        ("runtime_step/pid+repetitive_N10000", &with_rc),
+        ("runtime_step/pid", &pid_only),
+    ] {
+        let mut rt = RuntimeController::new(spec).unwrap();
+        let mut k = 0usize;
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                k = (k + 1) & 4095;
+                black_box(rt.step(black_box(refs[k]), black_box(refs[k] - 0.01)))
+            })
+        });
     }
 }
 
@@ -139,5 +187,5 @@ fn benches(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(runtime, benches);
+criterion_group!(runtime, benches, repetitive_benches);
 criterion_main!(runtime);

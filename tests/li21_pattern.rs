@@ -1,7 +1,10 @@
 //! The \[Li21\] pattern on the virtual FTS with models identified honestly from
 //! simulated measurements (math.md 4): at 500 Hz PID+HC+ZPEC is far better
 //! than PID+HC; at 10 Hz hysteresis compensation does most of the work; the
-//! five-leaved trajectory stays within the paper's 0.3 um.
+//! five-leaved trajectory stays within the paper's 0.3 um. With iterative
+//! learning control on top (step 5), the sweep ends below 1 % of the
+//! amplitude and the five-leaved trajectory below 0.05 um within 10
+//! trials (issue 16).
 
 use fts::sim::experiment::{ExperimentParams, run};
 
@@ -39,6 +42,39 @@ fn li21_tracking_pattern() {
     assert_eq!(sweep.saturated_samples, 0);
     // Five-leaved trajectory below 0.3 um with the full controller.
     assert!(get("five-leaf", "pid+hc+zpec") < 0.3);
+    // Step 5: ILC designed on the identified wide-band model, 10 trials.
+    let learning = result.learning.as_ref().expect("step 5 runs by default");
+    assert!(learning.design.rho < 1.0, "{}", learning.design.rho);
+    assert_eq!(learning.trials_run(), 10);
+    let trials = |name: &str| {
+        &learning
+            .references
+            .iter()
+            .find(|r| r.reference.starts_with(name))
+            .unwrap_or_else(|| panic!("{name} not learned"))
+            .trials
+    };
+    // Trial 0 is the PID + HC + ZPEC loop again (fresh noise): the same figure.
+    let sweep_trials = trials("sweep");
+    assert!((sweep_trials[0].max_error_percent - sweep.max_error_percent).abs() < 0.5);
+    let last = sweep_trials.last().unwrap();
+    assert!(last.max_error_percent < 1.0, "{last:?}");
+    assert_eq!(last.saturated_samples, 0);
+    let five_leaf = trials("five-leaf").last().unwrap();
+    assert!(five_leaf.max_abs_error < 0.05, "{five_leaf:?}");
+    // Every reference ends at least 5 times below its unlearned error, and
+    // the table's +ILC row is the last trial.
+    for r in &learning.references {
+        let (first, last) = (r.trials[0], *r.trials.last().unwrap());
+        assert!(
+            last.max_abs_error < 0.2 * first.max_abs_error,
+            "{}: {first:?} {last:?}",
+            r.reference
+        );
+        assert_eq!(get(&r.reference, "pid+hc+zpec+ilc"), last.max_abs_error);
+    }
+    let model = result.models.learning.as_ref().unwrap();
+    assert!(model.model.chosen_fit().simulation_percent > 90.0);
     // The models were identified, not copied: the closed-loop model fits its sweep.
     assert!(result.models.closed_loop.arx_fit.simulation_percent > 80.0);
     assert!(result.models.inverse.info.fit.rms_percent < 2.0);

@@ -154,3 +154,48 @@ fn state_space_controller_step_does_not_allocate() {
     assert_eq!(after - before, 0, "the state-space step allocated");
     assert!(acc.is_finite());
 }
+
+/// The repetitive block (period 10 000 samples, fractional, 16 Q taps each
+/// side, lead 5) behind a PID, with a learned feedforward table played
+/// back: three periods of steps, across every ring's wrap, allocate
+/// nothing.
+#[test]
+fn repetitive_block_and_table_do_not_allocate() {
+    use fts::runtime::{
+        FeedbackSpec, FeedforwardTable, PidSpec, RepetitiveSpec, RuntimeController, RuntimeSpec,
+    };
+    let q: Vec<f64> = (0..=16).map(|i| 1.0 / (1.0 + i as f64) / 4.0).collect();
+    let spec = RuntimeSpec {
+        zpetc: None,
+        hysteresis: None,
+        feedback: FeedbackSpec::Pid(PidSpec {
+            kp: 0.02,
+            ki: 0.15,
+            kd: 0.0,
+            output_min: 0.0,
+            output_max: 10.0,
+        }),
+        repetitive: Some(RepetitiveSpec {
+            period: 10_000,
+            fraction: 0.25,
+            q: &q,
+            lead: 5,
+            gain: 0.5,
+        }),
+    };
+    let table_samples: Vec<f64> = (0..20_000)
+        .map(|k| 1e-3 * (k as f64 * 1e-3).sin())
+        .collect();
+    let mut rt = RuntimeController::new(&spec).unwrap();
+    let mut table = FeedforwardTable::new(&table_samples).unwrap();
+    let before = allocations();
+    let mut acc = 0.0;
+    for k in 0..30_000 {
+        let r = 5.0 + (k as f64 * 2e-3).sin();
+        acc += rt.step_signals(r, r - 0.01, table.next_sample()).command;
+    }
+    rt.reset();
+    let after = allocations();
+    assert_eq!(after - before, 0, "the repetitive step allocated");
+    assert!(acc.is_finite());
+}

@@ -526,3 +526,89 @@ fn a_step_commits_all_its_outputs_or_none_and_stale_temps_go() {
         json_before
     );
 }
+
+/// A `repetitive` step and a controller step that takes its design: the
+/// same bytes as `fts repetitive -o` and `fts emit --repetitive` by hand,
+/// and `--check` passes after the build. A design made at another sample
+/// time is refused by both, naming the design file's `ts` (exit 2).
+#[test]
+fn repetitive_step_matches_the_commands_and_checks_the_sample_time() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path();
+    std::fs::copy(repo("fixtures/li21-closed-loop.json"), dir.join("cl.json")).unwrap();
+    std::fs::write(
+        dir.join("fts.toml"),
+        r#"
+[step.rc]
+kind = "repetitive"
+tf = "cl.json"
+spindle_hz = 100
+q_cutoff = 1000
+out = "rc.json"
+
+[step.ctrl]
+kind = "controller"
+repetitive = "rc.json"
+pid_form = "li21"
+kp = 0.02
+ki = 0.15
+ts = 0.0001
+out = "controller.json"
+"#,
+    )
+    .unwrap();
+    build(dir).success();
+    check(dir).success();
+    let by_hand = |args: &[&str]| fts().current_dir(dir).args(args).assert().success();
+    by_hand(&[
+        "repetitive",
+        "--tf",
+        "cl.json",
+        "--spindle-hz",
+        "100",
+        "--q-cutoff",
+        "1000",
+        "-o",
+        "rc2.json",
+    ]);
+    let emit = [
+        "emit",
+        "--repetitive",
+        "rc.json",
+        "--pid-form",
+        "li21",
+        "--kp",
+        "0.02",
+        "--ki",
+        "0.15",
+        "--ts",
+        "0.0001",
+        "-o",
+        "controller2.json",
+    ];
+    by_hand(&emit);
+    let read = |name: &str| std::fs::read(dir.join(name)).unwrap();
+    assert_eq!(read("rc.json"), read("rc2.json"));
+    let (built, emitted) = (read("controller.json"), read("controller2.json"));
+    let block = |bytes: &[u8]| {
+        let v: serde_json::Value = serde_json::from_slice(bytes).unwrap();
+        v["blocks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|b| b["type"] == "repetitive")
+            .cloned()
+            .expect("a repetitive block")
+    };
+    assert_eq!(block(&built), block(&emitted));
+    assert_eq!(block(&built)["period"], 100);
+    // At 1 ms the design's 0.1 ms sample time is refused.
+    let mut wrong = emit;
+    wrong[10] = "0.001";
+    fts()
+        .current_dir(dir)
+        .args(wrong)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("rc.json field 'ts'"));
+}

@@ -554,7 +554,7 @@ fn learning_model(
 /// QR, refined by output error when that improves the simulation fit
 /// (`params.refine_oe`), near pole-zero cancellations removed
 /// (`params.minreal_tol`).
-fn fit_closed_loop(
+pub fn fit_closed_loop(
     params: &ExperimentParams,
     orders: Orders,
     r: &[f64],

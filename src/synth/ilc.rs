@@ -293,6 +293,40 @@ mod tests {
         assert!(max(&e1) < 1e-9, "{}", max(&e1));
     }
 
+    /// `run_trials` plays trial 0 without feedforward, learns on the
+    /// window only, and returns what the last trial played: with a window
+    /// that starts past the trial nothing is learned; with the whole trial
+    /// an error of constant `c` is learned as `a c` (L = 1 / G, G = 1).
+    #[test]
+    fn trials_learn_on_their_window() {
+        let g = DiscreteTf::new(vec![1.0], vec![1.0], 0, 1e-4).unwrap();
+        let mut d = design(&g, &IlcParams::default()).unwrap();
+        d.q = vec![1.0];
+        let mut played = Vec::new();
+        let run = |f: &[f64]| -> Result<Vec<f64>, ()> {
+            Ok((0..50)
+                .map(|k| 2.0 - f.get(k).copied().unwrap_or(0.0))
+                .collect())
+        };
+        let (f, e) = d
+            .run_trials(
+                2,
+                0,
+                |trial, f| {
+                    played.push((trial, f.len()));
+                    run(f)
+                },
+                |e| e.clone(),
+            )
+            .unwrap();
+        assert_eq!(played, vec![(0, 0), (1, 50), (2, 50)]);
+        // a = 1: 2, then the error is 0 (the preview's tail aside).
+        assert!((f[10] - 2.0).abs() < 1e-12, "{}", f[10]);
+        assert!(e[10].abs() < 1e-12);
+        let (f, _) = d.run_trials(2, 50, |_, f| run(f), |e| e.clone()).unwrap();
+        assert!(f.iter().all(|v| *v == 0.0));
+    }
+
     #[test]
     fn a_gain_beyond_two_fails_the_condition() {
         let g = DiscreteTf::new(vec![0.5], vec![1.0, -0.5], 1, 1e-4).unwrap();

@@ -739,7 +739,8 @@ pub struct SimulateReport {
     /// Step figures of a step reference (`None` for other references).
     pub step: Option<Result<StepTracking, NoStepInfo>>,
     /// With a repetitive compensator: the largest `|e|` over each of its
-    /// periods from the end of the lead-in ramp, how its error contracts.
+    /// whole periods from the end of the lead-in ramp to the end of the
+    /// evaluated window, how its error contracts.
     pub periods: Option<Vec<f64>>,
 }
 
@@ -754,7 +755,8 @@ impl SimulateReport {
         let metrics = closed_loop::metrics(&trace, reference.evaluated(), file.command_limits());
         let periods = file.repetitive.as_ref().map(|rc| {
             let period = rc.period as f64 + rc.fraction;
-            closed_loop::max_error_per_period(&trace.error(), reference.ramp_end, period)
+            let error = &trace.error()[..reference.evaluate_to];
+            closed_loop::max_error_per_period(error, reference.ramp_end, period)
         });
         Self {
             file,
@@ -874,7 +876,7 @@ fn write_periods(f: &mut fmt::Formatter<'_>, periods: &[f64]) -> fmt::Result {
     };
     writeln!(
         f,
-        "repetitive: max |e| per period from the end of the lead-in, {} periods: {first:.4} -> {last:.4} um ({:.1}x)",
+        "repetitive: max |e| per period from the end of the lead-in ramp, {} periods: {first:.4} -> {last:.4} um ({:.1}x)",
         periods.len(),
         first / last
     )?;
