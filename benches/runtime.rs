@@ -52,17 +52,10 @@ fn repetitive_benches(c: &mut Criterion) {
     let q: Vec<f64> = (0..=16)
         .map(|i| if i == 0 { 0.5 } else { 0.5 / 32.0 })
         .collect();
-    let pid = PidSpec {
-        kp: 0.02,
-        ki: 0.15,
-        kd: 0.0,
-        output_min: 0.0,
-        output_max: 10.0,
-    };
     let with_rc = RuntimeSpec {
         zpetc: None,
         hysteresis: None,
-        feedback: FeedbackSpec::Pid(pid),
+        feedback: FeedbackSpec::Pid(fts::sim::experiment::DEFAULT_PID),
         repetitive: Some(RepetitiveSpec {
             period: 10_000,
             fraction: 0.5,

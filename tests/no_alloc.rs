@@ -162,19 +162,14 @@ fn state_space_controller_step_does_not_allocate() {
 #[test]
 fn repetitive_block_and_table_do_not_allocate() {
     use fts::runtime::{
-        FeedbackSpec, FeedforwardTable, PidSpec, RepetitiveSpec, RuntimeController, RuntimeSpec,
+        FeedbackSpec, FeedforwardTable, RepetitiveSpec, RuntimeController, RuntimeSpec,
     };
+    use fts::sim::experiment::DEFAULT_PID;
     let q: Vec<f64> = (0..=16).map(|i| 1.0 / (1.0 + i as f64) / 4.0).collect();
     let spec = RuntimeSpec {
         zpetc: None,
         hysteresis: None,
-        feedback: FeedbackSpec::Pid(PidSpec {
-            kp: 0.02,
-            ki: 0.15,
-            kd: 0.0,
-            output_min: 0.0,
-            output_max: 10.0,
-        }),
+        feedback: FeedbackSpec::Pid(DEFAULT_PID),
         repetitive: Some(RepetitiveSpec {
             period: 10_000,
             fraction: 0.25,
