@@ -403,3 +403,31 @@ fn sb10hd_continuous_h2_controller_matches_slicot() {
     assert!(r.h2_norm <= h2_theirs * (1.0 + 1e-12));
     assert!(h2_theirs / r.h2_norm - 1.0 < 1e-4);
 }
+
+#[test]
+fn discrete_h2_with_a_singular_control_channel_is_regularised() {
+    // SB10ED's plant with D12 = 0 (no direct control penalty): the control
+    // channel gets the weight eps; the achieved norm on the original plant is
+    // at most the regularised problem's optimum, and close to it.
+    let ex = read_dat("SB10ED", Some(1.0));
+    let mut p = ex.plant.clone();
+    for i in 0..3 {
+        for j in 3..5 {
+            p.d[(i, j)] = 0.0;
+        }
+    }
+    for eps in [1e-3, 1e-6] {
+        let r = h2syn(&p, 2, 2, eps).unwrap();
+        // 1e-6 is raised until the DARE solves (docs/robust.md).
+        let weight = r.regularised.0.unwrap();
+        assert!(weight >= eps && weight <= 1e6 * eps && r.regularised.1.is_none());
+        assert!(r.stable);
+        let opt = r.h2_optimum.unwrap();
+        println!(
+            "D12 = 0, eps {eps:e}: weight {weight:e}, H2 {} (regularised optimum {opt})",
+            r.h2_norm
+        );
+        assert!(r.h2_norm <= opt * (1.0 + 1e-9));
+        assert!(opt / r.h2_norm - 1.0 < 1e-3);
+    }
+}

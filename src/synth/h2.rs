@@ -100,14 +100,13 @@ pub fn h2syn(
         ));
     }
     p0.check_stabilisable_in(plant.ts.is_some())?;
-    let mut p = p0.clone();
-    let regularised = match plant.ts {
-        None => p.regularise(eps),
-        Some(_) => p.regularise_discrete(eps),
-    };
-    let design = match plant.ts {
-        None => continuous(&p)?,
-        Some(ts) => discrete(&p, ts)?,
+    let (regularised, design) = match plant.ts {
+        None => {
+            let mut p = p0.clone();
+            let regularised = p.regularise(eps);
+            (regularised, continuous(&p)?)
+        }
+        Some(ts) => discrete_regularised(&p0, eps, ts)?,
     };
     let k = if fro(&p0.d22) == 0.0 {
         design.k
@@ -130,6 +129,32 @@ pub fn h2syn(
         residual_floor: design.xs.residual_floor.max(design.ys.residual_floor),
         regularised,
     })
+}
+
+/// Regularisation weights of `D12` / `D21` (`None`: not needed).
+type Weights = (Option<f64>, Option<f64>);
+
+/// The discrete design, regularised where `D12` / `D21` lack full rank:
+/// with the weight `eps`, raised tenfold (at most to `1e6 eps`) while the
+/// DAREs fail. A tiny weight makes `R1 = eps^2 I` and the symplectic
+/// pencil's `B R^-1 B'` huge, which the pencil solver cannot separate from
+/// the unit circle (SB10ED's plant with `D12 = 0` fails at `eps = 1e-6`);
+/// the weight used is reported in the result.
+fn discrete_regularised(
+    p0: &Partition,
+    eps: f64,
+    ts: f64,
+) -> Result<(Weights, Design), SynthError> {
+    let mut weight = eps;
+    loop {
+        let mut p = p0.clone();
+        let regularised = p.regularise_discrete(weight);
+        match discrete(&p, ts) {
+            Ok(d) => return Ok((regularised, d)),
+            Err(e) if regularised == (None, None) || weight >= 1e6 * eps => return Err(e),
+            Err(_) => weight *= 10.0,
+        }
+    }
 }
 
 /// `F_l(P, K)`, its poles, stability and H2 norm (infinite when unstable).
