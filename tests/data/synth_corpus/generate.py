@@ -17,7 +17,16 @@ References, each computed here independently of fts:
   whose closed loop is stable and whose H-inf norm (dense sweep of the unit
   circle, refined around the peak) is at most gamma (1 + 1e-6), by
   bisection to 1e-5: an upper bound on the optimum that SLICOT's claims
-  alone do not give (its gamma is not trusted without that check).
+  alone do not give (its gamma is not trusted without that check). Then
+  the discrete Riccati feasibility conditions (`conditions` below: X and Z
+  stabilising, positive semidefinite, accurate to 1e-6, with `R3 > 0`,
+  `Nabla < 0`, `St3 > 0`, `St1 - St2 St3^-1 St2' < 0`, as in SB10DD) are
+  evaluated with SciPy's DARE solver at `gamma (1 + 1e-4)`, where they must
+  hold (else the case is dropped), and at `gamma (1 - 1e-4)`, where the
+  reason they fail is stored (`conditions_below.fails`; null if they hold).
+  A failure by "not PSD" or a violated inequality is evidence that no
+  controller reaches that level; "residual" (SciPy's solution inaccurate
+  there) is not.
 """
 
 import json
@@ -73,6 +82,72 @@ def hinf_discrete(cl):
     i = int(np.argmax(vals))
     fine = np.linspace(grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)], 2001)
     return float(max(max(vals), max(sig(t) for t in fine)))
+
+
+def psd(M, tol=1e-9):
+    M = 0.5 * (M + M.T)
+    return np.linalg.eigvalsh(M).min() >= -tol * max(1.0, np.abs(M).max())
+
+def pd(M):
+    M = 0.5 * (M + M.T)
+    return np.linalg.eigvalsh(M).min() > 0
+
+def dare_stab(A, B, Q, R, S):
+    X = sl.solve_discrete_are(A, B, Q, R, s=S)
+    K = np.linalg.solve(R + B.T @ X @ B, B.T @ X @ A + S.T)
+    res = A.T @ X @ A - X - (A.T @ X @ B + S) @ K + Q
+    if np.abs(res).max() > 1e-6 * max(1.0, np.abs(X).max()):
+        raise np.linalg.LinAlgError("residual")
+    if max(abs(np.linalg.eigvals(A - B @ K))) >= 1:
+        raise np.linalg.LinAlgError("not stabilising")
+    return X
+
+def conditions(p, ncon, nmeas, g):
+    A, B, C, D = p
+    n = A.shape[0]; m1 = B.shape[1] - ncon; p1 = C.shape[0] - nmeas; m2, p2 = ncon, nmeas
+    B1, B2, C1, C2 = B[:, :m1], B[:, m1:], C[:p1], C[p1:]
+    D1 = D[:p1]; D21 = D[p1:, :m1]
+    g2 = g * g
+    R0 = D1.T @ D1; R0[:m1, :m1] -= g2 * np.eye(m1)
+    try:
+        X = dare_stab(A, B, C1.T @ C1, R0, C1.T @ D1)
+    except (np.linalg.LinAlgError, ValueError) as e:
+        return "X: %s" % e
+    if not psd(X):
+        return "X not PSD"
+    R = R0 + B.T @ X @ B
+    R1, R2, R3 = R[:m1, :m1], R[m1:, :m1], R[m1:, m1:]
+    if not pd(R3):
+        return "R3"
+    V12t = np.linalg.cholesky(R3)
+    R2s = np.linalg.solve(V12t, R2)
+    negnab = R2s.T @ R2s - R1
+    if not pd(negnab):
+        return "Nabla"
+    V21t = np.linalg.cholesky(negnab)
+    L = D1.T @ C1 + B.T @ X @ A
+    L2 = np.linalg.solve(V12t, L[m1:])
+    Lt = np.linalg.solve(V21t, L[:m1] - R2s.T @ L2)
+    V21i = np.linalg.inv(V21t).T
+    Bt1 = B1 @ V21i
+    At = A + Bt1 @ Lt
+    Dt = np.vstack([R2s, D21]) @ V21i
+    Ct = np.vstack([L2, C2]) + Dt @ Lt
+    Bt1, Dt = g * Bt1, g * Dt
+    S0 = Dt @ Dt.T; S0[:m2, :m2] -= g2 * np.eye(m2)
+    try:
+        Z = dare_stab(At.T, Ct.T, Bt1 @ Bt1.T, S0, Bt1 @ Dt.T)
+    except (np.linalg.LinAlgError, ValueError) as e:
+        return "Z: %s" % e
+    if not psd(Z):
+        return "Z not PSD"
+    St = S0 + Ct @ Z @ Ct.T
+    St1, St2, St3 = St[:m2, :m2], St[:m2, m2:], St[m2:, m2:]
+    if not pd(St3):
+        return "St3"
+    if not pd(-(St1 - St2 @ np.linalg.solve(St3, St2.T))):
+        return "St"
+    return None
 
 
 def random_plant(rng, n, m1, m2, p1, p2, discrete, d11, d22):
@@ -160,8 +235,17 @@ def discrete_hinf_case(rng, name, dims, d22):
             lo = mid
         else:
             hi = mid
+    # The discrete Riccati conditions (SB10DD's, plus X >= 0 and Z >= 0),
+    # evaluated here with SciPy's DARE solver, must hold just above the
+    # verified level; just below it they show where gamma cannot go.
+    above = conditions(p, ncon, nmeas, hi * (1 + 1e-4))
+    if above is not None:
+        print(f"{name}: dropped (conditions fail above the verified level: {above})")
+        return None
+    below = conditions(p, ncon, nmeas, hi * (1 - 1e-4))
     return {"kind": "hinf", "ts": 1.0, "slycot_verified_gamma": hi,
-            "slycot_achieved": verified(hi)}, p
+            "slycot_achieved": verified(hi),
+            "conditions_below": {"gamma": hi * (1 - 1e-4), "fails": below}}, p
 
 
 def main():
