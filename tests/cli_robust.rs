@@ -447,7 +447,9 @@ fn h2_and_hinf_accept_discrete_plants() {
         ])
         .assert()
         .success()
-        .stderr(predicate::str::contains("less than the pole margin"));
+        .stderr(predicate::str::contains(
+            "less than the required pole margin",
+        ));
     fts()
         .args(["hinf", "--generalized"])
         .arg(&p)

@@ -326,7 +326,9 @@ fn sb10dd_central_controller_matches_slicot_near_its_gamma() {
     // frequency response on the unit circle agrees with SLICOT's printed one.
     let (ex, gamma_slicot) = sb10dd();
     let p = Partition::new(&ex.plant, ex.nmeas, ex.ncon).unwrap();
-    let k = discrete_central(&p, gamma_slicot * (1.0 + 5e-5), 1.0).unwrap();
+    let c = discrete_central(&p, gamma_slicot * (1.0 + 5e-5), 1.0).unwrap();
+    assert!(c.x_residual < 1e-10 && c.z_residual < 1e-10_f64.max(c.residual_floor));
+    let k = c.k;
     let theirs = slicot_controller("SB10DD", Some(1.0));
     let kd = max_response_diff(&k, &theirs);
     println!("SB10DD: max |K_fts - K_slicot| on the unit circle {kd:.2e}");

@@ -29,7 +29,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::genplant::{Partition, SynthError, chol_factor, inv_or};
-use crate::lti::riccati::dare;
+use crate::lti::riccati::{RiccatiSolution, dare};
 use crate::lti::ss::{StateSpace, fro, hcat, sub, tr, vcat};
 use faer::Mat;
 
@@ -48,6 +48,7 @@ fn minus_g2(mut m: Mat<f64>, k: usize, g2: f64) -> Mat<f64> {
 /// The X step: the DARE, the factors `V12'` (lower, `R3 = V12' V12`) and
 /// `V21'` (lower, `-Nabla = V21' V21`), `R2 <- V12^-T R2`, and `L~`.
 struct XStep {
+    xs: RiccatiSolution,
     v12t: Mat<f64>,
     v21t: Mat<f64>,
     r2: Mat<f64>,
@@ -82,6 +83,7 @@ fn x_step(p: &Partition, g2: f64) -> Result<XStep, SynthError> {
     let ln = &sub(&l, 0, m1, 0, n) - &(tr(&r2) * &l2);
     let ltilde = inv_or(&v21t, "V21'")? * ln;
     Ok(XStep {
+        xs,
         v12t,
         v21t,
         r2,
@@ -90,8 +92,21 @@ fn x_step(p: &Partition, g2: f64) -> Result<XStep, SynthError> {
     })
 }
 
+/// SB10DD's central controller and the accuracy of its two DAREs.
+#[derive(Debug, Clone)]
+pub struct DiscreteCentral {
+    /// The controller (`u = K y`), `D22` included.
+    pub k: StateSpace,
+    /// Relative residuals of the X and Z equations.
+    pub x_residual: f64,
+    pub z_residual: f64,
+    /// The larger rounding floor of the two
+    /// ([`crate::lti::riccati::RiccatiSolution::residual_floor`]).
+    pub residual_floor: f64,
+}
+
 /// The central controller `K^` before the `D22` loop shift.
-fn central_hat(p: &Partition, gamma: f64) -> Result<StateSpace, SynthError> {
+fn central_hat(p: &Partition, gamma: f64) -> Result<DiscreteCentral, SynthError> {
     let (m2, p2, n) = (p.m2(), p.p2(), p.n());
     let g2 = gamma * gamma;
     let xs = x_step(p, g2)?;
@@ -130,19 +145,27 @@ fn central_hat(p: &Partition, gamma: f64) -> Result<StateSpace, SynthError> {
     let bk0 = &(&(&bt1 * tr(&dt21)) + &(&at * &zs.x * tr(&ct2))) * &st3i;
     let ak = &(&at + &p.b2 * &ck) - &bk0 * &ct2;
     let bk = &bk0 + &p.b2 * &dk;
-    StateSpace::new(ak, bk, ck, dk, None).map_err(|e| SynthError::Numerical(e.to_string()))
+    let k =
+        StateSpace::new(ak, bk, ck, dk, None).map_err(|e| SynthError::Numerical(e.to_string()))?;
+    Ok(DiscreteCentral {
+        k,
+        x_residual: xs.xs.residual,
+        z_residual: zs.residual,
+        residual_floor: xs.xs.residual_floor.max(zs.residual_floor),
+    })
 }
 
 /// SLICOT SB10DD's central controller for the discrete plant `p` (sample
 /// time `ts`) at level `gamma`, `D22` included (`u = K y`).
-pub fn discrete_central(p: &Partition, gamma: f64, ts: f64) -> Result<StateSpace, SynthError> {
-    let mut k = central_hat(p, gamma)?;
-    k.ts = Some(ts);
-    if fro(&p.d22) == 0.0 {
-        return Ok(k);
+pub fn discrete_central(p: &Partition, gamma: f64, ts: f64) -> Result<DiscreteCentral, SynthError> {
+    let mut c = central_hat(p, gamma)?;
+    c.k.ts = Some(ts);
+    if fro(&p.d22) != 0.0 {
+        c.k =
+            c.k.feedback(&StateSpace::gain(p.d22.clone(), Some(ts)))
+                .map_err(|_| {
+                    SynthError::Numerical("the controller's loop with D22 is not well posed".into())
+                })?;
     }
-    k.feedback(&StateSpace::gain(p.d22.clone(), Some(ts)))
-        .map_err(|_| {
-            SynthError::Numerical("the controller's loop with D22 is not well posed".into())
-        })
+    Ok(c)
 }

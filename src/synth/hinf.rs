@@ -79,7 +79,8 @@ pub struct HinfResult {
     pub poles: Vec<c64>,
     /// Whether it is stable.
     pub stable: bool,
-    /// Relative residuals of the X and Y Riccati equations.
+    /// Relative residuals of the X and Y Riccati equations (of X and Z,
+    /// the discrete ones, when `form` is [`ControllerForm::DiscreteCentral`]).
     pub x_residual: f64,
     pub y_residual: f64,
     /// The larger rounding floor of the two residuals
@@ -561,9 +562,11 @@ impl Verify<'_> {
     /// continuous plants) the continuous central controller, mapped back.
     fn build(&self, at: &AtGamma, gamma: f64) -> Result<Built, SynthError> {
         if let (Some(dp), Some(ts)) = (&self.discrete, self.plant.ts)
-            && let Ok(k) = discrete_central(dp, gamma, ts)
+            && let Ok(c) = discrete_central(dp, gamma, ts)
         {
-            return close(self.plant, k, ControllerForm::DiscreteCentral);
+            let mut built = close(self.plant, c.k, ControllerForm::DiscreteCentral)?;
+            built.residuals = Some((c.x_residual, c.z_residual, c.residual_floor));
+            return Ok(built);
         }
         finish(self.plant, self.norm, self.p0, at)
     }
@@ -576,7 +579,9 @@ impl Verify<'_> {
             stable,
             achieved,
             form,
+            residuals,
         } = built;
+        let (xres, yres, floor) = residuals.unwrap_or((at.xres, at.yres, at.floor));
         let margin = self
             .plant
             .ts
@@ -596,9 +601,9 @@ impl Verify<'_> {
             closed_loop,
             poles,
             stable,
-            x_residual: at.xres,
-            y_residual: at.yres,
-            residual_floor: at.floor,
+            x_residual: xres,
+            y_residual: yres,
+            residual_floor: floor,
             regularised: self.regularised,
             iterations: self.iterations,
         }
@@ -648,6 +653,8 @@ struct Built {
     stable: bool,
     achieved: f64,
     form: ControllerForm,
+    /// The discrete central controller's X and Z residuals and floor.
+    residuals: Option<(f64, f64, f64)>,
 }
 
 fn finish(
@@ -693,6 +700,7 @@ fn close(plant: &StateSpace, k: StateSpace, form: ControllerForm) -> Result<Buil
         stable,
         achieved,
         form,
+        residuals: None,
     })
 }
 

@@ -400,9 +400,8 @@ impl HinfReport {
         if let (Some(false), Some(m)) = (r.pole_margin_met, r.pole_margin) {
             w.push(format!(
                 "a closed-loop pole the controller moves lies {m:.3e} from the unit circle \
-                 (|z| = {:.6}), less than the pole margin {:.1e}, at every level up to \
-                 1.1 times the optimum: the loop is nearly unstable; relax the weights or \
-                 lower --pole-margin",
+                 (|z| = {:.6}), less than the required pole margin {:.1e}, at every level up \
+                 to 1.1 times the optimum: relax the weights or lower --pole-margin",
                 1.0 - m,
                 self.pole_margin
             ));
