@@ -357,3 +357,104 @@ fn ss_info_always_prints_the_zeros_and_the_normal_rank() {
         assert_eq!(v["normal_rank"].as_u64(), Some(rank));
     }
 }
+
+/// A SLICOT example plant (`tests/data/slicot/NAME.dat`, read in the order
+/// of its example program) as a discrete `fts.ss/1` file with `ts = 1`.
+fn slicot_plant_json(name: &str) -> String {
+    let path = format!(
+        "{}/tests/data/slicot/{name}.dat",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path).unwrap();
+    let nums: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .flat_map(|l| l.split_whitespace())
+        .map(|t| t.parse().unwrap())
+        .collect();
+    let (n, m, np) = (nums[0] as usize, nums[1] as usize, nums[2] as usize);
+    let mut at = 5;
+    let mut take = |r: usize, c: usize| {
+        let rows: Vec<Vec<f64>> = (0..r)
+            .map(|i| nums[at + i * c..at + (i + 1) * c].to_vec())
+            .collect();
+        at += r * c;
+        serde_json::to_string(&rows).unwrap()
+    };
+    let (a, b, c, d) = (take(n, n), take(n, m), take(np, n), take(np, m));
+    format!(r#"{{"format":"fts.ss/1","ts":1,"a":{a},"b":{b},"c":{c},"d":{d}}}"#)
+}
+
+#[test]
+fn h2_and_hinf_accept_discrete_plants() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "ed.json", &slicot_plant_json("SB10ED"));
+    let out = fts()
+        .args(["h2", "--generalized"])
+        .arg(&p)
+        .args(["--nmeas", "2", "--ncon", "2", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    let (h2, opt) = (
+        v["h2_norm"].as_f64().unwrap(),
+        v["h2_optimum"].as_f64().unwrap(),
+    );
+    // SLICOT SB10ED's example (tests/slicot_synth.rs): 78.6033163702.
+    assert!((h2 / 78.6033163702 - 1.0).abs() < 1e-9, "{h2}");
+    assert!((h2 / opt - 1.0).abs() < 1e-10);
+    let rho = v["closed_loop_spectral_radius"].as_f64().unwrap();
+    assert!(rho > 0.8 && rho < 0.82, "{rho}");
+    assert_eq!(v["controller"]["ts"].as_f64(), Some(1.0));
+    // The summary names the discrete figures.
+    fts()
+        .args(["h2", "--generalized"])
+        .arg(&p)
+        .args(["--nmeas", "2", "--ncon", "2"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("spectral radius 0.81"));
+    let p = write(dir.path(), "dd.json", &slicot_plant_json("SB10DD"));
+    let out = fts()
+        .args(["hinf", "--generalized"])
+        .arg(&p)
+        .args(["--nmeas", "2", "--ncon", "2", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    assert!(v["gamma"].as_f64().unwrap() < 111.294 * (1.0 + 1e-4));
+    assert_eq!(v["pole_margin"]["met"], Value::Bool(true));
+    assert!(v["closed_loop_spectral_radius"].as_f64().unwrap() < 0.82);
+    assert_eq!(v["controller_form"], "discrete central (SB10DD)");
+    // An unreachable margin is a warning on stderr (and in the summary).
+    fts()
+        .args(["hinf", "--generalized"])
+        .arg(&p)
+        .args([
+            "--nmeas",
+            "2",
+            "--ncon",
+            "2",
+            "--pole-margin",
+            "0.5",
+            "--json",
+        ])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains(
+            "less than the required pole margin",
+        ));
+    fts()
+        .args(["hinf", "--generalized"])
+        .arg(&p)
+        .args(["--nmeas", "2", "--ncon", "2", "--pole-margin", "1.5"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("margin"));
+}

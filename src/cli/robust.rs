@@ -60,6 +60,11 @@ pub struct SynthArgs {
     /// The controller is built for the bisection bound * (1 + BACKOFF) (H-inf only).
     #[arg(long, default_value_t = Hinf::default().backoff)]
     backoff: f64,
+    /// Discrete plants (H-inf only): the smallest 1 - |z| accepted for a
+    /// closed-loop pole the controller moves; the synthesis backs off from
+    /// the optimum to meet it and warns when it cannot.
+    #[arg(long, default_value_t = Hinf::default().pole_margin)]
+    pole_margin: f64,
 }
 
 impl SynthArgs {
@@ -71,6 +76,7 @@ impl SynthArgs {
             tol: self.tol,
             gamma_max: self.gamma_max,
             backoff: self.backoff,
+            pole_margin: self.pole_margin,
         }
     }
 }

@@ -114,14 +114,23 @@ impl Partition {
     /// reject well-posed plants with slow stable weights next to fast ones,
     /// e.g. Ding22's `W_e` pole at `-6.9e-4` beside a `W_u` pole at `-1e8`.)
     pub fn check_stabilisable(&self) -> Result<(), SynthError> {
+        self.check_stabilisable_in(false)
+    }
+
+    /// [`Self::check_stabilisable`] for a continuous (`discrete = false`)
+    /// or discrete plant: in discrete time the modes to test are those with
+    /// `|z| >= 1` (within the same relative margin), and the messages name `z`.
+    pub fn check_stabilisable_in(&self, discrete: bool) -> Result<(), SynthError> {
         let n = self.n();
         let ev = eigvals(&self.a).map_err(|e| SynthError::Numerical(e.to_string()))?;
         let scale = fro(&self.a)
             .max(fro(&self.b2))
             .max(fro(&self.c2))
             .max(1e-300);
+        let var = if discrete { "z" } else { "s" };
         for l in ev {
-            if l.re < -1e-12 * scale.max(1.0) {
+            let margin = if discrete { 1.0 - l.norm() } else { -l.re };
+            if margin > 1e-12 * scale.max(1.0) {
                 continue;
             }
             let shifted = |i: usize, j: usize| {
@@ -137,8 +146,8 @@ impl Partition {
             });
             if smin(&mb) <= 1e-10 * scale {
                 return Err(SynthError::NotStabilisable(format!(
-                    "the plant is not stabilisable: the mode at s = {:.6}{:+.6}j is not reachable \
-                     from the control inputs (A, B2)",
+                    "the plant is not stabilisable: the mode at {var} = {:.6}{:+.6}j is not \
+                     reachable from the control inputs (A, B2)",
                     l.re, l.im
                 )));
             }
@@ -151,8 +160,8 @@ impl Partition {
             });
             if smin(&mc) <= 1e-10 * scale {
                 return Err(SynthError::NotStabilisable(format!(
-                    "the plant is not detectable: the mode at s = {:.6}{:+.6}j is not seen by \
-                     the measurements (C2, A)",
+                    "the plant is not detectable: the mode at {var} = {:.6}{:+.6}j is not seen \
+                     by the measurements (C2, A)",
                     l.re, l.im
                 )));
             }
@@ -182,19 +191,45 @@ impl Partition {
     /// closed-loop norm on the original plant is at most its norm on the
     /// regularised one (docs/robust.md, "Conditioning").
     pub fn regularise_with(&mut self, eps: f64, small_too: bool) -> (Option<f64>, Option<f64>) {
-        let (n, m2, p2) = (self.n(), self.m2(), self.p2());
-        let tol = 1e-12;
         let radius = eigvals(&self.a)
             .map(|ev| ev.iter().fold(0.0f64, |r, l| r.max(l.norm())))
             .unwrap_or(0.0)
             .max(1e-300);
         let floor = |markov: f64| (markov / (1e3 * radius)).max(eps);
-        let needs =
-            |d: &Mat<f64>, k: usize, e: f64| rank(d, tol) < k || (small_too && sigma_min(d) < e);
         let f12 = floor(fro(&(&self.c1 * &self.b2)));
         let f21 = floor(fro(&(&self.c2 * &self.b1)));
+        self.add_channels((f12, f21), small_too)
+    }
+
+    /// Regularisation of a discrete-time plant: the weight `eps` itself, only
+    /// where `D12` / `D21` lack full rank. (The conditioning floor of
+    /// [`Self::regularise`] is about continuous cheap-control poles running
+    /// off to infinity; a discrete controller's poles stay in a bounded set.)
+    pub fn regularise_discrete(&mut self, eps: f64) -> (Option<f64>, Option<f64>) {
+        self.add_channels((eps, eps), false)
+    }
+
+    /// Adds the `e12 u` / `e21 v` channels where needed (see [`Self::regularise_with`]).
+    fn add_channels(
+        &mut self,
+        (f12, f21): (f64, f64),
+        small_too: bool,
+    ) -> (Option<f64>, Option<f64>) {
+        let (m2, p2) = (self.m2(), self.p2());
+        let tol = 1e-12;
+        let needs =
+            |d: &Mat<f64>, k: usize, e: f64| rank(d, tol) < k || (small_too && sigma_min(d) < e);
         let r12 = needs(&self.d12, m2, f12).then_some(f12);
         let r21 = needs(&self.d21, p2, f21).then_some(f21);
+        self.add_regularisation((r12, r21));
+        (r12, r21)
+    }
+
+    /// Adds exactly the channels `(e12, e21)` (as returned by
+    /// [`Self::regularise_with`]), e.g. to a discrete plant whose bilinear
+    /// equivalent was regularised: a static channel maps to itself.
+    pub fn add_regularisation(&mut self, (r12, r21): (Option<f64>, Option<f64>)) {
+        let (n, m2, p2) = (self.n(), self.m2(), self.p2());
         if let Some(e) = r12 {
             self.c1 = vcat(&self.c1, &Mat::zeros(m2, n));
             self.d11 = vcat(&self.d11, &Mat::zeros(m2, self.m1()));
@@ -205,7 +240,6 @@ impl Partition {
             self.d11 = hcat(&self.d11, &Mat::zeros(self.p1(), p2));
             self.d21 = hcat(&self.d21, &(Mat::<f64>::identity(p2, p2) * e));
         }
-        (r12, r21)
     }
 }
 

@@ -13,6 +13,7 @@
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::dhinf::discrete_central;
 use super::genplant::{
     Normalised, Partition, SynthError, chol_factor, denormalise, inv_or, normalise,
 };
@@ -36,6 +37,10 @@ pub struct HinfOptions {
     /// at the optimum itself `I - Y X / gamma^2` is singular and the central
     /// controller is numerically meaningless (cf. MATLAB hinfsyn's backoff).
     pub backoff: f64,
+    /// Discrete plants: the smallest accepted `1 - |z|` of a closed-loop
+    /// pole the controller moves (fixed plant modes exempt); the synthesis
+    /// backs off from the optimum (at most to `1.1 gamma_opt`) to meet it.
+    pub pole_margin: f64,
 }
 
 impl Default for HinfOptions {
@@ -45,6 +50,7 @@ impl Default for HinfOptions {
             eps: 1e-6,
             gamma_max: 1e8,
             backoff: 1e-4,
+            pole_margin: 1e-4,
         }
     }
 }
@@ -73,7 +79,8 @@ pub struct HinfResult {
     pub poles: Vec<c64>,
     /// Whether it is stable.
     pub stable: bool,
-    /// Relative residuals of the X and Y Riccati equations.
+    /// Relative residuals of the X and Y Riccati equations (of X and Z,
+    /// the discrete ones, when `form` is [`ControllerForm::DiscreteCentral`]).
     pub x_residual: f64,
     pub y_residual: f64,
     /// The larger rounding floor of the two residuals
@@ -83,6 +90,15 @@ pub struct HinfResult {
     pub regularised: (Option<f64>, Option<f64>),
     /// Bisection steps.
     pub iterations: usize,
+    /// Discrete plants: the closed loop's spectral radius (`None` when continuous).
+    pub spectral_radius: Option<f64>,
+    /// Discrete plants: [`moved_pole_margin`], `1 - |z|` of the closed-loop
+    /// pole nearest the unit circle that is not a fixed plant mode.
+    pub pole_margin: Option<f64>,
+    /// Discrete plants: whether `pole_margin >= HinfOptions::pole_margin`.
+    pub pole_margin_met: Option<bool>,
+    /// How the controller was built.
+    pub form: ControllerForm,
 }
 
 impl HinfResult {
@@ -425,94 +441,220 @@ fn hinfsyn_regularised(
             Err(e) => return Err(e),
         }
     }
-    let gamma_opt = hi;
-    // Build the controller at gamma_opt (1 + backoff) and verify it on the
-    // original plant: closed loop stable and its recomputed H-inf norm within
-    // VERIFY_RTOL of the level it was built for, or within twice the backoff
-    // of gamma_opt. Near the optimum the central
-    // controller depends on `(I - Y X / gamma^2)^-1`, so on nearly singular
-    // problems (gamma_opt in the 1e5..1e7 range, X and Y huge) it can miss
-    // the level by 1e-4 and more; then back off ten times further and
-    // rebuild (at most up to 1.1 gamma_opt), and if no level verifies,
-    // report the problem rather than return a controller that does not
-    // achieve the gamma it claims.
-    const VERIFY_RTOL: f64 = 1e-6;
-    let mut backoff = opts.backoff;
-    let mut candidate: Option<(f64, AtGamma)> = if backoff > 0.0 {
-        None
-    } else {
-        Some((hi, best))
+    let ctx = Verify {
+        plant,
+        norm: &norm,
+        p0,
+        discrete: discrete_partition(plant, p0, regularised)?,
+        regularised,
+        iterations,
+        opts,
     };
-    let (gamma, achieved, stable) = loop {
-        let (gamma, at) = match candidate.take() {
-            Some(c) => c,
-            None => {
-                let gb = hi * (1.0 + backoff);
-                match feasible(&norm.p, &pss, gb) {
-                    Ok(r) => (gb, r),
-                    Err(SynthError::Infeasible(_)) if backoff <= opts.backoff => {
-                        // As before: the optimum's own controller.
-                        (hi, central(&norm.p, hi)?)
-                    }
-                    Err(e) => return Err(e),
+    ctx.choose(hi, best)
+}
+
+/// What the verification of the controller needs besides the bisection's result.
+struct Verify<'a> {
+    plant: &'a StateSpace,
+    norm: &'a Normalised,
+    p0: &'a Partition,
+    /// The discrete plant (balanced, regularised like its bilinear
+    /// equivalent), for SB10DD's central controller; `None` when continuous.
+    discrete: Option<Partition>,
+    regularised: (Option<f64>, Option<f64>),
+    iterations: usize,
+    opts: HinfOptions,
+}
+
+/// The discrete plant in the synthesis coordinates: balanced, with the same
+/// regularising channels as its bilinear equivalent (a static channel maps
+/// to itself under the bilinear map).
+fn discrete_partition(
+    plant: &StateSpace,
+    p0: &Partition,
+    regularised: (Option<f64>, Option<f64>),
+) -> Result<Option<Partition>, SynthError> {
+    if plant.ts.is_none() {
+        return Ok(None);
+    }
+    let mut dp = Partition::new(&plant.balanced(), p0.p2(), p0.m2())?;
+    dp.add_regularisation(regularised);
+    Ok(Some(dp))
+}
+
+impl Verify<'_> {
+    /// Builds the controller at gamma_opt (1 + backoff) and verifies it on
+    /// the original plant: closed loop stable and its recomputed H-inf norm
+    /// within VERIFY_RTOL of the level it was built for, or within twice the
+    /// backoff of gamma_opt. Near the optimum the central controller depends
+    /// on `(I - Y X / gamma^2)^-1`, so on nearly singular problems
+    /// (gamma_opt in the 1e5..1e7 range, X and Y huge) it can miss the level
+    /// by 1e-4 and more; then back off ten times further and rebuild (at
+    /// most up to 1.1 gamma_opt). A discrete controller that verifies but
+    /// leaves a closed-loop pole closer to the unit circle than
+    /// `pole_margin` (a pole the controller moved, not a fixed plant mode)
+    /// also makes it back off; if no level up to 1.1 gamma_opt meets the
+    /// margin, the first verified controller is returned with
+    /// `pole_margin_met = Some(false)`. If no level verifies, the problem
+    /// is reported rather than a controller that does not achieve the gamma
+    /// it claims.
+    fn choose(&self, gamma_opt: f64, best: AtGamma) -> Result<HinfResult, SynthError> {
+        const VERIFY_RTOL: f64 = 1e-6;
+        let opts = self.opts;
+        let mut backoff = opts.backoff;
+        let mut candidate = (backoff <= 0.0).then_some((gamma_opt, best));
+        let mut first_verified: Option<HinfResult> = None;
+        let (gamma, achieved, stable) = loop {
+            let (gamma, at) = match candidate.take() {
+                Some(c) => c,
+                None => self.at_level(gamma_opt, backoff)?,
+            };
+            let built = self.build(&at, gamma)?;
+            // Accepted when it achieves its own level, or lies within twice the
+            // backoff of the bisection bound: on cheap-control problems the
+            // central controller near the optimum misses its level by 1e-6..1e-4
+            // while still beating every controller built further back (the
+            // reported gamma is the achieved norm either way).
+            let target = (gamma * (1.0 + VERIFY_RTOL)).max(gamma_opt * (1.0 + 2.0 * backoff));
+            if built.stable && built.achieved <= target {
+                let r = self.result(built.clone(), &at, gamma, gamma_opt);
+                if r.pole_margin_met != Some(false) {
+                    return Ok(r);
                 }
+                first_verified.get_or_insert(r);
+            }
+            backoff = if backoff > 0.0 { backoff * 10.0 } else { 1e-4 };
+            if backoff > 0.1 {
+                break (gamma, built.achieved, built.stable);
             }
         };
-        let built = finish(plant, &norm, p0, &at)?;
-        // Accepted when it achieves its own level, or lies within twice the
-        // backoff of the bisection bound: on cheap-control problems the
-        // central controller near the optimum misses its level by 1e-6..1e-4
-        // while still beating every controller built further back (the
-        // reported gamma is the achieved norm either way).
-        let target = (gamma * (1.0 + VERIFY_RTOL)).max(gamma_opt * (1.0 + 2.0 * backoff));
-        let ok = built.stable && built.achieved <= target;
-        if ok {
-            let Built {
-                k,
-                closed_loop,
-                poles,
-                stable,
-                achieved,
-            } = built;
-            return Ok(HinfResult {
-                k,
-                gamma: achieved,
-                design_level: gamma,
-                bisection_bound: gamma_opt,
-                closed_loop,
-                poles,
-                stable,
-                x_residual: at.xres,
-                y_residual: at.yres,
-                residual_floor: at.floor,
-                regularised,
-                iterations,
-            });
+        if let Some(r) = first_verified {
+            return Ok(r);
         }
-        backoff = if backoff > 0.0 { backoff * 10.0 } else { 1e-4 };
-        if backoff > 0.1 {
-            break (gamma, built.achieved, built.stable);
+        Err(SynthError::Numerical(format!(
+            "the central controller does not reach the gamma it is built for (gamma {gamma:.6e}, \
+             closed loop {}): the problem is too ill-conditioned (gamma_opt {gamma_opt:.3e}) for a \
+             reliable controller; scale the weights or add a control weight",
+            if stable {
+                format!("H-inf norm {achieved:.6e}")
+            } else {
+                "unstable".to_string()
+            }
+        )))
+    }
+
+    /// The central controller (continuous, normalised) at `gamma_opt (1 + backoff)`;
+    /// at the first backoff, the optimum's own if that level fails.
+    fn at_level(&self, gamma_opt: f64, backoff: f64) -> Result<(f64, AtGamma), SynthError> {
+        let pss = self.norm.p.to_ss()?;
+        let gb = gamma_opt * (1.0 + backoff);
+        match feasible(&self.norm.p, &pss, gb) {
+            Ok(r) => Ok((gb, r)),
+            Err(SynthError::Infeasible(_)) if backoff <= self.opts.backoff => {
+                Ok((gamma_opt, central(&self.norm.p, gamma_opt)?))
+            }
+            Err(e) => Err(e),
         }
-    };
-    Err(SynthError::Numerical(format!(
-        "the central controller does not reach the gamma it is built for (gamma {gamma:.6e}, \
-         closed loop {}): the problem is too ill-conditioned (gamma_opt {gamma_opt:.3e}) for a \
-         reliable controller; scale the weights or add a control weight",
-        if stable {
-            format!("H-inf norm {achieved:.6e}")
-        } else {
-            "unstable".to_string()
+    }
+
+    /// The controller on the original plant: for a discrete plant SB10DD's
+    /// discrete central controller at `gamma` when it exists, else (and for
+    /// continuous plants) the continuous central controller, mapped back.
+    fn build(&self, at: &AtGamma, gamma: f64) -> Result<Built, SynthError> {
+        if let (Some(dp), Some(ts)) = (&self.discrete, self.plant.ts)
+            && let Ok(c) = discrete_central(dp, gamma, ts)
+        {
+            let mut built = close(self.plant, c.k, ControllerForm::DiscreteCentral)?;
+            built.residuals = Some((c.x_residual, c.z_residual, c.residual_floor));
+            return Ok(built);
         }
-    )))
+        finish(self.plant, self.norm, self.p0, at)
+    }
+
+    fn result(&self, built: Built, at: &AtGamma, gamma: f64, gamma_opt: f64) -> HinfResult {
+        let Built {
+            k,
+            closed_loop,
+            poles,
+            stable,
+            achieved,
+            form,
+            residuals,
+        } = built;
+        let (xres, yres, floor) = residuals.unwrap_or((at.xres, at.yres, at.floor));
+        let margin = self
+            .plant
+            .ts
+            .map(|_| moved_pole_margin(&poles, &self.plant.a));
+        HinfResult {
+            k,
+            gamma: achieved,
+            design_level: gamma,
+            bisection_bound: gamma_opt,
+            spectral_radius: self
+                .plant
+                .ts
+                .map(|_| poles.iter().fold(0.0f64, |r, z| r.max(z.norm()))),
+            pole_margin: margin,
+            pole_margin_met: margin.map(|m| m >= self.opts.pole_margin),
+            form,
+            closed_loop,
+            poles,
+            stable,
+            x_residual: xres,
+            y_residual: yres,
+            residual_floor: floor,
+            regularised: self.regularised,
+            iterations: self.iterations,
+        }
+    }
+}
+
+/// `1 - |z|` of the closed-loop pole nearest the unit circle among those
+/// that are not modes of the plant's `A` (a mode neither reachable from `u`
+/// nor seen by `y` stays a closed-loop pole whatever the controller; it is
+/// the plant's, not the design's). 1 when every pole is a plant mode.
+pub fn moved_pole_margin(poles: &[c64], plant_a: &Mat<f64>) -> f64 {
+    let modes = eigvals(plant_a).unwrap_or_default();
+    let scale = 1.0 + plant_a.norm_l2();
+    poles
+        .iter()
+        .filter(|z| !modes.iter().any(|m| (*z - m).norm() <= 1e-8 * scale))
+        .map(|z| 1.0 - z.norm())
+        .fold(1.0, f64::min)
+}
+
+/// How the returned controller was built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ControllerForm {
+    /// The continuous central controller (Zhou, Doyle & Glover Thm 17.1),
+    /// mapped back by the bilinear transform for a discrete plant.
+    ContinuousCentral,
+    /// SLICOT SB10DD's discrete central controller ([`super::dhinf`]).
+    DiscreteCentral,
+}
+
+impl ControllerForm {
+    /// A short name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            ControllerForm::ContinuousCentral => "continuous central (Thm 17.1)",
+            ControllerForm::DiscreteCentral => "discrete central (SB10DD)",
+        }
+    }
 }
 
 /// A controller mapped back to the plant's coordinates with its closed loop.
+#[derive(Clone)]
 struct Built {
     k: StateSpace,
     closed_loop: StateSpace,
     poles: Vec<c64>,
     stable: bool,
     achieved: f64,
+    form: ControllerForm,
+    /// The discrete central controller's X and Z residuals and floor.
+    residuals: Option<(f64, f64, f64)>,
 }
 
 fn finish(
@@ -532,6 +674,11 @@ fn finish(
         Some(ts) => bilinear_to_discrete(&kc, 2.0 / ts, ts)
             .map_err(|e| SynthError::Numerical(e.to_string()))?,
     };
+    close(plant, k, ControllerForm::ContinuousCentral)
+}
+
+/// The closed loop of `k` on the original plant, its poles and norm.
+fn close(plant: &StateSpace, k: StateSpace, form: ControllerForm) -> Result<Built, SynthError> {
     let closed_loop = plant
         .lft(&k)
         .map_err(|e| SynthError::Numerical(format!("closed loop: {e}")))?;
@@ -552,6 +699,8 @@ fn finish(
         poles,
         stable,
         achieved,
+        form,
+        residuals: None,
     })
 }
 

@@ -2,6 +2,7 @@
 
 pub mod budget;
 pub mod composite;
+pub mod dhinf;
 pub mod ding22;
 pub mod genplant;
 pub mod h2;

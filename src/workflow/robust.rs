@@ -260,8 +260,12 @@ pub struct Hinf {
     pub tol: f64,
     /// Largest gamma tried before the problem is declared infeasible; default 1e8.
     pub gamma_max: f64,
-    /// The controller is built for the bisection bound * (1 + backoff); default 1e-5.
+    /// The controller is built for the bisection bound * (1 + backoff); default 1e-4.
     pub backoff: f64,
+    /// Discrete plants: the smallest `1 - |z|` accepted for a closed-loop
+    /// pole the controller moves; default 1e-4 (docs/robust.md, "Discrete
+    /// H-infinity: the pole margin").
+    pub pole_margin: f64,
 }
 
 impl Default for Hinf {
@@ -274,6 +278,7 @@ impl Default for Hinf {
             tol: o.rtol,
             gamma_max: o.gamma_max,
             backoff: o.backoff,
+            pole_margin: o.pole_margin,
         }
     }
 }
@@ -286,6 +291,7 @@ impl Hinf {
             eps: self.eps,
             gamma_max: self.gamma_max,
             backoff: self.backoff,
+            pole_margin: self.pole_margin,
         })
     }
 
@@ -299,6 +305,7 @@ impl Hinf {
             eps: self.eps,
             tol: self.tol,
             plant_fastest_pole: fastest_pole(p),
+            pole_margin: self.pole_margin,
         })
     }
 }
@@ -320,6 +327,13 @@ impl Validate for Hinf {
             ));
         }
         positive("gamma_max", gmax)?;
+        let pm = self.pole_margin;
+        if !(pm.is_finite() && (0.0..1.0).contains(&pm)) {
+            return Err(StepError::setting(
+                "pole_margin",
+                format!("expected 0 <= pole_margin < 1, got {pm}"),
+            ));
+        }
         Ok(())
     }
 }
@@ -355,6 +369,8 @@ pub struct HinfReport {
     pub tol: f64,
     /// Modulus of the generalised plant's fastest pole, rad/s.
     pub plant_fastest_pole: f64,
+    /// The `pole_margin` setting used (discrete plants).
+    pub pole_margin: f64,
 }
 
 /// A controller pole this many times faster than the plant's fastest mode
@@ -379,6 +395,15 @@ impl HinfReport {
                 "the measurement channel was regularised: a sensor-noise weight {e:.3e} was \
                  added (D21 rank deficient, or its smallest singular value below the \
                  conditioning floor); gamma is the norm on the original plant"
+            ));
+        }
+        if let (Some(false), Some(m)) = (r.pole_margin_met, r.pole_margin) {
+            w.push(format!(
+                "a closed-loop pole the controller moves lies {m:.3e} from the unit circle \
+                 (|z| = {:.6}), less than the required pole margin {:.1e}, at every level up \
+                 to 1.1 times the optimum: relax the weights or lower --pole-margin",
+                1.0 - m,
+                self.pole_margin
             ));
         }
         let (fk, fp) = (r.controller_fastest_pole(), self.plant_fastest_pole);
@@ -406,6 +431,10 @@ impl HinfReport {
         v["bisection"] = json!({"rtol": self.tol, "iterations": r.iterations,
             "bound": r.bisection_bound, "design_level": r.design_level});
         v["controller_fastest_pole_rad_s"] = json!(r.controller_fastest_pole());
+        v["closed_loop_spectral_radius"] = json!(r.spectral_radius);
+        v["pole_margin"] = json!({"achieved": r.pole_margin, "required": self.pole_margin,
+            "met": r.pole_margin_met});
+        v["controller_form"] = json!(r.form.name());
         v["plant_fastest_pole_rad_s"] = json!(self.plant_fastest_pole);
         v["warnings"] = json!(self.warnings());
         v
@@ -430,6 +459,15 @@ impl fmt::Display for HinfReport {
             r.x_residual,
             r.y_residual
         )?;
+        if let (Some(rho), Some(m)) = (r.spectral_radius, r.pole_margin) {
+            writeln!(
+                f,
+                "discrete loop    spectral radius {rho:.6}; pole margin {m:.3e} (required {:.1e}); \
+                 controller: {}",
+                self.pole_margin,
+                r.form.name()
+            )?;
+        }
         for w in self.warnings() {
             writeln!(f, "warning: {w}")?;
         }
@@ -500,6 +538,8 @@ impl H2Report {
             (r.regularised, self.eps),
         );
         v["h2_norm"] = json!(r.h2_norm);
+        v["h2_optimum"] = json!(r.h2_optimum);
+        v["closed_loop_spectral_radius"] = json!(r.spectral_radius());
         v
     }
 }
@@ -517,7 +557,16 @@ impl fmt::Display for H2Report {
             r.k.nx(),
             r.x_residual,
             r.y_residual
-        )
+        )?;
+        if let (Some(rho), Some(opt)) = (r.spectral_radius(), r.h2_optimum) {
+            writeln!(
+                f,
+                "discrete loop      spectral radius {rho:.6} (margin {:.3e}); optimum from the \
+                 Riccati solutions {opt:.12}",
+                1.0 - rho
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -657,6 +706,7 @@ impl Mixsyn {
                 eps: self.eps,
                 tol: self.tol,
                 plant_fastest_pole,
+                pole_margin: hinf.pole_margin,
             },
             reduction: None,
         };
