@@ -661,14 +661,36 @@ fn identify_missing(
     let origin = identified_origin(&models, &params);
     m.hysteresis = m.hysteresis.take().or(Some(models.inverse.model));
     m.zpetc = m.zpetc.take().or(Some(models.zpetc));
-    m.closed_loop = m.closed_loop.take().or(Some(models.closed_loop.tf));
+    // Learning control inverts the loop up to Q's cutoff: the wide-band
+    // learning model, not the ZPETC's 0-1 kHz one (docs/learning.md).
+    let learning = models.learning.map(|l| l.model.tf);
+    m.closed_loop = m
+        .closed_loop
+        .take()
+        .or(learning)
+        .or(Some(models.closed_loop.tf));
     Ok(origin)
 }
 
 /// Where identified models came from, with their fit.
 fn identified_origin(models: &IdentifiedModels, params: &ExperimentParams) -> String {
+    let learning = models
+        .learning
+        .as_ref()
+        .map(|l| {
+            format!(
+                ", learning model (0-{} Hz) {} [{} {} {}] simulation fit {:.1} %",
+                l.sweep_f1,
+                l.model.method,
+                l.orders.na,
+                l.orders.nb,
+                l.orders.nk,
+                l.model.chosen_fit().simulation_percent
+            )
+        })
+        .unwrap_or_default();
     format!(
-        "models identified from the virtual FTS: inverse {} fit {:.2} % rms, closed loop {} [{} {} {}] simulation fit {:.1} %",
+        "models identified from the virtual FTS: inverse {} fit {:.2} % rms, closed loop {} [{} {} {}] simulation fit {:.1} %{learning}",
         models.inverse.model.kind.name(),
         models.inverse.info.fit.rms_percent,
         models.closed_loop.method,
