@@ -45,6 +45,16 @@ fn the_karagoz18_loop_matches_python_control() {
         .run(&ContourInputs::default())
         .unwrap();
     let got = serde_json::to_value(&report).unwrap();
+    // The Y loop's lightly damped pair: the continuous loop has zeta 0.0026
+    // at 146.656 Hz (`fts loop`, docs/contouring.md); the ZOH's half-sample
+    // delay at 1 MHz takes a little damping away, not the frequency.
+    let y = &got["axes"][1];
+    let (zeta, hz) = (
+        y["least_damping"].as_f64().unwrap(),
+        y["least_damped_hz"].as_f64().unwrap(),
+    );
+    assert!(zeta > 0.002 && zeta < 0.0026, "{zeta}");
+    assert!((hz - 146.656).abs() < 0.01, "{hz}");
     close(
         got["trajectory"]["duration_s"].as_f64().unwrap(),
         want["duration_s"].as_f64().unwrap(),

@@ -193,7 +193,7 @@ impl ContourArgs {
         let d = Contour::default();
         let disturbance = match (&self.output_disturbance, self.no_disturbance) {
             (_, true) => None,
-            (None, false) => d.disturbance.clone(),
+            (None, false) => d.output_disturbance.clone(),
             (Some(spec), false) => Some(
                 Disturbance::parse(spec).map_err(|e| bad(format!("--output-disturbance: {e}")))?,
             ),
@@ -216,7 +216,7 @@ impl ContourArgs {
                 cc.or(d.cross_coupling)
             },
             baseline: !self.no_baseline,
-            disturbance,
+            output_disturbance: disturbance,
             trace_points: d.trace_points,
         })
     }

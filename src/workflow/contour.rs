@@ -379,7 +379,7 @@ pub struct Contour {
     /// Also run the same axes without cross-coupling; default true.
     pub baseline: bool,
     /// Sines added at every plant output, um; default 100 um at 75 rad/s.
-    pub disturbance: Option<Disturbance>,
+    pub output_disturbance: Option<Disturbance>,
     /// Points kept in the trace for plots and CSV; default 20000.
     #[serde(deserialize_with = "whole_number")]
     pub trace_points: usize,
@@ -396,7 +396,7 @@ impl Default for Contour {
             pid_z: gains_of(KARAGOZ18_AXIS_PID[2]),
             cross_coupling: Some(gains_of(KARAGOZ18_CC_PID)),
             baseline: true,
-            disturbance: Some(karagoz18_disturbance()),
+            output_disturbance: Some(karagoz18_disturbance()),
             trace_points: 20_000,
         }
     }
@@ -487,18 +487,18 @@ pub struct AxesRun {
 
 impl Contour {
     fn sines(&self) -> Result<Vec<Sine>, StepError> {
-        match &self.disturbance {
+        match &self.output_disturbance {
             None => Ok(Vec::new()),
             Some(Disturbance::Sines { components }) => {
                 Disturbance::Sines {
                     components: components.clone(),
                 }
                 .validate()
-                .map_err(|e| StepError::setting("disturbance", e.0))?;
+                .map_err(|e| StepError::setting("output_disturbance", e.0))?;
                 Ok(components.clone())
             }
             Some(_) => Err(StepError::setting(
-                "disturbance",
+                "output_disturbance",
                 "contour takes a sum of sines (sines:A@F,..)",
             )),
         }
@@ -893,13 +893,13 @@ mod tests {
             })
         ));
         let bad = Contour {
-            disturbance: Some(Disturbance::Samples { values: vec![1.0] }),
+            output_disturbance: Some(Disturbance::Samples { values: vec![1.0] }),
             ..Contour::default()
         };
         assert!(matches!(
             bad.validate(),
             Err(StepError::Input {
-                field: Some("disturbance"),
+                field: Some("output_disturbance"),
                 ..
             })
         ));
