@@ -8,7 +8,9 @@
 //! Per sample `k` (the controller reads before it commands, so the plants
 //! must be strictly proper):
 //! `y_i = C_i x_i + d_i(kT)`, `e = R - y`, `eps = e - (e . t) t`,
-//! `u_i = K_i[e_i] + K_cc[eps_i]`, `x_i <- A_i x_i + B_i u_i`.
+//! `u_i = K_i[e_i] + K_cc[eps_i]`, `x_i <- A_i x_i + B_i u_i`. The
+//! controllers run in the runtime's allocation-free
+//! [`crate::runtime::CrossCoupledStep`], the code a real-time loop would run.
 //!
 //! Nothing is stored per sample but a thinned trace for plots: the metrics
 //! accumulate on the fly, so a 1 MHz loop over seconds needs little memory.
@@ -182,8 +184,7 @@ pub struct AxisSetup {
 pub struct MultiAxisLoop {
     ts: f64,
     plants: [SisoBlock; 3],
-    controllers: [SisoBlock; 3],
-    cross: Option<[SisoBlock; 3]>,
+    controllers: crate::runtime::CrossCoupledStep,
     disturbances: [Vec<Sine>; 3],
     /// Each axis's own closed loop, judged by its poles.
     pub axis_loops: [AxisLoop; 3],
@@ -291,12 +292,8 @@ impl MultiAxisLoop {
         let mut axis_loops = [AxisLoop::default(); 3];
         for (i, axis) in axes.iter().enumerate() {
             let name = AXES[i];
-            let g = discrete(
-                &axis.plant,
-                ts,
-                C2dMethod::Zoh,
-                &format!("axis {name} plant"),
-            )?;
+            let what = format!("axis {name} plant");
+            let g = discrete(&axis.plant, ts, C2dMethod::Zoh, &what)?;
             let k = controller_ss(&axis.controller, ts, &format!("axis {name} controller"))?;
             axis_loops[i] = axis_loop(&g, &k, ts, name)?;
             let radius = axis_loops[i].pole_radius;
@@ -307,33 +304,34 @@ impl MultiAxisLoop {
                     radius,
                 });
             }
-            let block = |s: &StateSpace, what: &str| {
-                SisoBlock::new(s)
-                    .map_err(|e| ContourError::Setup(format!("axis {name} {what}: {e}")))
-            };
-            let plant = block(&g, "plant")?;
+            let plant =
+                SisoBlock::new(&g).map_err(|e| ContourError::Setup(format!("{what}: {e}")))?;
             if plant.feedthrough() != 0.0 {
                 return Err(ContourError::Setup(format!(
-                    "axis {name} plant: it must be strictly proper (D = 0): the controller reads the position before it commands"
+                    "{what}: it must be strictly proper (D = 0): the controller reads the position before it commands"
                 )));
             }
             plants.push(plant);
-            controllers.push(block(&k, "controller")?);
+            controllers.push(RuntimeSs::new(&k, &format!("axis {name} controller"))?);
         }
         let cross = match cross {
             None => None,
             Some(c) => {
                 let k = controller_ss(c, ts, "cross-coupling controller")?;
-                let b = SisoBlock::new(&k).map_err(ContourError::Setup)?;
-                Some([b.clone(), b.clone(), b])
+                Some(RuntimeSs::new(&k, "cross-coupling controller")?)
             }
         };
-        let three = |v: Vec<SisoBlock>| -> [SisoBlock; 3] { v.try_into().expect("three axes") };
+        let spec = |i: usize| controllers[i].spec();
+        let step = crate::runtime::CrossCoupledStep::new(
+            [&spec(0), &spec(1), &spec(2)],
+            cross.as_ref().map(RuntimeSs::spec).as_ref(),
+        )
+        .map_err(|e| ContourError::Setup(format!("runtime step: {e}")))?;
+        let plants: [SisoBlock; 3] = plants.try_into().expect("three axes");
         Ok(Self {
             ts,
-            plants: three(plants),
-            controllers: three(controllers),
-            cross,
+            plants,
+            controllers: step,
             disturbances: axes.clone().map(|a| a.disturbance),
             axis_loops,
         })
@@ -357,14 +355,51 @@ impl MultiAxisLoop {
         let y: Vec3 = std::array::from_fn(|i| self.plants[i].output(0.0) + self.disturbance(i, t));
         let e: Vec3 = std::array::from_fn(|i| reference[i] - y[i]);
         let eps = contour_estimate(e, tangent);
-        for i in 0..3 {
-            let mut u = self.controllers[i].step(e[i]);
-            if let Some(cc) = &mut self.cross {
-                u += cc[i].step(eps[i]);
-            }
-            self.plants[i].update(u);
+        let u = self.controllers.step(&reference, &tangent, &y);
+        for (plant, u) in self.plants.iter_mut().zip(u) {
+            plant.update(u);
         }
         (y, e, eps)
+    }
+}
+
+/// A discrete SISO controller's matrices, row-major, as the runtime's
+/// state-space block takes them (no limits, no anti-windup).
+struct RuntimeSs {
+    a: Vec<f64>,
+    b: Vec<f64>,
+    c: Vec<f64>,
+    d: f64,
+}
+
+impl RuntimeSs {
+    fn new(k: &StateSpace, what: &str) -> Result<Self, ContourError> {
+        if k.nu() != 1 || k.ny() != 1 {
+            return Err(ContourError::Setup(format!(
+                "{what}: expected one input and one output, got {} outputs x {} inputs",
+                k.ny(),
+                k.nu()
+            )));
+        }
+        let n = k.nx();
+        Ok(Self {
+            a: (0..n * n).map(|m| k.a[(m / n, m % n)]).collect(),
+            b: (0..n).map(|i| k.b[(i, 0)]).collect(),
+            c: (0..n).map(|j| k.c[(0, j)]).collect(),
+            d: k.d[(0, 0)],
+        })
+    }
+
+    fn spec(&self) -> crate::runtime::StateSpaceSpec<'_> {
+        crate::runtime::StateSpaceSpec {
+            a: &self.a,
+            b: &self.b,
+            c: &self.c,
+            d: self.d,
+            output_min: f64::NEG_INFINITY,
+            output_max: f64::INFINITY,
+            anti_windup: crate::runtime::SsAntiWindup::None,
+        }
     }
 }
 
