@@ -30,6 +30,7 @@ mod bode;
 mod build;
 mod columns;
 mod common;
+mod contour;
 mod convert;
 mod demo;
 mod ding22;
@@ -69,6 +70,10 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Generate an excitation signal (triangle, sine, sweep, multisine, five-leaf) as a t,u CSV.
     Excite(excite::ExciteArgs),
+    /// Jerk-limited S-curve paths (Karagoz18 inclined circle, square) as a t,x,y,z CSV.
+    Trajectory(contour::TrajectoryArgs),
+    /// Three-axis contouring with cross-coupled control (Karagoz18): per-axis and contour errors.
+    Contour(contour::ContourArgs),
     /// Record open-loop triangles or a closed-loop sweep on the embedded virtual FTS as a t,u,y CSV.
     #[command(subcommand)]
     Virtual(virtual_record::VirtualCommand),
@@ -283,6 +288,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(args) => demo::run(args),
         Command::Excite(args) => excite::run(args),
         Command::Virtual(cmd) => virtual_record::run(cmd),
+        Command::Trajectory(args) => contour::run_trajectory(args),
+        Command::Contour(args) => contour::run_contour(args),
         Command::Identify(cmd) => identify::run(cmd),
         Command::Hysteresis(cmd) => hysteresis::run(cmd),
         Command::Emit(args) => emit::run(args),

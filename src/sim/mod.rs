@@ -2,9 +2,12 @@
 //! and closed-loop runs through the runtime controller step.
 
 pub mod closed_loop;
+pub mod contour;
 pub mod disturbance;
 pub mod experiment;
+pub mod path;
 pub mod reference;
+pub mod scurve;
 pub mod virtual_fts;
 
 /// A sampled plant as the controller sees it: read the sensor, then apply a

@@ -10,6 +10,7 @@
 //! turns its flags into the step and renders the report; a manifest step
 //! deserialises into the same type, so a key means what the flag means.
 
+pub mod contour;
 pub mod controller;
 pub mod convert;
 pub mod ding22;
@@ -22,6 +23,10 @@ pub mod robust;
 pub mod simulate;
 pub mod zpetc;
 
+pub use contour::{
+    Contour, ContourInputs, ContourReport, MakeTrajectory, PathShape, TrajectoryReport,
+    TrajectorySettings,
+};
 pub use controller::{
     AntiWindup, BuildController, BuildInputs, ControllerInputs, ControllerReport, Discretisation,
     NoFeedback, PidForm, SsController,
@@ -258,6 +263,7 @@ mod tests {
         names_round_trip::<crate::lti::response::ResponseKind>();
         names_round_trip::<crate::ident::excite::SweepSpacing>();
         names_round_trip::<Discretisation>();
+        names_round_trip::<contour::PathShape>();
         names_round_trip::<AntiWindup>();
         names_round_trip::<PidForm>();
         names_round_trip::<NoFeedback>();

@@ -34,7 +34,9 @@
 #[cfg(test)]
 extern crate std;
 
+mod contour;
 mod repetitive;
+pub use contour::{CrossCoupledStep, contour_estimate};
 use repetitive::RepetitiveBlock;
 pub use repetitive::{MAX_LEAD, MAX_PERIOD, MAX_Q_HALF, MAX_RC_PREVIEW, RepetitiveSpec};
 

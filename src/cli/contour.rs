@@ -1,0 +1,259 @@
+//! `fts trajectory` and `fts contour` (docs/contouring.md): the \[Karagoz18\]
+//! paths as `t,x,y,z` tables, and the three-axis loop with cross-coupled
+//! control of the contour error.
+
+use super::common::{bad, choice, print_report, read_input, step_error, write_atomic};
+use crate::io::ss_json::parse_system;
+use crate::sim::disturbance::Disturbance;
+use crate::workflow::Validate;
+use crate::workflow::contour::{
+    Contour, ContourInputs, MakeTrajectory, PathShape, PidGains4, TrajectorySettings,
+};
+use clap::Args;
+use std::path::PathBuf;
+
+/// The path and its motion limits.
+#[derive(Debug, Args)]
+pub struct PathArgs {
+    /// The path.
+    #[arg(value_parser = choice::<PathShape>())]
+    shape: PathShape,
+    /// Diameter of the circle or side of the square, um [5000].
+    #[arg(long, value_name = "UM")]
+    size: Option<f64>,
+    /// Inclination of the path's plane about the x axis, degrees [45].
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    incline: Option<f64>,
+    /// Velocity limit along the path, um/s [30000].
+    #[arg(long, value_name = "UM/S")]
+    velocity: Option<f64>,
+    /// Acceleration limit, um/s^2 [1500].
+    #[arg(long, value_name = "UM/S2")]
+    acceleration: Option<f64>,
+    /// Jerk limit, um/s^3 [15000].
+    #[arg(long, value_name = "UM/S3")]
+    jerk: Option<f64>,
+    /// Refuse (exit 2) a velocity limit the moves cannot reach, instead of
+    /// planning with the reachable peak.
+    #[arg(long)]
+    strict: bool,
+}
+
+impl PathArgs {
+    fn settings(&self) -> TrajectorySettings {
+        let d = TrajectorySettings::default();
+        TrajectorySettings {
+            shape: self.shape,
+            size: self.size.unwrap_or(d.size),
+            incline: self.incline.unwrap_or(d.incline),
+            velocity: self.velocity.unwrap_or(d.velocity),
+            acceleration: self.acceleration.unwrap_or(d.acceleration),
+            jerk: self.jerk.unwrap_or(d.jerk),
+            strict: self.strict,
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct TrajectoryArgs {
+    #[command(flatten)]
+    path: PathArgs,
+    /// Sample time of the table, s.
+    #[arg(long, default_value_t = 1e-3)]
+    ts: f64,
+    /// Write `t,x,y,z,speed` (s, um, um/s) here.
+    #[arg(short = 'o', long = "out", value_name = "TRAJ.csv")]
+    output: Option<PathBuf>,
+    /// Write an SVG of the path's projections and speed here.
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `fts trajectory`.
+pub fn run_trajectory(args: TrajectoryArgs) -> anyhow::Result<()> {
+    let step = MakeTrajectory {
+        trajectory: args.path.settings(),
+        ts: args.ts,
+    };
+    step.validate().map_err(step_error)?;
+    let report = step.run().map_err(step_error)?;
+    if let Some(path) = &args.output {
+        write_atomic(path, report.csv().as_bytes())?;
+    }
+    if let Some(path) = &args.plot {
+        write_atomic(path, report.svg()?.as_bytes())?;
+    }
+    print_report(&report, args.json)
+}
+
+#[derive(Debug, Args)]
+pub struct ContourArgs {
+    #[command(flatten)]
+    path: PathArgs,
+    /// Loop sample time, s (continuous plants by ZOH, controllers by Tustin).
+    #[arg(long, default_value_t = 1e-6)]
+    ts: f64,
+    /// Time simulated after the trajectory ends, s.
+    #[arg(long, default_value_t = 0.0)]
+    settle: f64,
+    /// X plant, command -> um (`fts.tf/1` or `fts.ss/1`) [Karagoz18 Eq. 2].
+    #[arg(long, value_name = "G.json")]
+    plant_x: Option<PathBuf>,
+    /// Y plant [Karagoz18 Eq. 3].
+    #[arg(long, value_name = "G.json")]
+    plant_y: Option<PathBuf>,
+    /// Z plant [Karagoz18 Eq. 4].
+    #[arg(long, value_name = "G.json")]
+    plant_z: Option<PathBuf>,
+    /// X controller file (u = K e), replacing --pid-x.
+    #[arg(long, value_name = "K.json")]
+    controller_x: Option<PathBuf>,
+    /// Y controller file, replacing --pid-y.
+    #[arg(long, value_name = "K.json")]
+    controller_y: Option<PathBuf>,
+    /// Z controller file, replacing --pid-z.
+    #[arg(long, value_name = "K.json")]
+    controller_z: Option<PathBuf>,
+    /// X PID P,I,D,N of P + I/s + D N s/(s+N) [1,0.01,0.0005,100].
+    #[arg(
+        long,
+        value_name = "P,I,D,N",
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        conflicts_with = "controller_x"
+    )]
+    pid_x: Option<Vec<f64>>,
+    /// Y PID [1.5,0.01,0.0005,100].
+    #[arg(
+        long,
+        value_name = "P,I,D,N",
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        conflicts_with = "controller_y"
+    )]
+    pid_y: Option<Vec<f64>>,
+    /// Z PID [1,0.01,0.0005,100].
+    #[arg(
+        long,
+        value_name = "P,I,D,N",
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        conflicts_with = "controller_z"
+    )]
+    pid_z: Option<Vec<f64>>,
+    /// Cross-coupling PID on the contour-error estimate [0.4,0.005,0.0005,100].
+    #[arg(
+        long,
+        value_name = "P,I,D,N",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    cc: Option<Vec<f64>>,
+    /// No cross-coupling (the axes alone).
+    #[arg(long, conflicts_with = "cc")]
+    no_cc: bool,
+    /// Skip the run without cross-coupling.
+    #[arg(long)]
+    no_baseline: bool,
+    /// Sines added at every plant output, um: sines:A@HZ[@PHASE_DEG],..
+    /// [100 um at 75 rad/s].
+    #[arg(long, value_name = "SPEC")]
+    output_disturbance: Option<String>,
+    /// No output disturbance.
+    #[arg(long, conflicts_with = "output_disturbance")]
+    no_disturbance: bool,
+    /// Write the thinned trace (t, references, positions, contour errors) here.
+    #[arg(long, value_name = "TRACE.csv")]
+    csv: Option<PathBuf>,
+    /// Write an SVG of the path, the axis errors and the contour error here.
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `P,I,D,N` of the option `flag` (four numbers), or the default.
+fn gains(flag: &str, v: &Option<Vec<f64>>, default: PidGains4) -> anyhow::Result<PidGains4> {
+    match v.as_deref() {
+        None => Ok(default),
+        Some(&[p, i, d, n]) => Ok([p, i, d, n]),
+        Some(g) => Err(bad(format!(
+            "{flag}: expected four numbers P,I,D,N, got {}",
+            g.len()
+        ))),
+    }
+}
+
+impl ContourArgs {
+    fn step(&self) -> anyhow::Result<Contour> {
+        let d = Contour::default();
+        let disturbance = match (&self.output_disturbance, self.no_disturbance) {
+            (_, true) => None,
+            (None, false) => d.output_disturbance.clone(),
+            (Some(spec), false) => Some(
+                Disturbance::parse(spec).map_err(|e| bad(format!("--output-disturbance: {e}")))?,
+            ),
+        };
+        let cc = self
+            .cc
+            .as_ref()
+            .map(|_| gains("--cc", &self.cc, [0.0; 4]))
+            .transpose()?;
+        Ok(Contour {
+            trajectory: self.path.settings(),
+            ts: self.ts,
+            settle: self.settle,
+            pid_x: gains("--pid-x", &self.pid_x, d.pid_x)?,
+            pid_y: gains("--pid-y", &self.pid_y, d.pid_y)?,
+            pid_z: gains("--pid-z", &self.pid_z, d.pid_z)?,
+            cross_coupling: if self.no_cc {
+                None
+            } else {
+                cc.or(d.cross_coupling)
+            },
+            baseline: !self.no_baseline,
+            output_disturbance: disturbance,
+            trace_points: d.trace_points,
+        })
+    }
+
+    fn inputs(&self) -> anyhow::Result<ContourInputs> {
+        let mut inputs = ContourInputs::default();
+        let plants = [&self.plant_x, &self.plant_y, &self.plant_z];
+        let controllers = [&self.controller_x, &self.controller_y, &self.controller_z];
+        for i in 0..3 {
+            if let Some(path) = plants[i] {
+                inputs.plants[i] = read_system(path)?;
+            }
+            if let Some(path) = controllers[i] {
+                let name = path.display().to_string();
+                inputs.controllers[i] = Some((read_system(path)?, name));
+            }
+        }
+        Ok(inputs)
+    }
+}
+
+fn read_system(path: &std::path::Path) -> anyhow::Result<crate::lti::ss::StateSpace> {
+    let text = read_input(path)?;
+    Ok(parse_system(&text, &path.display().to_string())?)
+}
+
+/// `fts contour`.
+pub fn run_contour(args: ContourArgs) -> anyhow::Result<()> {
+    let step = args.step()?;
+    step.validate().map_err(step_error)?;
+    let inputs = args.inputs()?;
+    let report = step.run(&inputs).map_err(step_error)?;
+    if let Some(path) = &args.csv {
+        write_atomic(path, report.trace_csv().as_bytes())?;
+    }
+    if let Some(path) = &args.plot {
+        write_atomic(path, report.svg()?.as_bytes())?;
+    }
+    print_report(&report, args.json)
+}
