@@ -37,6 +37,7 @@ mod emit;
 mod excite;
 mod hysteresis;
 mod identify;
+mod identify_ct;
 mod identify_hysteresis;
 mod identify_linear;
 mod learning;

@@ -15,6 +15,7 @@ pub mod convert;
 pub mod ding22;
 pub mod experiment;
 pub mod identify;
+pub mod identify_ct;
 mod identify_hysteresis;
 pub mod learning;
 pub mod response;

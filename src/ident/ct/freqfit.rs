@@ -26,6 +26,12 @@ pub enum FreqWeighting {
     Uniform,
     /// Each point weighted by the width of its cell in `log f`.
     LogFrequency,
+    /// Each point weighted by `1/|G_k|^2`: relative errors, so the decades
+    /// where the response is small (above a resonance) count as much as
+    /// those where it is large.
+    Relative,
+    /// Both: log-frequency cell width over `|G_k|^2`.
+    LogRelative,
 }
 
 /// Settings of [`freq_fit`].
@@ -86,11 +92,18 @@ struct Problem {
 }
 
 /// Fits `e^(-s tau) B(s)/A(s)` to `response` at `freq_hz`.
-pub fn freq_fit(freq_hz: &[f64], response: &[c64], p: &FreqFitParams) -> Result<FreqFitEstimate, CtError> {
+pub fn freq_fit(
+    freq_hz: &[f64],
+    response: &[c64],
+    p: &FreqFitParams,
+) -> Result<FreqFitEstimate, CtError> {
     check_orders(p.np, p.nz)?;
     check_delay(p.delay)?;
     check_data(freq_hz, response, p.np + p.nz + 1)?;
-    let omega: Vec<f64> = freq_hz.iter().map(|f| 2.0 * std::f64::consts::PI * f).collect();
+    let omega: Vec<f64> = freq_hz
+        .iter()
+        .map(|f| 2.0 * std::f64::consts::PI * f)
+        .collect();
     // Scale by the geometric mean of the band: coefficients of order one.
     let ws = (omega.iter().map(|w| w.ln()).sum::<f64>() / omega.len() as f64).exp();
     let prob = Problem {
@@ -100,7 +113,10 @@ pub fn freq_fit(freq_hz: &[f64], response: &[c64], p: &FreqFitParams) -> Result<
             .zip(response)
             .map(|(w, g)| g * c64::new(0.0, w * p.delay).exp())
             .collect(),
-        sw: weights(freq_hz, p.weighting).iter().map(|w| w.sqrt()).collect(),
+        sw: weights(freq_hz, response, p.weighting)
+            .iter()
+            .map(|w| w.sqrt())
+            .collect(),
         n: p.np,
         m: p.nz,
     };
@@ -145,8 +161,14 @@ fn check_data(freq_hz: &[f64], response: &[c64], unknowns: usize) -> Result<(), 
             i + 1
         )));
     }
-    if let Some(i) = response.iter().position(|g| !(g.re.is_finite() && g.im.is_finite())) {
-        return Err(CtError::Data(format!("response point {} is not finite", i + 1)));
+    if let Some(i) = response
+        .iter()
+        .position(|g| !(g.re.is_finite() && g.im.is_finite()))
+    {
+        return Err(CtError::Data(format!(
+            "response point {} is not finite",
+            i + 1
+        )));
     }
     if 2 * freq_hz.len() < unknowns {
         return Err(CtError::Data(format!(
@@ -159,24 +181,43 @@ fn check_data(freq_hz: &[f64], response: &[c64], unknowns: usize) -> Result<(), 
 }
 
 /// Point weights, normalised to sum to the number of points.
-fn weights(freq_hz: &[f64], kind: FreqWeighting) -> Vec<f64> {
+fn weights(freq_hz: &[f64], response: &[c64], kind: FreqWeighting) -> Vec<f64> {
     let k = freq_hz.len();
-    let raw: Vec<f64> = match kind {
-        FreqWeighting::Uniform => vec![1.0; k],
-        FreqWeighting::LogFrequency if k < 2 => vec![1.0; k],
-        FreqWeighting::LogFrequency => {
-            let l: Vec<f64> = freq_hz.iter().map(|f| f.ln()).collect();
-            (0..k)
-                .map(|i| {
-                    let lo = if i == 0 { l[0] - (l[1] - l[0]) / 2.0 } else { (l[i - 1] + l[i]) / 2.0 };
-                    let hi = if i + 1 == k { l[k - 1] + (l[k - 1] - l[k - 2]) / 2.0 } else { (l[i] + l[i + 1]) / 2.0 };
-                    (hi - lo).abs().max(f64::MIN_POSITIVE)
-                })
-                .collect()
-        }
-    };
+    let log = matches!(
+        kind,
+        FreqWeighting::LogFrequency | FreqWeighting::LogRelative
+    );
+    let relative = matches!(kind, FreqWeighting::Relative | FreqWeighting::LogRelative);
+    let raw: Vec<f64> = (0..k)
+        .map(|i| {
+            let cell = if log && k >= 2 {
+                log_cell(freq_hz, i)
+            } else {
+                1.0
+            };
+            let mag2 = response[i].norm_sqr().max(f64::MIN_POSITIVE);
+            if relative { cell / mag2 } else { cell }
+        })
+        .collect();
     let total: f64 = raw.iter().sum();
     raw.iter().map(|w| w * k as f64 / total).collect()
+}
+
+/// Width in `ln f` of point `i`'s cell (half way to each neighbour).
+fn log_cell(freq_hz: &[f64], i: usize) -> f64 {
+    let k = freq_hz.len();
+    let l = |j: usize| freq_hz[j].ln();
+    let lo = if i == 0 {
+        l(0) - (l(1) - l(0)) / 2.0
+    } else {
+        (l(i - 1) + l(i)) / 2.0
+    };
+    let hi = if i + 1 == k {
+        l(k - 1) + (l(k - 1) - l(k - 2)) / 2.0
+    } else {
+        (l(i) + l(i + 1)) / 2.0
+    };
+    (hi - lo).abs().max(f64::MIN_POSITIVE)
 }
 
 /// `theta = [a_1..a_n, b_0..b_m]` as a scaled model (no delay).
@@ -203,7 +244,11 @@ fn linearised(prob: &Problem, prev: Option<&[f64]>) -> Result<Vec<f64>, CtError>
             None => c64::new(prob.sw[i], 0.0),
         };
         for c in 0..cols {
-            let v = if c < n { p.powi((n - 1 - c) as i32) * g } else { -p.powi((m - (c - n)) as i32) };
+            let v = if c < n {
+                p.powi((n - 1 - c) as i32) * g
+            } else {
+                -p.powi((m - (c - n)) as i32)
+            };
             let v = v * scale;
             phi[(2 * i, c)] = v.re;
             phi[(2 * i + 1, c)] = v.im;
@@ -241,7 +286,11 @@ fn jacobian(prob: &Problem, theta: &[f64]) -> Mat<f64> {
     for (i, (&p, &sw)) in prob.p.iter().zip(&prob.sw).enumerate() {
         let (a, b) = (eval(&model.den, p), eval(&model.num, p));
         for c in 0..n + m + 1 {
-            let d = if c < n { b * p.powi((n - 1 - c) as i32) / (a * a) } else { -p.powi((m - (c - n)) as i32) / a };
+            let d = if c < n {
+                b * p.powi((n - 1 - c) as i32) / (a * a)
+            } else {
+                -p.powi((m - (c - n)) as i32) / a
+            };
             j[(2 * i, c)] = sw * d.re;
             j[(2 * i + 1, c)] = sw * d.im;
         }
@@ -251,7 +300,11 @@ fn jacobian(prob: &Problem, theta: &[f64]) -> Mat<f64> {
 
 /// Levenberg–Marquardt (Marquardt's diagonal scaling). Returns the
 /// parameters, the iterations and whether the relative cost change vanished.
-fn levenberg_marquardt(prob: &Problem, mut theta: Vec<f64>, max_iter: usize) -> (Vec<f64>, usize, bool) {
+fn levenberg_marquardt(
+    prob: &Problem,
+    mut theta: Vec<f64>,
+    max_iter: usize,
+) -> (Vec<f64>, usize, bool) {
     let mut mu = 1e-3;
     let mut v = cost(prob, &theta);
     for it in 1..=max_iter {
@@ -269,7 +322,11 @@ fn levenberg_marquardt(prob: &Problem, mut theta: Vec<f64>, max_iter: usize) -> 
                 mu *= 10.0;
                 continue;
             };
-            let trial: Vec<f64> = theta.iter().enumerate().map(|(i, t)| t - step[(i, 0)]).collect();
+            let trial: Vec<f64> = theta
+                .iter()
+                .enumerate()
+                .map(|(i, t)| t - step[(i, 0)])
+                .collect();
             let vt = cost(prob, &trial);
             if vt.is_finite() && vt <= v {
                 let rel = (v - vt) / v.max(f64::MIN_POSITIVE);

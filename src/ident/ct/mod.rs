@@ -82,7 +82,13 @@ impl CtModel {
     /// response of sampled records measures.
     pub fn zoh_response_at_hz(&self, f: f64, ts: f64) -> c64 {
         let scaled = self.scaled(1.0 / ts);
-        zoh::response(&scaled.num, &scaled.den, 1.0, self.delay / ts, 2.0 * std::f64::consts::PI * f * ts)
+        zoh::response(
+            &scaled.num,
+            &scaled.den,
+            1.0,
+            self.delay / ts,
+            2.0 * std::f64::consts::PI * f * ts,
+        )
     }
 
     /// Roots of the denominator.
@@ -146,7 +152,14 @@ pub(crate) fn stabilised(den: &[f64]) -> Vec<f64> {
         .iter()
         .map(|r| {
             let re = -r.re.abs();
-            c64::new(if re == 0.0 { -1e-6 * r.norm().max(1e-6) } else { re }, r.im)
+            c64::new(
+                if re == 0.0 {
+                    -1e-6 * r.norm().max(1e-6)
+                } else {
+                    re
+                },
+                r.im,
+            )
         })
         .collect();
     crate::lti::ss::poly_from_roots(&mirrored)
@@ -185,7 +198,13 @@ pub struct FreqData {
 /// over whole periods of `period` samples after skipping the first `skip`
 /// (transient), one DFT, kept at the lines where the input has power (above
 /// `1e-6` of the strongest line's magnitude) below Nyquist.
-pub fn periodic_frf(u: &[f64], y: &[f64], ts: f64, period: usize, skip: usize) -> Result<FreqData, CtError> {
+pub fn periodic_frf(
+    u: &[f64],
+    y: &[f64],
+    ts: f64,
+    period: usize,
+    skip: usize,
+) -> Result<FreqData, CtError> {
     let n = u.len().min(y.len());
     if period < 4 || n < period * (skip + 1) {
         return Err(CtError::Data(format!(
@@ -196,13 +215,20 @@ pub fn periodic_frf(u: &[f64], y: &[f64], ts: f64, period: usize, skip: usize) -
     let periods = n / period - skip;
     let average = |x: &[f64]| -> Vec<f64> {
         (0..period)
-            .map(|i| (skip..skip + periods).map(|p| x[p * period + i]).sum::<f64>() / periods as f64)
+            .map(|i| {
+                (skip..skip + periods)
+                    .map(|p| x[p * period + i])
+                    .sum::<f64>()
+                    / periods as f64
+            })
             .collect()
     };
     let (us, ys) = (dft(&average(u)), dft(&average(y)));
     let peak = us.iter().skip(1).map(|z| z.norm()).fold(0.0, f64::max);
     if peak == 0.0 {
-        return Err(CtError::Data("the input has no power at any line of the period".into()));
+        return Err(CtError::Data(
+            "the input has no power at any line of the period".into(),
+        ));
     }
     let df = 1.0 / (period as f64 * ts);
     let keep: Vec<usize> = (1..us.len())
@@ -219,7 +245,8 @@ fn dft(x: &[f64]) -> Vec<c64> {
     let fft = RealFftPlanner::<f64>::new().plan_fft_forward(x.len());
     let mut buf = x.to_vec();
     let mut out = fft.make_output_vec();
-    fft.process(&mut buf, &mut out).expect("buffer sizes from the plan");
+    fft.process(&mut buf, &mut out)
+        .expect("buffer sizes from the plan");
     out.iter().map(|z| c64::new(z.re, z.im)).collect()
 }
 

@@ -19,8 +19,8 @@
 use super::zoh::DelayedFilter;
 use super::{CtError, CtModel, check_delay, check_orders, rel_change, stabilised};
 use crate::ident::ls::{LstsqParams, lstsq};
-use crate::lti::ss::solve;
 use faer::Mat;
+use faer::linalg::solvers::Solve;
 
 /// Settings of [`srivc`].
 #[derive(Debug, Clone, PartialEq)]
@@ -242,12 +242,31 @@ fn regression(
             .map_err(|e| CtError::Numerical(format!("state-variable-filter least squares: {e}"))),
         Some(xf) => {
             let zeta = Mat::from_fn(rows, cols, |k, c| column(&xf, &uf, k, c));
-            let lhs = zeta.transpose() * &phi;
-            let rhs = zeta.transpose() * Mat::from_fn(rows, 1, |k, _| target[k]);
-            let theta = solve(&lhs, &rhs).ok_or_else(|| {
-                CtError::Numerical("SRIVC: the instrumental-variable matrix is singular".into())
-            })?;
-            Ok((0..cols).map(|i| theta[(i, 0)]).collect())
+            iv_solve(&zeta, &phi, &target)
         }
+    }
+}
+
+/// `theta = (Z^T Phi)^-1 Z^T t`, the normal matrix equilibrated by the
+/// column norms of `Z` and `Phi` before its LU solve (the raw matrix spans
+/// many decades when the poles do).
+fn iv_solve(zeta: &Mat<f64>, phi: &Mat<f64>, target: &[f64]) -> Result<Vec<f64>, CtError> {
+    let cols = phi.ncols();
+    let norm = |m: &Mat<f64>, c: usize| m.col(c).norm_l2().max(f64::MIN_POSITIVE);
+    let dz: Vec<f64> = (0..cols).map(|c| 1.0 / norm(zeta, c)).collect();
+    let dp: Vec<f64> = (0..cols).map(|c| 1.0 / norm(phi, c)).collect();
+    let m = zeta.transpose() * phi;
+    let scaled = Mat::from_fn(cols, cols, |i, j| dz[i] * m[(i, j)] * dp[j]);
+    let t = Mat::from_fn(target.len(), 1, |k, _| target[k]);
+    let zt = zeta.transpose() * &t;
+    let rhs = Mat::from_fn(cols, 1, |i, _| dz[i] * zt[(i, 0)]);
+    let x = scaled.partial_piv_lu().solve(&rhs);
+    let theta: Vec<f64> = (0..cols).map(|i| dp[i] * x[(i, 0)]).collect();
+    if theta.iter().all(|v| v.is_finite()) {
+        Ok(theta)
+    } else {
+        Err(CtError::Numerical(
+            "SRIVC: the instrumental-variable matrix is singular (the input does not excite every parameter)".into(),
+        ))
     }
 }

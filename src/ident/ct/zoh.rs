@@ -80,16 +80,24 @@ impl DelayedFilter {
     pub(crate) fn derivatives(&self, u: &[f64]) -> Vec<f64> {
         let n = self.f.len() - 1;
         let at = |k: isize| if k >= 0 { u[k as usize] } else { 0.0 };
-        let mut x = DVector::<f64>::zeros(n);
+        // Plain row-major copies: this loop runs once per sample and filter.
+        let phi: Vec<f64> = (0..n * n).map(|i| self.phi[(i / n, i % n)]).collect();
+        let (g0, g1) = (self.gamma0.as_slice(), self.gamma1.as_slice());
+        let mut x = vec![0.0; n];
+        let mut next = vec![0.0; n];
         let mut out = Vec::with_capacity(u.len() * (n + 1));
         for k in 0..u.len() as isize {
             let now = at(k - self.shift as isize);
             let before = at(k - self.shift as isize - 1);
             let held = if self.fractional { before } else { now };
             let top = held - (1..=n).map(|i| self.f[i] * x[n - i]).sum::<f64>();
-            out.extend(x.iter().copied());
+            out.extend_from_slice(&x);
             out.push(top);
-            x = &self.phi * &x + &self.gamma0 * now + &self.gamma1 * before;
+            for (i, row) in phi.chunks_exact(n).enumerate() {
+                let dot: f64 = row.iter().zip(&x).map(|(a, b)| a * b).sum();
+                next[i] = dot + g0[i] * now + g1[i] * before;
+            }
+            std::mem::swap(&mut x, &mut next);
         }
         out
     }
@@ -125,7 +133,12 @@ pub(crate) fn response(num: &[f64], den: &[f64], h: f64, delay: f64, angle: f64)
     let whole = (delay / h + 1e-9).floor();
     let fractional = delay - whole * h > 1e-9 * h;
     let lag = z.powi(-(whole as i32));
-    let held = lag * if fractional { z.inv() } else { c64::new(1.0, 0.0) };
+    let held = lag
+        * if fractional {
+            z.inv()
+        } else {
+            c64::new(1.0, 0.0)
+        };
     if n == 0 {
         return held * num[0] / den[0];
     }
@@ -138,7 +151,10 @@ pub(crate) fn response(num: &[f64], den: &[f64], h: f64, delay: f64, angle: f64)
     let input = DVector::<c64>::from_fn(n, |i, _| {
         (c64::new(f.gamma0[i], 0.0) + z.inv() * f.gamma1[i]) * lag
     });
-    let x = resolvent.lu().solve(&input).unwrap_or_else(|| DVector::from_element(n, c64::new(f64::NAN, f64::NAN)));
+    let x = resolvent
+        .lu()
+        .solve(&input)
+        .unwrap_or_else(|| DVector::from_element(n, c64::new(f64::NAN, f64::NAN)));
     (0..n).map(|i| x[i] * c[i]).sum::<c64>() + held * d0
 }
 
