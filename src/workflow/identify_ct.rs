@@ -20,7 +20,7 @@ use std::fmt;
 /// the record is not periodic.
 pub const MIN_COHERENCE: f64 = 0.9;
 
-/// `fts identify ct`, pipeline kind `ct`: `e^(-s delay) B(s)/A(s)` by SRIVC.
+/// `fts identify ct`: `e^(-s delay) B(s)/A(s)` by SRIVC.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct IdentifyCt {
