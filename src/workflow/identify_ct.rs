@@ -554,3 +554,64 @@ impl fmt::Display for CtReport {
         writeln!(f)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_deserialise_with_defaults_and_bad_ones_name_their_key() {
+        let s: IdentifyCt = toml::from_str("np = 3\nnz = 1\nperiod = 0.1").unwrap();
+        assert_eq!(s.skip_periods, 1);
+        assert_eq!(s.max_iterations, 50);
+        assert!(s.validate().is_ok());
+        let bad: IdentifyCt = toml::from_str("np = 2\nnz = 3").unwrap();
+        let e = bad.validate().unwrap_err();
+        assert!(
+            matches!(
+                e,
+                StepError::Input {
+                    field: Some("nz"),
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        let missing = IdentifyCt::default().validate().unwrap_err();
+        assert!(matches!(
+            missing,
+            StepError::Input {
+                field: Some("np"),
+                ..
+            }
+        ));
+        let f: IdentifyCtFrd =
+            toml::from_str("np = 2\nnz = 0\nweighting = \"log-relative\"").unwrap();
+        assert_eq!(f.weighting, WeightingChoice::LogRelative);
+        assert!(toml::from_str::<IdentifyCtFrd>("np = 2\nnz = 0\nweight = 1").is_err());
+    }
+
+    /// A noise-free frequency response of a second-order system: the fit is
+    /// exact and the report's DC gain and poles are the system's.
+    #[test]
+    fn frd_step_reports_the_exact_model() {
+        let truth = CtModel {
+            num: vec![4.0e4],
+            den: vec![1.0, 40.0, 1.0e4],
+            delay: 0.0,
+        };
+        let freq_hz: Vec<f64> = (1..=60).map(|i| i as f64 * 1.0).collect();
+        let response = freq_hz.iter().map(|f| truth.response_at_hz(*f)).collect();
+        let step = IdentifyCtFrd {
+            np: Some(2),
+            nz: Some(0),
+            ..IdentifyCtFrd::default()
+        };
+        let r = step.run(&FreqData { freq_hz, response }, "test").unwrap();
+        assert!((r.dc_gain - 4.0).abs() < 1e-9, "{}", r.dc_gain);
+        assert!(r.freq_fit_percent.unwrap() > 99.99999);
+        assert!(r.stable && r.warnings().is_empty());
+        let p = r.poles.iter().find(|p| p.im > 0.0).unwrap();
+        assert!((p.re + 20.0).abs() < 1e-7 && (p.im - (1.0e4f64 - 400.0).sqrt()).abs() < 1e-7);
+    }
+}
