@@ -155,6 +155,8 @@ fn srivc_on_the_noisy_multisine_record_matches_the_true_plant() {
 /// half plane, and that is reported and exits 1.
 #[test]
 fn ct_frd_with_relative_weighting_recovers_every_pole() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("bode.svg");
     let v = json_of(
         fts()
             .args(["identify", "ct-frd"])
@@ -167,8 +169,11 @@ fn ct_frd_with_relative_weighting_recovers_every_pole() {
                 "--weighting",
                 "relative",
                 "--json",
-            ]),
+                "--plot",
+            ])
+            .arg(&svg),
     );
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
     let est = model_of(&v);
     let mut pe = est.poles();
     let mut pt = truth().poles();

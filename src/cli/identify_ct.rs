@@ -9,7 +9,9 @@
 use super::common::{bad, choice, name, print_report, read_input, step_error, write_atomic};
 use super::identify_linear::DataArgs;
 use crate::ident::ct::FreqData;
+use crate::io::plot::bode_svg;
 use crate::io::tf_json;
+use crate::lti::Bode;
 use crate::lti::c64;
 use crate::workflow::Validate;
 use crate::workflow::identify_ct::{CtReport, IdentifyCt, IdentifyCtFrd, WeightingChoice};
@@ -80,6 +82,9 @@ pub struct CtOut {
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
+    /// Draw the model's Bode plot over the frequency response it was fitted or compared to.
+    #[arg(long, value_name = "BODE.svg")]
+    pub plot: Option<PathBuf>,
 }
 
 impl CtArgs {
@@ -131,15 +136,44 @@ fn finish(r: &CtReport, out: &CtOut) -> anyhow::Result<()> {
         let tf = r.transfer_function().map_err(step_error)?;
         write_atomic(path, tf_json::tf_to_string(&tf).as_bytes())?;
     }
+    if let Some(path) = &out.plot {
+        write_atomic(path, bode_plot(r)?.as_bytes())?;
+    }
     print_report(r, out.json)?;
-    if let (false, Some(path)) = (out.json, &out.out) {
-        say!("wrote {}", path.display());
+    if !out.json {
+        for path in out.out.iter().chain(&out.plot) {
+            say!("wrote {}", path.display());
+        }
     }
     let warnings = r.warnings();
     if !warnings.is_empty() {
         anyhow::bail!("{}", warnings.join("; "));
     }
     Ok(())
+}
+
+/// Measured response and model on the data's frequencies.
+fn bode_plot(r: &CtReport) -> anyhow::Result<String> {
+    let data = &r.freq_data;
+    if data.freq_hz.len() < 2 {
+        return Err(bad(format!(
+            "--plot: {}: no frequency response to draw (give --period for a periodic record)",
+            r.source
+        )));
+    }
+    let lookup = |f: f64| {
+        let i = data.freq_hz.iter().position(|x| *x == f).unwrap_or(0);
+        data.response[i]
+    };
+    let measured = Bode::from_fn(&data.freq_hz, lookup);
+    let model = Bode::from_fn(&data.freq_hz, |f| r.model_response_at_hz(f));
+    let title = format!(
+        "continuous {} model of {}",
+        r.method.to_uppercase(),
+        r.source
+    );
+    bode_svg(&title, &[("measured", &measured), ("model", &model)])
+        .map_err(|e| bad(format!("--plot: {e}")))
 }
 
 /// Reads `freq_hz`, `re`, `im` columns (by header name); rows with an

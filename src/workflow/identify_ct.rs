@@ -137,6 +137,7 @@ impl IdentifyCt {
         report.time_fit_percent = Some(est.fit_percent);
         report.freq_points = freq.freq_hz.len();
         report.freq_source = Some(self.freq_source());
+        report.freq_data = freq.clone();
         if freq.freq_hz.len() >= 2 {
             report.freq_fit_percent = Some(zoh_fit_percent(&report.model, &freq, prep.ts));
         } else {
@@ -323,6 +324,10 @@ impl IdentifyCtFrd {
         report.freq_fit_percent = Some(freq_fit_percent(&report.model, &f, &g));
         report.freq_points = f.len();
         report.freq_source = Some(format!("{source}, weighting {}", self.weighting.name()));
+        report.freq_data = FreqData {
+            freq_hz: f.clone(),
+            response: g.clone(),
+        };
         report.iterations = est.sk_iterations + est.nls_iterations;
         report.converged = est.converged;
         report.sk_iterations = Some(est.sk_iterations);
@@ -422,6 +427,9 @@ pub struct CtReport {
     /// The model.
     #[serde(skip)]
     pub model: CtModel,
+    /// The frequency response the frequency-domain fit is against.
+    #[serde(skip)]
+    pub freq_data: FreqData,
 }
 
 fn pairs<S: serde::Serializer>(v: &[c64], s: S) -> Result<S::Ok, S::Error> {
@@ -458,6 +466,10 @@ impl CtReport {
             svf_cutoff_hz: None,
             trials: Vec::new(),
             model,
+            freq_data: FreqData {
+                freq_hz: Vec::new(),
+                response: Vec::new(),
+            },
         }
     }
 
@@ -467,6 +479,15 @@ impl CtReport {
             .tf()
             .map(TransferFunction::Continuous)
             .map_err(|e| StepError::computation(format!("{}: {e}", self.source)))
+    }
+
+    /// The model's response at `f` Hz as the data see it: the ZOH-sampled
+    /// response for time records, `G(j 2 pi f)` for frequency data.
+    pub fn model_response_at_hz(&self, f: f64) -> c64 {
+        match self.ts {
+            Some(ts) => self.model.zoh_response_at_hz(f, ts),
+            None => self.model.response_at_hz(f),
+        }
     }
 
     /// Problems a user must not miss: unstable model, no convergence.
