@@ -216,3 +216,103 @@ fn cli_writes_controller_csv_plot_and_json() {
     assert_eq!(v["sweep"]["interior"], Value::Bool(false));
     assert_eq!(v["sweep"]["rms_m"].as_array().unwrap().len(), 2);
 }
+
+/// Phase of the force-to-sensed-displacement response, degrees, unwrapped
+/// along a log grid from 1 Hz.
+fn phase_deg(p: &TwoMassParams, f_hz: &[f64]) -> Vec<f64> {
+    let g = p.plant().unwrap();
+    let mut out: Vec<f64> = Vec::new();
+    for &f in f_hz {
+        let h = g.freq_response(2.0 * std::f64::consts::PI * f).unwrap()[(0, 0)];
+        let mut ph = h.arg().to_degrees();
+        if let Some(prev) = out.last() {
+            while ph - prev > 180.0 {
+                ph -= 360.0;
+            }
+            while ph - prev < -180.0 {
+                ph += 360.0;
+            }
+        }
+        out.push(ph);
+    }
+    out
+}
+
+/// Sensing the moving body (the default, as [Ding22] describes) is
+/// collocated with the force: the phase of `x1/F` stays within [-180, 0]
+/// deg at every frequency (a passive collocated pair). Sensing `m4` is not:
+/// at 1 kHz `x4/F` is at about -315 deg, `x1/F` at about -179 deg.
+#[test]
+fn moving_body_sensing_is_collocated_and_m4_sensing_is_not() {
+    let grid: Vec<f64> = (0..=400).map(|i| 10f64.powf(i as f64 / 100.0)).collect();
+    let body = TwoMassParams::default();
+    assert_eq!(body.sensor, SensedBody::MovingBody);
+    let tool = TwoMassParams {
+        sensor: SensedBody::ToolMass,
+        ..body
+    };
+    let pb = phase_deg(&body, &grid);
+    assert!(
+        pb.iter().all(|p| (-180.0 - 1e-9..=1e-9).contains(p)),
+        "{pb:?}"
+    );
+    let at_1k = 300; // 10^(300/100) Hz
+    assert!(
+        (pb[at_1k] + 179.0).abs() < 1.0,
+        "x1/F at 1 kHz: {}",
+        pb[at_1k]
+    );
+    let pt = phase_deg(&tool, &grid);
+    assert!(
+        (pt[at_1k] + 315.0).abs() < 2.0,
+        "x4/F at 1 kHz: {}",
+        pt[at_1k]
+    );
+}
+
+/// With W1 read in um (`--sensor-noise 1.36e-12`) the m4 option reproduces
+/// the bandwidth fts reported before the default changed (1152 Hz), and the
+/// moving-body default gives 965 Hz for the H2 design with the PID, no
+/// longer held below ~460 Hz by the non-collocated mode, at 970 Hz.
+#[test]
+fn sensor_option_bandwidths_with_w1_in_um() {
+    let run = |sensor: &str| -> Value {
+        let out = fts()
+            .args([
+                "ding22",
+                "--json",
+                "--points",
+                "400",
+                "--sensor-noise",
+                "1.36e-12",
+                "--sensor",
+                sensor,
+            ])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        serde_json::from_slice(&out).unwrap()
+    };
+    let m4 = run("m4");
+    let body = run("moving-body");
+    assert_eq!(body["mechanics"]["sensor"], "moving-body");
+    let bw = |v: &Value, k: &str| v[k]["bandwidth_hz"].as_f64().unwrap();
+    assert!(
+        (bw(&m4, "optimal") - 1151.7).abs() < 2.0,
+        "{}",
+        bw(&m4, "optimal")
+    );
+    assert!(
+        (bw(&body, "optimal") - 965.4).abs() < 2.0,
+        "{}",
+        bw(&body, "optimal")
+    );
+    assert!(
+        bw(&m4, "pid") < 500.0 && bw(&body, "pid") > 900.0,
+        "{} {}",
+        bw(&m4, "pid"),
+        bw(&body, "pid")
+    );
+}

@@ -2,8 +2,9 @@
 //! FTS: H2 design, PID baseline tuned for the same cost, error budget
 //! (printed, `--csv`, `--plot`), and `--sweep k2=LO:HI:N,c2=LO:HI:N`.
 
-use super::common::{print_report, step_error, write_atomic};
+use super::common::{choice, name, print_report, step_error, write_atomic};
 use crate::io::ss_json;
+use crate::workflow::ding22::SensorChoice;
 use crate::workflow::{Ding22Report, Ding22Study, Validate};
 use clap::Args;
 use std::path::PathBuf;
@@ -37,6 +38,9 @@ pub struct Ding22Args {
     /// Gain of W3, the base vibration (m) [2.83e-9].
     #[arg(long, allow_hyphen_values = true)]
     base_noise: Option<f64>,
+    /// Body the displacement sensor (and the tool) sits on.
+    #[arg(long, value_parser = choice::<SensorChoice>(), default_value = name(SensorChoice::default()))]
+    sensor: SensorChoice,
     /// w_b of W_e in Hz [1100].
     #[arg(long, value_name = "HZ", allow_hyphen_values = true)]
     wb_hz: Option<f64>,
@@ -78,6 +82,7 @@ impl Ding22Args {
             m4: self.m4.unwrap_or(d.m4),
             k4: self.k4.unwrap_or(d.k4),
             c4: self.c4.unwrap_or(d.c4),
+            sensor: self.sensor,
             sensor_noise: self.sensor_noise.unwrap_or(d.sensor_noise),
             current_noise: self.current_noise.unwrap_or(d.current_noise),
             base_noise: self.base_noise.unwrap_or(d.base_noise),

@@ -59,7 +59,7 @@ pub struct DataArgs {
 
 impl DataArgs {
     /// The record preparation settings.
-    fn settings(&self) -> RecordSettings {
+    pub(crate) fn settings(&self) -> RecordSettings {
         RecordSettings {
             ts: self.ts,
             detrend: self.detrend,
@@ -68,7 +68,7 @@ impl DataArgs {
     }
 
     /// Reads the record and the validation record.
-    fn inputs(&self) -> anyhow::Result<LinearInputs> {
+    pub(crate) fn inputs(&self) -> anyhow::Result<LinearInputs> {
         let validation = match &self.validate {
             Some(path) => Some((self.columns.read(path, 2)?, path.display().to_string())),
             None => None,

@@ -38,10 +38,12 @@ mod emit;
 mod excite;
 mod hysteresis;
 mod identify;
+mod identify_ct;
 mod identify_hysteresis;
 mod identify_linear;
 mod learning;
 mod loop_analysis;
+mod mechanism;
 mod response;
 mod robust;
 mod simulate;
@@ -126,6 +128,9 @@ enum Command {
     Balred(convert::BalredArgs),
     /// The continuous model whose zero-order-hold discretisation is the given discrete one.
     D2c(convert::D2cArgs),
+    /// Mechanism design formulas: flexure displacement loss, hinge stiffness (Li21), 3-PUU kinematics and workspace (Tang17).
+    #[command(subcommand)]
+    Mechanism(mechanism::MechanismCommand),
     /// Ding22 workflow: two-mass FTS, H2 design vs PID, error budget, structural sweep.
     Ding22(ding22::Ding22Args),
 }
@@ -314,6 +319,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Balred(args) => convert::run_balred(args),
         Command::D2c(args) => convert::run_d2c(args),
         Command::Ding22(args) => ding22::run(args),
+        Command::Mechanism(cmd) => mechanism::run(cmd),
     }
 }
 

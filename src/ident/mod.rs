@@ -8,6 +8,7 @@
 //! (detrending, splits).
 
 pub mod arx;
+pub mod ct;
 pub mod data;
 pub mod excite;
 pub mod freq;

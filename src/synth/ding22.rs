@@ -16,8 +16,12 @@
 //! flexure) on the base; the tool holder `m4` sits on it through the
 //! interface stiffness `(k4, c4)`. The actuator pushes `m12` against the
 //! base. Positions are absolute (in the frame that carries the workpiece):
-//! the tool displacement `x4` is the tracking error when the reference is
-//! zero, and the displacement sensor measures `x4` too. Base vibration
+//! the sensed body's displacement is the tracking error when the reference
+//! is zero, and the displacement sensor measures it. By default that body
+//! is `m12` (`x1`): \[Ding22\] puts the sensor on `m2`, "the mass of the
+//! movable body, including the coil assembly and sensor", and `m4` is a
+//! flexible mass that decouples at high frequency. [`SensedBody::ToolMass`]
+//! senses `x4` instead (non-collocated). Base vibration
 //! `x_b` enters through the flexure's spring and damper.
 //! Equations: `m12 x1'' = F - k2 (x1 - xb) - c2 (x1' - xb') - k4 (x1 - x4) - c4 (x1' - x4')`,
 //! `m4 x4'' = -k4 (x4 - x1) - c4 (x4' - x1')`.
@@ -50,7 +54,8 @@
 //!   Riccati solvers resolve in double precision).
 //!
 //! Generalised plant: inputs `[w1, w2, w3, u]`, outputs
-//! `[W_e e, W_u u, y]`, `e = x4`, `y = x4 + W1 w1`; `u = K y` (the lft
+//! `[W_e e, W_u u, y]`, `e = x_s`, `y = x_s + W1 w1` (`x_s` the sensed
+//! body's displacement); `u = K y` (the lft
 //! convention of [`StateSpace::lft`]).
 
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
@@ -84,6 +89,21 @@ fn num<E: std::fmt::Display>(e: E) -> Ding22Error {
     Ding22Error::Numerical(e.to_string())
 }
 
+/// Which body the displacement sensor (and the tool, whose error is the
+/// performance output) sits on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum SensedBody {
+    /// The moving body `m12 = m1 + m2`, displacement `x1`: \[Ding22\] says
+    /// `m2` "is the mass of the movable body, including the coil assembly
+    /// and sensor". Collocated with the actuator force.
+    #[default]
+    MovingBody,
+    /// The flexible mass `m4`, displacement `x4` (fts's reading before the
+    /// paper's text was checked): non-collocated, the phase of `x4/F`
+    /// heads for -360 deg above the 445 Hz mode.
+    ToolMass,
+}
+
 /// Lumped mechanics of \[Ding22\] Table 1 (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TwoMassParams {
@@ -99,6 +119,8 @@ pub struct TwoMassParams {
     pub k4: f64,
     /// Tool interface damping (N s/m).
     pub c4: f64,
+    /// The body sensed (and whose displacement is the tool error).
+    pub sensor: SensedBody,
 }
 
 impl Default for TwoMassParams {
@@ -112,6 +134,7 @@ impl Default for TwoMassParams {
             m4: 0.008,
             k4: 56285.0,
             c4: 6.18,
+            sensor: SensedBody::MovingBody,
         }
     }
 }
@@ -147,8 +170,9 @@ impl TwoMassParams {
         nonneg(self.c4, "c4")
     }
 
-    /// Continuous plant, inputs `[F (N), x_b (m)]`, output `[x4 (m)]`,
-    /// states `[x1, x4, x1' - (c2/m12) x_b, x4']` (module docs).
+    /// Continuous plant, inputs `[F (N), x_b (m)]`, output the sensed
+    /// body's displacement (`x1` or `x4`, m), states
+    /// `[x1, x4, x1' - (c2/m12) x_b, x4']` (module docs).
     pub fn plant(&self) -> Result<StateSpace, Ding22Error> {
         self.validate()?;
         let Self {
@@ -158,6 +182,7 @@ impl TwoMassParams {
             m4,
             k4,
             c4,
+            sensor,
         } = *self;
         let a2 = c2 / m12; // x1' = w1 + a2 xb
         let a = Mat::from_fn(4, 4, |i, j| match (i, j) {
@@ -179,7 +204,11 @@ impl TwoMassParams {
             (3, 1) => c4 * a2 / m4,
             _ => 0.0,
         });
-        let c = Mat::from_fn(1, 4, |_, j| if j == 1 { 1.0 } else { 0.0 });
+        let sensed = match sensor {
+            SensedBody::MovingBody => 0,
+            SensedBody::ToolMass => 1,
+        };
+        let c = Mat::from_fn(1, 4, |_, j| if j == sensed { 1.0 } else { 0.0 });
         StateSpace::new(a, b, c, Mat::zeros(1, 2), None).map_err(num)
     }
 

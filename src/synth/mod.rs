@@ -8,6 +8,7 @@ pub mod genplant;
 pub mod h2;
 pub mod hinf;
 pub mod ilc;
+pub mod mechanism;
 pub mod mixsyn;
 pub mod pid;
 pub mod repetitive;

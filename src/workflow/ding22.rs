@@ -11,8 +11,8 @@ use crate::io::ss_json;
 use crate::lti::logspace;
 use crate::synth::budget::ErrorBudget;
 use crate::synth::ding22::{
-    Design, Ding22Error, Ding22Problem, Ding22Weights, Evaluation, PidBaseline, SOURCES, Sweep,
-    TwoMassParams, budget, design, sweep, tune_pid,
+    Design, Ding22Error, Ding22Problem, Ding22Weights, Evaluation, PidBaseline, SOURCES,
+    SensedBody, Sweep, TwoMassParams, budget, design, sweep, tune_pid,
 };
 use crate::synth::genplant::SynthError;
 use serde::{Deserialize, Serialize, Serializer};
@@ -37,6 +37,9 @@ pub struct Ding22Study {
     pub k4: f64,
     /// Tool interface damping, N s/m; default 6.18.
     pub c4: f64,
+    /// Body the sensor (and the tool) sits on; default moving-body (`m12`, as
+    /// \[Ding22\] describes), `m4` the flexible mass.
+    pub sensor: SensorChoice,
     /// Gain of W1, the sensor noise, m; default 1.36e-6.
     pub sensor_noise: f64,
     /// Gain of W2, the current-loop force noise, N; default 1.64e-7.
@@ -59,6 +62,40 @@ pub struct Ding22Study {
     pub pid: bool,
 }
 
+/// Where `fts ding22` senses (`sensor`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SensorChoice {
+    /// The moving body `m12 = m1 + m2` (collocated with the force).
+    #[default]
+    #[serde(rename = "moving-body")]
+    MovingBody,
+    /// The flexible mass `m4` (non-collocated).
+    #[serde(rename = "m4")]
+    M4,
+}
+
+impl crate::workflow::Choices for SensorChoice {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        (
+            "moving-body",
+            "Sensor and tool on m12 = m1 + m2, as Ding22 describes (collocated with the force)",
+        ),
+        (
+            "m4",
+            "Sensor and tool on the flexible mass m4 (non-collocated; fts's earlier reading)",
+        ),
+    ];
+}
+
+impl SensorChoice {
+    fn name(self) -> &'static str {
+        match self {
+            SensorChoice::MovingBody => "moving-body",
+            SensorChoice::M4 => "m4",
+        }
+    }
+}
+
 impl Default for Ding22Study {
     fn default() -> Self {
         let m = TwoMassParams::default();
@@ -70,6 +107,7 @@ impl Default for Ding22Study {
             m4: m.m4,
             k4: m.k4,
             c4: m.c4,
+            sensor: SensorChoice::MovingBody,
             sensor_noise: w.sensor_noise,
             current_noise: w.current_noise,
             base_noise: w.base_noise,
@@ -242,6 +280,10 @@ impl Ding22Study {
             m4: self.m4,
             k4: self.k4,
             c4: self.c4,
+            sensor: match self.sensor {
+                SensorChoice::MovingBody => SensedBody::MovingBody,
+                SensorChoice::M4 => SensedBody::ToolMass,
+            },
         };
         let mut w = Ding22Weights {
             sensor_noise: self.sensor_noise,
@@ -318,6 +360,14 @@ impl Ding22Report {
     /// The mechanics of the design (the best point of a sweep).
     pub fn mechanics(&self) -> TwoMassParams {
         self.design.problem.mech
+    }
+
+    /// The body sensed.
+    pub fn settings_sensor(&self) -> SensorChoice {
+        match self.mechanics().sensor {
+            SensedBody::MovingBody => SensorChoice::MovingBody,
+            SensedBody::ToolMass => SensorChoice::M4,
+        }
     }
 
     /// The two undamped modes, Hz.
@@ -440,6 +490,7 @@ impl Serialize for Ding22Report {
         let b = &self.budget;
         let mut v = json!({
             "mechanics": {"m12": m.m12, "k2": m.k2, "c2": m.c2, "m4": m.m4, "k4": m.k4, "c4": m.c4,
+                "sensor": self.settings_sensor().name(),
                 "natural_frequencies_hz": self.natural_frequencies_hz()},
             "sources": SOURCES,
             "h2": self.h2_json(),
@@ -527,7 +578,14 @@ impl fmt::Display for Ding22Report {
             "two-mass plant: m12 = {} kg, k2 = {} N/m, c2 = {} N s/m, m4 = {} kg, k4 = {} N/m, c4 = {} N s/m",
             m.m12, m.k2, m.c2, m.m4, m.k4, m.c4
         )?;
-        writeln!(f, "undamped modes {f1:.2} Hz and {f2:.2} Hz")?;
+        writeln!(
+            f,
+            "sensor and tool on {}; undamped modes {f1:.2} Hz and {f2:.2} Hz",
+            match self.settings_sensor() {
+                SensorChoice::MovingBody => "the moving body m12 (x1)",
+                SensorChoice::M4 => "the flexible mass m4 (x4)",
+            }
+        )?;
         writeln!(
             f,
             "H2 controller: {} states, closed loop {}, Riccati residual X {:.1e}, Y {:.1e}, {:.1} ms",

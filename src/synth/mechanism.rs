@@ -1,0 +1,323 @@
+//! Mechanism design formulas (docs/mechanism.md):
+//!
+//! * \[Li21\] Eq. 1, displacement lost in the flexure: the actuator (stiffness
+//!   `k_p`) in series with the flexure (`k`) delivers `dL0 k_p/(k_p + k)`.
+//! * \[Li21\] Eq. 2, rotational stiffness of a straight-beam flexure hinge with
+//!   circular fillets: `K = E b t^3/(12 l) + E b R^2/(12 f(s))`, `s = R/t`.
+//! * \[Tang17\] Eq. 2-7, the 3-PUU parallel FTS: inverse kinematics, its
+//!   Jacobian `J = dS/d(x, y, z)`, conditioning, and the workspace by
+//!   seeded Monte-Carlo sampling.
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// \[Li21\] Eq. 1: what the actuator's free stroke `dl0` becomes through a
+/// flexure of stiffness `k` (same unit as `kp`): `(delivered, lost)`.
+pub fn flexure_displacement(kp: f64, k: f64, dl0: f64) -> (f64, f64) {
+    let delivered = dl0 * kp / (kp + k);
+    (delivered, dl0 - delivered)
+}
+
+/// The `f(s)` of \[Li21\] Eq. 2, `s = R/t`:
+/// `12 s^4 (2s+1)/(4s+1)^(5/2) atan(sqrt(4s+1)) + 2 s^3 (6s^2+4s+1)/((4s+1)^2 (2s+1))`.
+pub fn li21_f(s: f64) -> f64 {
+    let q = 4.0 * s + 1.0;
+    12.0 * s.powi(4) * (2.0 * s + 1.0) / q.powf(2.5) * q.sqrt().atan()
+        + 2.0 * s.powi(3) * (6.0 * s * s + 4.0 * s + 1.0) / (q * q * (2.0 * s + 1.0))
+}
+
+/// A straight-beam flexure hinge with circular fillets (SI units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HingeGeometry {
+    /// Young's modulus, Pa.
+    pub youngs_modulus: f64,
+    /// Width `b` (out of plane), m.
+    pub width: f64,
+    /// Beam length `l`, m.
+    pub length: f64,
+    /// Thickness `t`, m.
+    pub thickness: f64,
+    /// Fillet radius `R`, m.
+    pub radius: f64,
+}
+
+/// The two terms of \[Li21\] Eq. 2 and their sum, N m/rad.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HingeStiffness {
+    /// `E b t^3 / (12 l)`, the straight beam.
+    pub beam: f64,
+    /// `E b R^2 / (12 f(s))`, the fillets.
+    pub fillets: f64,
+    /// `s = R/t`.
+    pub s: f64,
+    /// `f(s)`.
+    pub f: f64,
+    /// The sum.
+    pub total: f64,
+}
+
+/// \[Li21\] Eq. 2.
+pub fn hinge_stiffness(g: &HingeGeometry) -> HingeStiffness {
+    let HingeGeometry {
+        youngs_modulus: e,
+        width: b,
+        length: l,
+        thickness: t,
+        radius: r,
+    } = *g;
+    let beam = e * b * t.powi(3) / (12.0 * l);
+    let s = r / t;
+    let f = li21_f(s);
+    let fillets = if r > 0.0 {
+        e * b * r * r / (12.0 * f)
+    } else {
+        0.0
+    };
+    HingeStiffness {
+        beam,
+        fillets,
+        s,
+        f,
+        total: beam + fillets,
+    }
+}
+
+/// The 3-PUU geometry of \[Tang17\] (any length unit, the same throughout).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Puu3 {
+    /// Rod length `L`.
+    pub rod: f64,
+    /// Base joint circle radius `r`.
+    pub base_radius: f64,
+    /// Platform joint circle radius `r_a`.
+    pub platform_radius: f64,
+}
+
+impl Default for Puu3 {
+    /// \[Tang17\]: `L = 60`, `r = 70`, `r_a = 27` (mm).
+    fn default() -> Self {
+        Puu3 {
+            rod: 60.0,
+            base_radius: 70.0,
+            platform_radius: 27.0,
+        }
+    }
+}
+
+/// Angles of the three base joints: 0, 120, 240 deg (the printed `C_2` of
+/// \[Tang17\] has a sign typo).
+pub const JOINT_ANGLES_DEG: [f64; 3] = [0.0, 120.0, 240.0];
+
+impl Puu3 {
+    /// The horizontal offsets `(d cos th_i - x, d sin th_i - y)`, `d = r - r_a`.
+    fn offsets(&self, x: f64, y: f64) -> [(f64, f64); 3] {
+        let d = self.base_radius - self.platform_radius;
+        JOINT_ANGLES_DEG.map(|a| {
+            let th = a.to_radians();
+            (d * th.cos() - x, d * th.sin() - y)
+        })
+    }
+
+    /// \[Tang17\] Eq. 2-4: slider positions
+    /// `S_i = z - sqrt(L^2 - (d cos th_i - x)^2 - (d sin th_i - y)^2)`;
+    /// `None` when a rod cannot reach.
+    pub fn inverse(&self, x: f64, y: f64, z: f64) -> Option<[f64; 3]> {
+        let o = self.offsets(x, y);
+        let mut s = [0.0; 3];
+        for (i, (dx, dy)) in o.iter().enumerate() {
+            let h2 = self.rod * self.rod - dx * dx - dy * dy;
+            if h2.is_nan() || h2 <= 0.0 {
+                return None;
+            }
+            s[i] = z - h2.sqrt();
+        }
+        Some(s)
+    }
+
+    /// \[Tang17\] Eq. 5-7: `J = dS/d(x, y, z)`, row i
+    /// `[dx_i/h_i, dy_i/h_i, 1]` with `(dx_i, dy_i)` the offsets and
+    /// `h_i` the rod's vertical extent. `None` when a rod cannot reach.
+    pub fn jacobian(&self, x: f64, y: f64) -> Option<[[f64; 3]; 3]> {
+        let o = self.offsets(x, y);
+        let mut j = [[0.0; 3]; 3];
+        for (i, (dx, dy)) in o.iter().enumerate() {
+            let h2 = self.rod * self.rod - dx * dx - dy * dy;
+            if h2.is_nan() || h2 <= 0.0 {
+                return None;
+            }
+            let h = h2.sqrt();
+            // `+ 0.0` turns a -0 (a joint on the x axis) into 0.
+            j[i] = [-dx / h + 0.0, -dy / h + 0.0, 1.0];
+        }
+        Some(j)
+    }
+}
+
+/// 2-norm condition number of a 3x3 matrix (singular values by faer).
+pub fn condition_number(m: &[[f64; 3]; 3]) -> f64 {
+    let a = faer::Mat::from_fn(3, 3, |i, j| m[i][j]);
+    match a.singular_values() {
+        Ok(s) if s[2] > 0.0 => s[0] / s[2],
+        _ => f64::INFINITY,
+    }
+}
+
+/// Seeded Monte-Carlo workspace settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorkspaceParams {
+    /// Slider stroke: `0 <= S_i - S_i(home) <= stroke`.
+    pub stroke: f64,
+    /// Samples drawn.
+    pub samples: usize,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// The reachable poses found and the box around them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Workspace {
+    /// Reachable `(x, y, z)`, relative to the home pose.
+    pub points: Vec<[f64; 3]>,
+    /// `[min, max]` of x, y and z.
+    pub extent: [[f64; 2]; 3],
+    /// Samples drawn.
+    pub samples: usize,
+}
+
+/// Draws poses uniformly in the box `|x|, |y| <= stroke`,
+/// `z in [-0.05, 1.05] stroke` around home (it holds every reachable pose:
+/// the home Jacobian's rows need `|x| <= stroke/1.54`, `|y| <= stroke/1.78`,
+/// and `z` leaves `[0, stroke]` only by the rods' second-order
+/// `(x^2 + y^2)/(2 h)`, under 0.1 % of the stroke at micrometre strokes)
+/// and keeps those whose slider displacements from home all lie in
+/// `[0, stroke]`: the workspace of \[Tang17\] §2. The kinematics do not
+/// depend on the home height, so home is `z = 0`.
+pub fn workspace(m: &Puu3, p: &WorkspaceParams) -> Workspace {
+    let home = m.inverse(0.0, 0.0, 0.0).expect("home pose reachable");
+    let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
+    let half = p.stroke;
+    let mut points = Vec::new();
+    for _ in 0..p.samples {
+        let x = rng.random_range(-half..=half);
+        let y = rng.random_range(-half..=half);
+        let z = rng.random_range(-0.05 * p.stroke..=1.05 * p.stroke);
+        if let Some(s) = m.inverse(x, y, z)
+            && s.iter()
+                .zip(&home)
+                .all(|(si, hi)| (0.0..=p.stroke).contains(&(si - hi)))
+        {
+            points.push([x, y, z]);
+        }
+    }
+    let mut extent = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
+    for q in &points {
+        for (e, v) in extent.iter_mut().zip(q) {
+            e[0] = e[0].min(*v);
+            e[1] = e[1].max(*v);
+        }
+    }
+    Workspace {
+        points,
+        extent,
+        samples: p.samples,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn li21_eq1_loses_0_55_um_of_10() {
+        let (delivered, lost) = flexure_displacement(200.0, 11.6, 10.0);
+        assert!((lost - 0.5482).abs() < 1e-4, "{lost}");
+        assert_eq!(format!("{lost:.2}"), "0.55");
+        assert!((delivered + lost - 10.0).abs() < 1e-12);
+    }
+
+    /// `f(s)` at the Li21 design `s = 2/0.6` against the value numpy
+    /// computes from the same printed formula (22.976318924585193), and the
+    /// straight-beam limit `R -> 0`.
+    #[test]
+    fn li21_eq2_f_and_its_limits() {
+        assert!((li21_f(2.0 / 0.6) - 22.976318924585193).abs() < 1e-12);
+        let g = HingeGeometry {
+            youngs_modulus: 2e11,
+            width: 0.01,
+            length: 0.007,
+            thickness: 6e-4,
+            radius: 0.0,
+        };
+        let k = hinge_stiffness(&g);
+        assert_eq!(k.total, 2e11 * 0.01 * 6e-4f64.powi(3) / (12.0 * 0.007));
+    }
+
+    /// \[Tang17\] home pose: `d = 43`, `h = sqrt(60^2 - 43^2)`, rows
+    /// `[-d/h, 0, 1]`, `[d/(2h), -+ d sqrt(3)/(2h), 1]` = `[-1.0276, 0, 1]`,
+    /// `[0.5138, -+0.8899, 1]`.
+    #[test]
+    fn tang17_home_jacobian_has_the_published_rows() {
+        let j = Puu3::default().jacobian(0.0, 0.0).unwrap();
+        let published = [
+            [-1.0276, 0.0, 1.0],
+            [0.5138, -0.8899, 1.0],
+            [0.5138, 0.8899, 1.0],
+        ];
+        for (row, pub_row) in j.iter().zip(&published) {
+            for (a, b) in row.iter().zip(pub_row) {
+                assert!((a - b).abs() < 5e-5, "{row:?} vs {pub_row:?}");
+            }
+        }
+    }
+
+    /// The Jacobian is the derivative of the inverse kinematics (central
+    /// differences at an off-home pose).
+    #[test]
+    fn jacobian_is_the_derivative_of_the_inverse_kinematics() {
+        let m = Puu3::default();
+        let (x, y, z, h) = (0.07, -0.05, 42.0, 1e-6);
+        let j = m.jacobian(x, y).unwrap();
+        for (axis, delta) in [(0, [h, 0.0, 0.0]), (1, [0.0, h, 0.0]), (2, [0.0, 0.0, h])] {
+            let plus = m.inverse(x + delta[0], y + delta[1], z + delta[2]).unwrap();
+            let minus = m.inverse(x - delta[0], y - delta[1], z - delta[2]).unwrap();
+            for i in 0..3 {
+                let fd = (plus[i] - minus[i]) / (2.0 * h);
+                assert!(
+                    (fd - j[i][axis]).abs() < 1e-7,
+                    "J[{i}][{axis}] {} vs {fd}",
+                    j[i][axis]
+                );
+            }
+        }
+    }
+
+    /// Every sampled pose reaches the stroke limits no further than the
+    /// linearised bound allows: pure z up to the stroke, and the x extent
+    /// within `stroke / (1.0276 + 0.5138)` (the stroke shared by rows 1
+    /// and 2 of J).
+    #[test]
+    fn workspace_respects_the_linearised_bounds() {
+        let w = workspace(
+            &Puu3::default(),
+            &WorkspaceParams {
+                stroke: 0.25,
+                samples: 200_000,
+                seed: 1,
+            },
+        );
+        assert!(!w.points.is_empty());
+        let [ex, ey, ez] = w.extent;
+        assert!(ez[0] >= 0.0 && ez[1] <= 0.25 + 1e-12, "{ez:?}");
+        let x_bound = 0.25 / (1.0276 + 0.5138);
+        assert!(
+            ex[1] <= x_bound * 1.01 && ex[0] >= -x_bound * 1.01,
+            "{ex:?} vs {x_bound}"
+        );
+        assert!(ex[1] > 0.9 * x_bound, "sampling too sparse: {ex:?}");
+        let y_bound = 0.25 / (2.0 * 0.8899);
+        assert!(
+            ey[1] <= y_bound * 1.01 && ey[1] > 0.9 * y_bound,
+            "{ey:?} vs {y_bound}"
+        );
+    }
+}
