@@ -458,3 +458,39 @@ fn h2_and_hinf_accept_discrete_plants() {
         .code(2)
         .stderr(predicate::str::contains("margin"));
 }
+
+/// `ss-info` gives the H-inf norm as the attained peak, its frequency in Hz
+/// and a certified bound. 1/(s^2/wn^2 + 2 zeta s/wn + 1), wn = 2 pi 300,
+/// zeta = 0.3: peak 1/(2 zeta sqrt(1 - zeta^2)) at 300 sqrt(1 - 2 zeta^2) Hz.
+#[test]
+fn ss_info_gives_the_hinf_peak_frequency_and_bound() {
+    let plant = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/second-order-plant.json"
+    );
+    let zeta: f64 = 0.3;
+    let peak = 1.0 / (2.0 * zeta * (1.0 - zeta * zeta).sqrt());
+    let hz = 300.0 * (1.0 - 2.0 * zeta * zeta).sqrt();
+    let out = fts()
+        .args(["ss-info", "--json", plant])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    let norm = v["hinf_norm"].as_f64().unwrap();
+    let upper = v["hinf_upper_bound"].as_f64().unwrap();
+    assert!((norm / peak - 1.0).abs() < 1e-12, "{v}");
+    // A peak is flat: its frequency is determined to about sqrt(eps).
+    assert!(
+        (v["hinf_freq_hz"].as_f64().unwrap() / hz - 1.0).abs() < 1e-7,
+        "{v}"
+    );
+    assert!(upper >= peak && upper <= norm * (1.0 + 2.1e-9), "{v}");
+    fts()
+        .args(["ss-info", plant])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("Hz").and(predicate::str::contains("certified <=")));
+}
