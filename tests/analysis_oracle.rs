@@ -247,9 +247,14 @@ fn norms_zeros_and_stability_match_the_oracle_corpus() {
 /// is attained at the frequency it reports.
 #[test]
 fn hinf_bounds_hold_against_the_attained_references() {
+    let (mut loose, mut widest) = (Vec::new(), 0.0f64);
     for case in corpus().iter().filter(|c| c.stable) {
         let sys = system(case);
         let h = hinf_norm(&sys, 1e-10).unwrap();
+        if h.gap() > 2.1e-10 {
+            loose.push(format!("{} {:.1e}", case.name, h.gap()));
+        }
+        widest = widest.max(h.gap());
         let want = case.hinf.unwrap();
         assert!(
             h.upper >= want * (1.0 - 1e-12),
@@ -261,6 +266,11 @@ fn hinf_bounds_hold_against_the_attained_references() {
             assert_eq!(h.peak, sys.sigma_at(h.omega), "{}", case.name);
         }
     }
+    // Certified within 2 rtol except where a level just above the peak
+    // cannot be told from a crossing (docs/analysis.md, "Limits": lightly
+    // damped peaks, the AB13DD example).
+    eprintln!("bounds looser than 2 rtol: {loose:?}; widest gap {widest:.2e}");
+    assert!(loose.len() <= 8 && widest <= 1e-3, "{loose:?} {widest:e}");
 }
 
 #[test]

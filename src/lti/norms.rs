@@ -581,7 +581,8 @@ mod tests {
         }
         assert!(worst < 1e-6, "worst relative shortfall {worst:e}");
         eprintln!("worst shortfall {worst:e}, {loose} of 400 bounds looser than 2 rtol");
-        assert!(loose < 40, "{loose} of 400 bounds looser than 2 rtol");
+        // None was on the last run; a few may be after a platform change.
+        assert!(loose <= 4, "{loose} of 400 bounds looser than 2 rtol");
     }
 
     #[test]
