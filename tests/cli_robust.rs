@@ -45,8 +45,14 @@ fn hinf_and_h2_json_and_controller_file() {
         let kk = std::fs::read_to_string(&k).unwrap();
         assert!(kk.contains("fts.ss/1"));
         if cmd == "hinf" {
-            assert!(v["gamma"].as_f64().is_some());
+            let gamma = v["gamma"].as_f64().unwrap();
             assert!(v["bisection"]["bound"].as_f64().is_some());
+            // The closed loop is zero to rounding: its peak is noise, found
+            // at some frequency, and no level can be certified above it
+            // (docs/analysis.md, "Limits"): the bound is null, not made up.
+            assert!(gamma < 1e-12, "{v}");
+            assert!(v["gamma_freq_hz"].as_f64().is_some(), "{v}");
+            assert!(v["gamma_upper"].is_null(), "{v}");
         } else {
             assert!(v["h2_norm"].as_f64().unwrap() < 1e-9);
         }
@@ -457,4 +463,40 @@ fn h2_and_hinf_accept_discrete_plants() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains("margin"));
+}
+
+/// `ss-info` gives the H-inf norm as the attained peak, its frequency in Hz
+/// and a certified bound. 1/(s^2/wn^2 + 2 zeta s/wn + 1), wn = 2 pi 300,
+/// zeta = 0.3: peak 1/(2 zeta sqrt(1 - zeta^2)) at 300 sqrt(1 - 2 zeta^2) Hz.
+#[test]
+fn ss_info_gives_the_hinf_peak_frequency_and_bound() {
+    let plant = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/second-order-plant.json"
+    );
+    let zeta: f64 = 0.3;
+    let peak = 1.0 / (2.0 * zeta * (1.0 - zeta * zeta).sqrt());
+    let hz = 300.0 * (1.0 - 2.0 * zeta * zeta).sqrt();
+    let out = fts()
+        .args(["ss-info", "--json", plant])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    let norm = v["hinf_norm"].as_f64().unwrap();
+    let upper = v["hinf_upper_bound"].as_f64().unwrap();
+    assert!((norm / peak - 1.0).abs() < 1e-12, "{v}");
+    // A peak is flat: its frequency is determined to about sqrt(eps).
+    assert!(
+        (v["hinf_freq_hz"].as_f64().unwrap() / hz - 1.0).abs() < 1e-7,
+        "{v}"
+    );
+    assert!(upper >= peak && upper <= norm * (1.0 + 2.1e-9), "{v}");
+    fts()
+        .args(["ss-info", plant])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("Hz").and(predicate::str::contains("certified <=")));
 }

@@ -13,7 +13,7 @@ use super::common::{
     write_atomic,
 };
 use crate::io::ss_json;
-use crate::lti::norms::{NormError, h2_norm, hinf_norm};
+use crate::lti::norms::{HinfNorm, NormError, h2_norm, hinf_norm};
 use crate::lti::ss::StateSpace;
 use crate::lti::zeros::invariant_zeros;
 use crate::workflow::robust::poles_summary;
@@ -337,8 +337,8 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
             "states": sys.nx(), "inputs": sys.nu(), "outputs": sys.ny(), "ts": sys.ts,
             "poles": complex_pairs(&poles), "stable": stable,
             "zeros": complex_pairs(&zeros.finite), "normal_rank": zeros.normal_rank,
-            "h2_norm": h2, "hinf_norm": hinf.map(|h| h.0), "hinf_omega": hinf.map(|h| h.1),
-            "hinf_freq_hz": hinf.map(|h| h.1 / std::f64::consts::TAU),
+            "h2_norm": h2, "hinf_norm": hinf.map(|h| h.peak), "hinf_omega": hinf.map(|h| h.omega),
+            "hinf_freq_hz": hinf.map(|h| h.freq_hz()), "hinf_upper_bound": hinf.map(|h| h.upper),
         }))
     } else {
         say!(
@@ -355,15 +355,26 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
                 poles_summary(&zeros.finite)
             },
             zeros.normal_rank,
-            hinf.map_or("infinite (unstable)".to_string(), |h| format!(
-                "{:.9} at {:.6} Hz ({:.6} rad/s)",
-                h.0,
-                h.1 / std::f64::consts::TAU,
-                h.1
-            ))
+            hinf.map_or("infinite (unstable)".to_string(), hinf_summary)
         );
         Ok(())
     }
+}
+
+/// `peak at f Hz (w rad/s), <= upper`: the attained value, where, and the
+/// certified bound.
+fn hinf_summary(h: HinfNorm) -> String {
+    let at = if h.omega.is_finite() {
+        format!("at {:.6} Hz ({:.6} rad/s)", h.freq_hz(), h.omega)
+    } else {
+        "at infinite frequency".to_string()
+    };
+    let bound = if h.upper.is_finite() {
+        format!("certified <= {:.12}", h.upper)
+    } else {
+        "upper bound not certified".to_string()
+    };
+    format!("{:.12} {at}, {bound}", h.peak)
 }
 
 #[derive(Debug, Args)]

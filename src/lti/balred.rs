@@ -236,7 +236,7 @@ mod tests {
                 None,
             )
             .unwrap();
-            let e = hinf_norm(&g.parallel(&neg).unwrap(), 1e-8).unwrap().0;
+            let e = hinf_norm(&g.parallel(&neg).unwrap(), 1e-8).unwrap().peak;
             assert!(
                 e <= red.bound * (1.0 + 1e-6) + 1e-12,
                 "r={r}: {e} > {}",

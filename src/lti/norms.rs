@@ -8,15 +8,21 @@
 //!   Control Letters 14, 1990; Boyd, Balakrishnan & Kabamba 1989): `gamma` is
 //!   a singular value of `G(jw)` iff the Hamiltonian `H(gamma)` has the
 //!   eigenvalue `jw`; the lower bound is raised to the peak over the midpoints
-//!   of the imaginary-axis eigenvalues until none remain. Discrete systems are
-//!   mapped to continuous time by the bilinear transform `z = (1+s)/(1-s)`,
-//!   which preserves the H-infinity norm exactly.
+//!   of the imaginary-axis eigenvalues until none remain. The level at which
+//!   none remain is the certified upper bound; the peak is then refined by
+//!   golden-section search between the last crossings and reported as the
+//!   value `sigma_max(G(jw))` actually attained ([`HinfNorm`]: `peak <=
+//!   ||G|| <= upper`). Discrete systems are searched on their bilinear image
+//!   `z = (a+s)/(a-s)` (which preserves the H-infinity norm exactly); their
+//!   peak is refined and evaluated on the unit circle of the discrete system
+//!   itself.
 
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::c64;
 use super::lyapunov::{MatEqError, dlyap, lyap};
+use super::schur::gen_schur;
 use super::ss::{SsError, StateSpace, block2, eigvals, fro, inv, sigma_max, tr};
 use faer::Mat;
 use thiserror::Error;
@@ -108,26 +114,117 @@ pub fn bilinear_to_continuous(sys: &StateSpace, alpha: f64) -> Result<StateSpace
     )
 }
 
-/// H-infinity norm and the frequency (rad/s) where it is attained, to
-/// relative accuracy `rtol`. Errors for unstable systems.
-pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
+/// The H-infinity norm of a stable system with its certificate:
+/// `peak <= ||G||_inf <= upper`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct HinfNorm {
+    /// Attained value, a true lower bound: `sigma_max(G)` evaluated on the
+    /// system as given (for a discrete system at `z = e^{j omega ts}`) at
+    /// `omega`, refined by golden-section search.
+    pub peak: f64,
+    /// Frequency of the peak, rad/s; `f64::INFINITY` when the supremum is
+    /// `sigma_max(D)` approached as `omega -> inf` (continuous only: a
+    /// discrete system's highest frequency is the Nyquist `pi/ts`).
+    pub omega: f64,
+    /// Certified upper bound: the top of the final Bruinsma–Steinbuch
+    /// interval, a level at which the Hamiltonian has no imaginary-axis
+    /// eigenvalue (or only ones where `sigma_max < upper`, i.e. none that
+    /// are genuine). `upper <= peak (1 + 2 rtol)` normally; looser when the
+    /// first levels tried were inconclusive, `f64::INFINITY` when no level
+    /// could be certified.
+    pub upper: f64,
+}
+
+impl HinfNorm {
+    /// Frequency of the peak in Hz.
+    pub fn freq_hz(&self) -> f64 {
+        self.omega / std::f64::consts::TAU
+    }
+
+    /// Relative width of the certified interval, `upper / peak - 1`
+    /// (0 for a zero system).
+    pub fn gap(&self) -> f64 {
+        if self.peak > 0.0 {
+            self.upper / self.peak - 1.0
+        } else {
+            0.0
+        }
+    }
+}
+
+/// H-infinity norm of a stable system to relative accuracy `rtol`: the
+/// attained peak, its frequency and a certified upper bound
+/// ([`HinfNorm`]), natively in continuous (Hamiltonian) and discrete
+/// (symplectic pencil) time. Errors for unstable systems.
+pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
     if !sys.is_stable()? {
         return Err(NormError::Unstable);
     }
-    match sys.ts {
-        None => hinf_continuous(sys, rtol),
-        Some(ts) => {
-            let alpha = 2.0 / ts;
-            let c = bilinear_to_continuous(sys, alpha)?;
-            let (g, w) = hinf_continuous(&c, rtol)?;
-            let theta = if w.is_finite() {
-                2.0 * (w / alpha).atan()
-            } else {
-                std::f64::consts::PI
-            };
-            Ok((g, theta / ts))
+    let rtol = rtol.clamp(1e-12, 1e-1);
+    // The crossing test on the balanced realisation (an exact power-of-two
+    // similarity): a companion-form realisation of a resonance at 300 Hz has
+    // ||H|| ~ 1e13, whose absolute eigenvalue tolerance swallowed the axis
+    // distance of every eigenvalue, so no level was ever certified.
+    let found = bruinsma_steinbuch(&sys.balanced(), rtol)?;
+    let (lo, hi) = found.bracket;
+    let (mut peak, mut omega) = (sigma_at_or_d(sys, found.omega), found.omega);
+    if hi.is_finite() && hi > lo {
+        let (w, s) = golden_max(sys, lo, hi);
+        if s > peak {
+            (peak, omega) = (s, w);
         }
     }
+    if !peak.is_finite() {
+        return Err(NormError::Ss(SsError::IllPosed));
+    }
+    Ok(HinfNorm {
+        peak,
+        omega,
+        upper: found.upper.max(peak),
+    })
+}
+
+/// `sigma_max(G(j w))`, and `sigma_max(D)` for `w = INFINITY`.
+fn sigma_at_or_d(sys: &StateSpace, w: f64) -> f64 {
+    if w.is_finite() {
+        sys.sigma_at(w)
+    } else {
+        sigma_max(&sys.d)
+    }
+}
+
+/// Maximum of `sigma_max(G(j w))` over `[lo, hi]` by golden-section search
+/// (the bracket of a converged Bruinsma–Steinbuch step holds one peak).
+fn golden_max(sys: &StateSpace, lo: f64, hi: f64) -> (f64, f64) {
+    const INV_PHI: f64 = 0.618_033_988_749_894_8;
+    let (mut a, mut b) = (lo, hi);
+    let mut x1 = b - INV_PHI * (b - a);
+    let mut x2 = a + INV_PHI * (b - a);
+    let (mut f1, mut f2) = (sys.sigma_at(x1), sys.sigma_at(x2));
+    for _ in 0..200 {
+        if b - a <= 1e-15 * b.abs().max(f64::MIN_POSITIVE) {
+            break;
+        }
+        if f1 >= f2 {
+            (b, x2, f2) = (x2, x1, f1);
+            x1 = b - INV_PHI * (b - a);
+            f1 = sys.sigma_at(x1);
+        } else {
+            (a, x1, f1) = (x1, x2, f2);
+            x2 = a + INV_PHI * (b - a);
+            f2 = sys.sigma_at(x2);
+        }
+    }
+    [
+        (lo, sys.sigma_at(lo)),
+        (hi, sys.sigma_at(hi)),
+        (x1, f1),
+        (x2, f2),
+    ]
+    .into_iter()
+    .fold((lo, f64::NEG_INFINITY), |best, (w, s)| {
+        if s > best.1 { (w, s) } else { best }
+    })
 }
 
 /// `count` log-spaced frequencies from `margin` times below the slowest
@@ -144,82 +241,233 @@ pub(crate) fn log_grid(poles: &[c64], count: usize, margin: f64) -> Vec<f64> {
         .collect()
 }
 
-fn hinf_continuous(sys: &StateSpace, rtol: f64) -> Result<(f64, f64), NormError> {
-    let rtol = rtol.clamp(1e-12, 1e-1);
-    let n = sys.nx();
-    let sd = sigma_max(&sys.d);
-    if n == 0 {
-        return Ok((sd, f64::INFINITY));
-    }
-    // Initial lower bound: D, DC and the pole frequencies (Bruinsma–Steinbuch step 1).
-    let mut glb = sd;
-    let mut wpk = f64::INFINITY;
-    let mut cands = vec![0.0];
-    let poles = eigvals(&sys.a)?;
-    for p in &poles {
-        cands.push(p.norm());
-        cands.push(p.im.abs());
-    }
-    // And a coarse log grid over the poles' range: a start at sigma(D) alone
-    // (a peak at infinity, e.g. a discrete system's Nyquist value after the
-    // bilinear map) puts gamma within 2 rtol of sigma_max(D), where
-    // R = D'D - gamma^2 I is nearly singular and the Hamiltonian's
-    // imaginary eigenvalues are lost; a start from the grid's best point
-    // keeps R well conditioned whenever the peak is finite.
-    cands.extend(log_grid(&poles, 64, 10.0));
-    for w in cands {
-        let s = sys.sigma_at(w);
+/// Relative distance from the imaginary axis (unit circle) within which an
+/// eigenvalue counts as a crossing. 1e-6 took the Hamiltonian eigenvalues
+/// of a pole damped by 1e-6 (SLICOT's AB13DD example) for crossings at
+/// every level, so no bound was ever certified; a true crossing computed
+/// off the axis by more than 1e-8 is one of a nearly coalescing pair, whose
+/// level is then within rounding of the peak.
+const AXIS_TOL: f64 = 1e-8;
+
+/// What the Bruinsma–Steinbuch iteration found.
+struct Found {
+    /// Best frequency seen, rad/s (`INFINITY`: the value of `D`).
+    omega: f64,
+    /// Certified upper bound (`INFINITY` when no level was certified).
+    upper: f64,
+    /// Frequencies around `omega` (the crossings of the last level that
+    /// raised the lower bound): the peak lies between them.
+    bracket: (f64, f64),
+}
+
+/// Highest frequency: infinity (continuous) or Nyquist `pi/ts` (discrete).
+fn top_frequency(sys: &StateSpace) -> f64 {
+    sys.ts.map_or(f64::INFINITY, |t| std::f64::consts::PI / t)
+}
+
+/// The best of the sorted `candidates` (frequencies, rad/s) by
+/// `sigma_max`, if above `floor`, with its neighbours as bracket.
+fn best_of(sys: &StateSpace, candidates: &[f64], floor: (f64, f64)) -> (f64, f64, (f64, f64)) {
+    let (mut glb, mut wpk, mut bracket) = (floor.0, floor.1, (floor.1, floor.1));
+    for (i, &w) in candidates.iter().enumerate() {
+        let s = sigma_at_or_d(sys, w);
         if s > glb {
-            glb = s;
-            wpk = w;
+            let lo = if i > 0 { candidates[i - 1] } else { w };
+            let hi = candidates.get(i + 1).copied().unwrap_or(w);
+            (glb, wpk, bracket) = (s, w, (lo, hi));
         }
     }
-    if glb == 0.0 {
-        return Ok((0.0, 0.0));
+    (glb, wpk, bracket)
+}
+
+/// Start (Bruinsma–Steinbuch step 1): DC, the top frequency, the poles'
+/// frequencies and a coarse log grid over their range (continuous
+/// equivalents `ln(p)/ts` for a discrete system). A start at the top
+/// alone puts gamma within 2 rtol of `sigma_max(D)` when the peak is
+/// elsewhere, where `R = D'D - gamma^2 I` is nearly singular and the
+/// crossings are lost; the grid's best point keeps the test well posed.
+fn seed(sys: &StateSpace) -> Result<Vec<f64>, NormError> {
+    let top = top_frequency(sys);
+    let poles: Vec<c64> = eigvals(&sys.a)?
+        .into_iter()
+        .filter(|p| p.norm() > 0.0)
+        .map(|p| sys.ts.map_or(p, |t| p.ln() / t))
+        .collect();
+    let mut cands = vec![0.0, top];
+    for p in &poles {
+        cands.extend([p.norm(), p.im.abs()]);
     }
+    cands.extend(log_grid(&poles, 64, 10.0));
+    cands.retain(|w| *w <= top);
+    cands.sort_by(f64::total_cmp);
+    cands.dedup();
+    Ok(cands)
+}
+
+/// Non-negative frequencies where some singular value of the continuous
+/// `G(jw)` may equal `gamma`: the imaginary-axis eigenvalues of the
+/// Hamiltonian (Bruinsma & Steinbuch 1990) with `R = D'D - g^2 I`,
+/// `S = DD' - g^2 I`; `None` when either is singular.
+fn continuous_crossings(sys: &StateSpace, gamma: f64) -> Result<Option<Vec<f64>>, NormError> {
     let (a, b, c, d) = (&sys.a, &sys.b, &sys.c, &sys.d);
     let (m, p) = (sys.nu(), sys.ny());
-    for _ in 0..60 {
-        let gamma = (1.0 + 2.0 * rtol) * glb;
-        // Bruinsma–Steinbuch Hamiltonian with R = D'D - g^2 I, S = DD' - g^2 I.
-        let g2 = gamma * gamma;
-        let r = &(tr(d) * d) - &(Mat::<f64>::identity(m, m) * g2);
-        let s = &(d * tr(d)) - &(Mat::<f64>::identity(p, p) * g2);
-        let (Some(ri), Some(si)) = (inv(&r), inv(&s)) else {
-            break;
-        };
-        let h11 = a - &(b * &ri * tr(d) * c);
-        let h12 = &(b * &ri * tr(b)) * (-gamma);
-        let h21 = &(tr(c) * &si * c) * gamma;
-        let h22 = &(tr(c) * d * &ri * tr(b)) - &tr(a);
-        let h = block2(&h11, &h12, &h21, &h22);
-        let hn = fro(&h);
-        let ev = eigvals(&h)?;
-        let mut ws: Vec<f64> = ev
+    let g2 = gamma * gamma;
+    let r = &(tr(d) * d) - &(Mat::<f64>::identity(m, m) * g2);
+    let s = &(d * tr(d)) - &(Mat::<f64>::identity(p, p) * g2);
+    let (Some(ri), Some(si)) = (inv(&r), inv(&s)) else {
+        return Ok(None);
+    };
+    let h11 = a - &(b * &ri * tr(d) * c);
+    let h12 = &(b * &ri * tr(b)) * (-gamma);
+    let h21 = &(tr(c) * &si * c) * gamma;
+    let h22 = &(tr(c) * d * &ri * tr(b)) - &tr(a);
+    let h = block2(&h11, &h12, &h21, &h22);
+    let hn = fro(&h);
+    Ok(Some(
+        eigvals(&h)?
             .iter()
-            .filter(|l: &&c64| l.im >= 0.0 && l.re.abs() <= 1e-6 * l.norm() + 1e-10 * hn)
+            .filter(|l: &&c64| l.im >= 0.0 && l.re.abs() <= AXIS_TOL * l.norm() + 1e-10 * hn)
             .map(|l| l.im)
-            .collect();
-        if ws.is_empty() {
-            return Ok((0.5 * (glb + gamma), wpk));
-        }
-        ws.sort_by(f64::total_cmp);
-        let mut mids: Vec<f64> = ws.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
-        mids.extend(ws.iter().copied());
-        let old = glb;
-        for w in mids {
-            let s = sys.sigma_at(w);
-            if s > glb {
-                glb = s;
-                wpk = w;
+            .collect(),
+    ))
+}
+
+/// Frequencies (rad/s, `0..=pi/ts`) where some singular value of the
+/// discrete `G(e^{j theta})` may equal `gamma`: the unit-circle eigenvalues
+/// of the extended symplectic pencil `z L - M` in `(x, w, u, v)`,
+/// `z x = A x + B u`, `z (A' w + C' v) = w`, `C x + D u = g v`,
+/// `B' w + D' v = g u` (the discrete Bruinsma–Steinbuch test without
+/// inverting `D'D - g^2 I`; SLICOT AB13DD works on the same pencil).
+fn discrete_crossings(sys: &StateSpace, gamma: f64, ts: f64) -> Result<Vec<f64>, NormError> {
+    let (n, m, p) = (sys.nx(), sys.nu(), sys.ny());
+    let k = 2 * n + m + p;
+    let (mut big_m, mut big_l) = (Mat::<f64>::zeros(k, k), Mat::<f64>::zeros(k, k));
+    let (w0, u0, v0) = (n, 2 * n, 2 * n + m);
+    let put = |t: &mut Mat<f64>, r0: usize, c0: usize, blk: &Mat<f64>, f: f64| {
+        for i in 0..blk.nrows() {
+            for j in 0..blk.ncols() {
+                t[(r0 + i, c0 + j)] += f * blk[(i, j)];
             }
         }
+    };
+    let (eye_n, eye_m, eye_p) = (
+        Mat::<f64>::identity(n, n),
+        Mat::<f64>::identity(m, m),
+        Mat::<f64>::identity(p, p),
+    );
+    put(&mut big_l, 0, 0, &eye_n, 1.0);
+    put(&mut big_m, 0, 0, &sys.a, 1.0);
+    put(&mut big_m, 0, u0, &sys.b, 1.0);
+    put(&mut big_l, w0, w0, &tr(&sys.a), 1.0);
+    put(&mut big_l, w0, v0, &tr(&sys.c), 1.0);
+    put(&mut big_m, w0, w0, &eye_n, 1.0);
+    // Rows: n state, n costate, p output and m input equations.
+    let (out_row, in_row) = (2 * n, 2 * n + p);
+    put(&mut big_m, out_row, 0, &sys.c, 1.0);
+    put(&mut big_m, out_row, u0, &sys.d, 1.0);
+    put(&mut big_m, out_row, v0, &eye_p, -gamma);
+    put(&mut big_m, in_row, w0, &tr(&sys.b), 1.0);
+    put(&mut big_m, in_row, v0, &tr(&sys.d), 1.0);
+    put(&mut big_m, in_row, u0, &eye_m, -gamma);
+    let qz = gen_schur(&big_m, &big_l).map_err(|_| NormError::Ss(SsError::IllPosed))?;
+    Ok(qz
+        .pairs()
+        .into_iter()
+        .filter(|(_, beta)| beta.norm() > 0.0)
+        .map(|(alpha, beta)| alpha / beta)
+        .filter(|z| z.im >= 0.0 && (z.norm() - 1.0).abs() <= AXIS_TOL)
+        .map(|z| z.arg() / ts)
+        .collect())
+}
+
+/// Sorted crossing frequencies at level `gamma`, or `None` when the test
+/// is not posed (continuous `R` or `S` singular).
+fn crossings(sys: &StateSpace, gamma: f64) -> Result<Option<Vec<f64>>, NormError> {
+    let mut ws = match sys.ts {
+        None => match continuous_crossings(sys, gamma)? {
+            Some(ws) => ws,
+            None => return Ok(None),
+        },
+        Some(ts) => discrete_crossings(sys, gamma, ts)?,
+    };
+    ws.sort_by(f64::total_cmp);
+    Ok(Some(ws))
+}
+
+/// Bruinsma–Steinbuch two-step iteration on a stable system: raise the
+/// lower bound to the best of the midpoints of the crossing frequencies at
+/// `gamma = (1 + margin) glb` until there is no crossing, which certifies
+/// `gamma` as an upper bound.
+fn bruinsma_steinbuch(sys: &StateSpace, rtol: f64) -> Result<Found, NormError> {
+    let top = top_frequency(sys);
+    if sys.nx() == 0 {
+        let upper = sigma_max(&sys.d);
+        return Ok(Found {
+            omega: top,
+            upper,
+            bracket: (top, top),
+        });
+    }
+    let (mut glb, mut wpk, mut bracket) = best_of(sys, &seed(sys)?, (0.0, 0.0));
+    if glb == 0.0 {
+        return Ok(Found {
+            omega: 0.0,
+            upper: 0.0,
+            bracket: (0.0, 0.0),
+        });
+    }
+    let mut margin = 2.0 * rtol;
+    for _ in 0..60 {
+        let gamma = (1.0 + margin) * glb;
+        let Some(ws) = crossings(sys, gamma)? else {
+            break;
+        };
+        if ws.is_empty() {
+            return Ok(Found {
+                omega: wpk,
+                upper: gamma,
+                bracket,
+            });
+        }
+        // Midpoints, the crossings themselves, DC (the midpoint of a
+        // crossing interval symmetric about 0) and the top frequency (the
+        // end of an interval unbounded above, or Nyquist).
+        let mut cands: Vec<f64> = ws.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+        cands.extend(ws.iter().copied());
+        cands.extend([0.0, top]);
+        cands.sort_by(f64::total_cmp);
+        let old = glb;
+        let best = best_of(sys, &cands, (glb, wpk));
+        if best.0 > glb {
+            (glb, wpk) = (best.0, best.1);
+            bracket = enclosing(&ws, wpk, top);
+        }
         if glb <= old * (1.0 + 0.1 * rtol) {
-            // Only spurious (numerically near-axis) eigenvalues remain.
-            return Ok((glb, wpk));
+            // Eigenvalues near the axis (circle) where sigma_max stays below
+            // gamma: rounding, not crossings. Retry at a wider margin, whose
+            // certificate is looser but sound.
+            margin *= 4.0;
+            if margin > 1e-2 {
+                break;
+            }
         }
     }
-    Ok((glb, wpk))
+    Ok(Found {
+        omega: wpk,
+        upper: f64::INFINITY,
+        bracket,
+    })
+}
+
+/// The crossings on either side of `w` (0 and `top` where there is none).
+fn enclosing(ws: &[f64], w: f64, top: f64) -> (f64, f64) {
+    let lo = ws
+        .iter()
+        .copied()
+        .filter(|&x| x < w)
+        .fold(0.0f64.min(w), f64::max);
+    let hi = ws.iter().copied().filter(|&x| x > w).fold(top, f64::min);
+    (lo, hi)
 }
 
 #[cfg(test)]
@@ -256,8 +504,12 @@ mod tests {
         // 1/(s+1): H2 = sqrt(1/2), Hinf = 1 at w = 0.
         let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
         assert!((h2_norm(&g).unwrap() - 0.5f64.sqrt()).abs() < 1e-14);
-        let (n, w) = hinf_norm(&g, 1e-9).unwrap();
-        assert!((n - 1.0).abs() < 1e-8 && w.abs() < 1e-6);
+        let h = hinf_norm(&g, 1e-9).unwrap();
+        assert!(
+            (h.peak - 1.0).abs() < 1e-15 && h.omega.abs() < 1e-6,
+            "{h:?}"
+        );
+        assert!(h.upper >= 1.0 && h.upper <= 1.0 + 2.1e-9, "{h:?}");
     }
 
     /// Largest singular value of a discrete system over a 2000-point grid
@@ -298,7 +550,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         };
-        let mut worst = 0.0f64;
+        let (mut worst, mut loose) = (0.0f64, 0);
         for case in 0..400 {
             let n = 1 + (case % 6);
             let (m, p) = (1 + (case / 6) % 2, 1 + (case / 12) % 2);
@@ -313,11 +565,24 @@ mod tests {
             let shrink = (0.5 + 0.499 * rnd().abs()) / radius;
             let a = Mat::from_fn(n, n, |i, j| a0[(i, j)] * shrink);
             let sys = StateSpace::new(a, b, c, d, Some(1.0)).unwrap();
-            let (g, _) = hinf_norm(&sys, 1e-9).unwrap();
+            let h = hinf_norm(&sys, 1e-9).unwrap();
             let peak = discrete_sweep_peak(&sys);
-            worst = worst.max(1.0 - g / peak);
+            worst = worst.max(1.0 - h.peak / peak);
+            // The certificate holds against the independent sweep, and the
+            // reported peak is attained where it is said to be.
+            assert!(h.upper >= peak * (1.0 - 1e-14), "{case}: {h:?} vs {peak}");
+            assert_eq!(h.peak, sys.sigma_at(h.omega), "{case}");
+            // 2 rtol, or a few times more where the first levels were
+            // inconclusive (eigenvalues near the axis that are not crossings:
+            // a sharp resonance, or a peak at Nyquist, infinity on the
+            // bilinear image, where R is nearly singular).
+            assert!(h.gap() <= 1e-6, "{case}: {h:?}");
+            loose += usize::from(h.gap() > 2.1e-9);
         }
         assert!(worst < 1e-6, "worst relative shortfall {worst:e}");
+        eprintln!("worst shortfall {worst:e}, {loose} of 400 bounds looser than 2 rtol");
+        // None was on the last run; a few may be after a platform change.
+        assert!(loose <= 4, "{loose} of 400 bounds looser than 2 rtol");
     }
 
     #[test]
@@ -325,10 +590,15 @@ mod tests {
         // w0^2/(s^2 + 2 z w0 s + w0^2), z = 0.05: peak 1/(2 z sqrt(1 - z^2)).
         let (z, w0) = (0.05, 10.0);
         let g = StateSpace::from_tf(&[w0 * w0], &[1.0, 2.0 * z * w0, w0 * w0], None).unwrap();
-        let (n, w) = hinf_norm(&g, 1e-10).unwrap();
+        let h = hinf_norm(&g, 1e-10).unwrap();
         let want = 1.0 / (2.0 * z * (1.0 - z * z).sqrt());
-        assert!((n - want).abs() < 1e-8 * want, "{n} vs {want}");
-        assert!((w - w0 * (1.0 - 2.0 * z * z).sqrt()).abs() < 1e-3);
+        // The refined peak is the closed form to rounding, not to rtol.
+        assert!((h.peak - want).abs() < 1e-14 * want, "{h:?} vs {want}");
+        assert!(h.peak <= want * (1.0 + 1e-15) && h.upper >= want, "{h:?}");
+        assert!(
+            (h.omega - w0 * (1.0 - 2.0 * z * z).sqrt()).abs() < 1e-6,
+            "{h:?}"
+        );
         // Discrete: the norm of a stable discrete system equals the peak over the circle.
         let gd = StateSpace::new(
             Mat::from_fn(1, 1, |_, _| 0.5),
@@ -338,10 +608,58 @@ mod tests {
             Some(0.1),
         )
         .unwrap();
-        let (n, _) = hinf_norm(&gd, 1e-10).unwrap();
-        assert!((n - 2.0).abs() < 1e-8, "{n}");
+        let h = hinf_norm(&gd, 1e-10).unwrap();
+        assert!((h.peak - 2.0).abs() < 1e-15 && h.omega == 0.0, "{h:?}");
         // H2 of 1/(z - 0.5): sum 0.25^k = 4/3.
         assert!((h2_norm(&gd).unwrap() - (4.0f64 / 3.0).sqrt()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn peaks_at_nyquist_and_at_infinity() {
+        // 1/(z + 0.5), ts = 1e-3: |G| peaks at z = -1 (the Nyquist
+        // frequency pi/ts) with 1/0.5 = 2.
+        let ts = 1e-3;
+        let gd = StateSpace::new(
+            Mat::from_fn(1, 1, |_, _| -0.5),
+            Mat::from_fn(1, 1, |_, _| 1.0),
+            Mat::from_fn(1, 1, |_, _| 1.0),
+            Mat::zeros(1, 1),
+            Some(ts),
+        )
+        .unwrap();
+        let h = hinf_norm(&gd, 1e-10).unwrap();
+        assert!((h.peak - 2.0).abs() < 1e-14, "{h:?}");
+        assert!(
+            (h.omega - std::f64::consts::PI / ts).abs() < 1e-6 / ts,
+            "{h:?}"
+        );
+        assert!(h.upper >= 2.0 && h.gap() <= 2.1e-10, "{h:?}");
+        // s/(s + 1) = 1 - 1/(s + 1): the supremum 1 is approached as w -> inf.
+        let hp = StateSpace::from_tf(&[1.0, 0.0], &[1.0, 1.0], None).unwrap();
+        let h = hinf_norm(&hp, 1e-10).unwrap();
+        assert!(h.peak == 1.0 && h.omega.is_infinite(), "{h:?}");
+        assert!(h.upper >= 1.0 && h.gap() <= 2.1e-10, "{h:?}");
+    }
+
+    #[test]
+    fn discrete_h2_with_feedthrough() {
+        // G(z) = d + c b / (z - a): impulse response d, c b, c a b, ...
+        // ||G||_2^2 = d^2 + (c b)^2 / (1 - a^2).
+        let (a, b, c, d) = (-0.8, 1.5, 0.4, 0.7);
+        let g = StateSpace::new(
+            Mat::from_fn(1, 1, |_, _| a),
+            Mat::from_fn(1, 1, |_, _| b),
+            Mat::from_fn(1, 1, |_, _| c),
+            Mat::from_fn(1, 1, |_, _| d),
+            Some(0.01),
+        )
+        .unwrap();
+        let want = (d * d + (c * b) * (c * b) / (1.0 - a * a)).sqrt();
+        let got = h2_norm(&g).unwrap();
+        assert!((got - want).abs() < 1e-14 * want, "{got} vs {want}");
+        // Continuous with D: infinite.
+        let hp = StateSpace::from_tf(&[1.0, 0.0], &[1.0, 1.0], None).unwrap();
+        assert_eq!(h2_norm(&hp).unwrap(), f64::INFINITY);
     }
 
     #[test]

@@ -19,7 +19,7 @@ use super::genplant::{
 };
 use crate::lti::c2d::bilinear_to_discrete;
 use crate::lti::c64;
-use crate::lti::norms::{bilinear_to_continuous, hinf_norm};
+use crate::lti::norms::{HinfNorm, bilinear_to_continuous, hinf_norm};
 use crate::lti::riccati::care;
 use crate::lti::ss::{StateSpace, eigvals, hcat, sigma_max, sub, tr, vcat};
 use faer::Mat;
@@ -64,6 +64,13 @@ pub struct HinfResult {
     /// plant with the controller returned, recomputed (Bruinsma–Steinbuch on
     /// the balanced closed loop, checked against a frequency sweep).
     pub gamma: f64,
+    /// Frequency of the closed loop's peak (where `gamma` is attained),
+    /// rad/s; infinite for a supremum at infinite frequency, NaN when the
+    /// loop is unstable.
+    pub peak_omega: f64,
+    /// Certified upper bound on the closed-loop norm (`gamma <= ||Tzw|| <=
+    /// gamma_upper`, [`HinfNorm`]); infinite when none could be certified.
+    pub gamma_upper: f64,
     /// Diagnostic: the level the central controller was built for,
     /// `bisection_bound (1 + backoff)`, on the synthesis problem
     /// (regularised, if `regularised` says so). `gamma` is at most
@@ -578,6 +585,7 @@ impl Verify<'_> {
             poles,
             stable,
             achieved,
+            norm: cl_norm,
             form,
             residuals,
         } = built;
@@ -589,6 +597,8 @@ impl Verify<'_> {
         HinfResult {
             k,
             gamma: achieved,
+            peak_omega: cl_norm.map_or(f64::NAN, |h| h.omega),
+            gamma_upper: cl_norm.map_or(f64::INFINITY, |h| h.upper),
             design_level: gamma,
             bisection_bound: gamma_opt,
             spectral_radius: self
@@ -652,6 +662,7 @@ struct Built {
     poles: Vec<c64>,
     stable: bool,
     achieved: f64,
+    norm: Option<HinfNorm>,
     form: ControllerForm,
     /// The discrete central controller's X and Z residuals and floor.
     residuals: Option<(f64, f64, f64)>,
@@ -688,17 +699,19 @@ fn close(plant: &StateSpace, k: StateSpace, form: ControllerForm) -> Result<Buil
     let stable = closed_loop
         .is_stable()
         .map_err(|e| SynthError::Numerical(e.to_string()))?;
-    let achieved = if stable {
-        closed_loop_norm(&closed_loop)
+    let norm = if stable {
+        closed_loop_hinf(&closed_loop)
     } else {
-        f64::INFINITY
+        None
     };
+    let achieved = norm.map_or(f64::INFINITY, |h| h.peak);
     Ok(Built {
         k,
         closed_loop,
         poles,
         stable,
         achieved,
+        norm,
         form,
         residuals: None,
     })
@@ -710,15 +723,29 @@ fn close(plant: &StateSpace, k: StateSpace, form: ControllerForm) -> Result<Buil
 /// sweep of 2000 points over the pole range, which can only raise it (a
 /// missed peak is never reported as a lower norm).
 pub fn closed_loop_norm(cl: &StateSpace) -> f64 {
+    closed_loop_hinf(cl).map_or(f64::INFINITY, |h| h.peak)
+}
+
+/// [`closed_loop_norm`] with the peak frequency and the certified bound
+/// (`None` when the norm cannot be computed). A sweep point above the
+/// Hamiltonian's certified bound raises the peak and withdraws the bound
+/// (`upper` infinite): the certificate was wrong there.
+pub fn closed_loop_hinf(cl: &StateSpace) -> Option<HinfNorm> {
     let bal = cl.balanced();
-    let Ok((bs, _)) = hinf_norm(&bal, 1e-8) else {
-        return f64::INFINITY;
-    };
+    let mut h = hinf_norm(&bal, 1e-8).ok()?;
     let poles = bal.poles().unwrap_or_default();
     let nyquist = bal.ts.map(|t| std::f64::consts::PI / t);
-    crate::lti::norms::log_grid(&poles, 2000, 100.0)
+    for w in crate::lti::norms::log_grid(&poles, 2000, 100.0)
         .into_iter()
         .filter(|w| nyquist.is_none_or(|n| *w <= n))
-        .map(|w| bal.sigma_at(w))
-        .fold(bs, f64::max)
+    {
+        let s = bal.sigma_at(w);
+        if s > h.peak {
+            (h.peak, h.omega) = (s, w);
+            if s > h.upper {
+                h.upper = f64::INFINITY;
+            }
+        }
+    }
+    Some(h)
 }

@@ -1058,6 +1058,10 @@ pub struct LinearReport {
     pub aic: f64,
     /// Normalised AIC.
     pub naic: f64,
+    /// Small-sample corrected AIC (MATLAB `AICc`).
+    pub aicc: f64,
+    /// Bayesian information criterion (MATLAB `BIC`).
+    pub bic: f64,
     /// Rissanen's MDL.
     pub mdl: f64,
     /// Estimated noise variance.
@@ -1159,6 +1163,8 @@ impl LinearReport {
             fpe: e.criteria.fpe,
             aic: e.criteria.aic,
             naic: e.criteria.naic,
+            aicc: e.criteria.aicc,
+            bic: e.criteria.bic,
             mdl: e.criteria.mdl,
             noise_variance: e.noise_variance,
             condition_number: e.condition_number,
@@ -1263,8 +1269,15 @@ impl fmt::Display for LinearReport {
         )?;
         writeln!(
             f,
-            "  loss {:.6e}  FPE {:.6e}  AIC {:.4} (nAIC {:.4})  MDL {:.6e}  cond(Phi) {:.3e}",
-            self.loss, self.fpe, self.aic, self.naic, self.mdl, self.condition_number
+            "  loss {:.6e}  FPE {:.6e}  AIC {:.4} (nAIC {:.4}, AICc {:.4})  BIC {:.4}  MDL {:.6e}  cond(Phi) {:.3e}",
+            self.loss,
+            self.fpe,
+            self.aic,
+            self.naic,
+            self.aicc,
+            self.bic,
+            self.mdl,
+            self.condition_number
         )?;
         if let Some(note) = &self.details.note {
             writeln!(f, "  {note}")?;

@@ -10,7 +10,7 @@ use crate::lti::c64;
 use crate::lti::ss::{SsError, StateSpace};
 use crate::synth::genplant::SynthError;
 use crate::synth::h2::{H2Result, h2syn};
-use crate::synth::hinf::{HinfOptions, HinfResult, closed_loop_norm, fastest_pole, hinfsyn};
+use crate::synth::hinf::{HinfOptions, HinfResult, closed_loop_hinf, fastest_pole, hinfsyn};
 use crate::synth::mixsyn::mixsyn;
 use crate::synth::weights;
 use serde::{Deserialize, Serialize, Serializer};
@@ -428,6 +428,9 @@ impl HinfReport {
             (r.regularised, self.eps),
         );
         v["gamma"] = json!(r.gamma);
+        v["gamma_omega"] = json!(r.peak_omega);
+        v["gamma_freq_hz"] = json!(r.peak_omega / std::f64::consts::TAU);
+        v["gamma_upper"] = json!(r.gamma_upper);
         v["bisection"] = json!({"rtol": self.tol, "iterations": r.iterations,
             "bound": r.bisection_bound, "design_level": r.design_level});
         v["controller_fastest_pole_rad_s"] = json!(r.controller_fastest_pole());
@@ -447,8 +450,9 @@ impl fmt::Display for HinfReport {
         let r = &self.result;
         writeln!(
             f,
-            "gamma            {:.8} (||Tzw||_inf of the returned controller, recomputed)\nclosed loop      {} (poles: {})\ncontroller       {} states, fastest pole {:.3e} rad/s (plant {:.3e} rad/s)\nbisection        bound {:.8}, controller built for {:.8} (diagnostics)\nRiccati residual X {:.1e}, Y {:.1e}",
+            "gamma            {:.8} (||Tzw||_inf of the returned controller, recomputed)\npeak             {}\nclosed loop      {} (poles: {})\ncontroller       {} states, fastest pole {:.3e} rad/s (plant {:.3e} rad/s)\nbisection        bound {:.8}, controller built for {:.8} (diagnostics)\nRiccati residual X {:.1e}, Y {:.1e}",
             r.gamma,
+            peak_summary(r.peak_omega, r.gamma_upper),
             stability(r.stable),
             poles_summary(&r.poles),
             r.k.nx(),
@@ -472,6 +476,26 @@ impl fmt::Display for HinfReport {
             writeln!(f, "warning: {w}")?;
         }
         Ok(())
+    }
+}
+
+/// Where the closed-loop norm is attained and its certified upper bound.
+fn peak_summary(omega: f64, upper: f64) -> String {
+    let at = if omega.is_nan() {
+        "none (unstable)".to_string()
+    } else if omega.is_infinite() {
+        "at infinite frequency".to_string()
+    } else {
+        format!(
+            "at {:.6} Hz ({:.6} rad/s)",
+            omega / std::f64::consts::TAU,
+            omega
+        )
+    };
+    if upper.is_finite() {
+        format!("{at}, certified ||Tzw||_inf <= {upper:.10}")
+    } else {
+        format!("{at}, upper bound not certified")
     }
 }
 
@@ -772,11 +796,8 @@ impl MixsynReport {
             .lft(&red.sys)
             .map_err(computation("reduced closed loop"))?;
         let stable = cl.is_stable().map_err(computation("reduced closed loop"))?;
-        let gamma = if stable {
-            closed_loop_norm(&cl)
-        } else {
-            f64::INFINITY
-        };
+        let norm = if stable { closed_loop_hinf(&cl) } else { None };
+        let gamma = norm.map_or(f64::INFINITY, |h| h.peak);
         self.reduction = Some(Reduction {
             full_order: r.k.nx(),
             order: red.sys.nx(),
@@ -790,6 +811,8 @@ impl MixsynReport {
         r.closed_loop = cl;
         r.stable = stable;
         r.gamma = gamma;
+        r.peak_omega = norm.map_or(f64::NAN, |h| h.omega);
+        r.gamma_upper = norm.map_or(f64::INFINITY, |h| h.upper);
         Ok(())
     }
 
