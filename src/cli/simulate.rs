@@ -419,7 +419,7 @@ fn write_plot(path: &Path, report: &SimulateReport) -> anyhow::Result<()> {
             log_y: true,
             ..plot::Panel::lines(
                 "repetitive compensator: convergence",
-                "period (from the end of the lead-in)",
+                "period (from the run's start, lead-in included)",
                 "max |e| over the period (um)",
                 vec![plot::Series {
                     label: "max |e|",

@@ -761,8 +761,9 @@ pub struct SimulateReport {
     /// Step figures of a step reference (`None` for other references).
     pub step: Option<Result<StepTracking, NoStepInfo>>,
     /// With a repetitive compensator: the largest `|e|` over each of its
-    /// whole periods from the end of the lead-in ramp to the end of the
-    /// evaluated window, how its error contracts.
+    /// whole periods from the run's first sample (the compensator learns
+    /// from there on, through the lead-in) to the end of the evaluated
+    /// window, how its error contracts.
     pub periods: Option<Vec<f64>>,
 }
 
@@ -778,7 +779,7 @@ impl SimulateReport {
         let periods = file.repetitive.as_ref().map(|rc| {
             let period = rc.period as f64 + rc.fraction;
             let error = &trace.error()[..reference.evaluate_to];
-            closed_loop::max_error_per_period(error, reference.ramp_end, period)
+            closed_loop::max_error_per_period(error, 0, period)
         });
         Self {
             file,
@@ -898,7 +899,7 @@ fn write_periods(f: &mut fmt::Formatter<'_>, periods: &[f64]) -> fmt::Result {
     };
     writeln!(
         f,
-        "repetitive: max |e| per period from the end of the lead-in ramp, {} periods: {first:.4} -> {last:.4} um ({:.1}x)",
+        "repetitive: max |e| per period from the run's start, {} periods: {first:.4} -> {last:.4} um ({:.1}x)",
         periods.len(),
         first / last
     )?;
