@@ -219,7 +219,7 @@ pub fn sweep(
 }
 
 /// The five-leaved trajectory of \[Li21\] Eq. 13 times `scale`, plus `offset`.
-/// The hold before it fades the pattern in ([`with_fade_in`]), so the
+/// The hold before it fades the pattern in (a raised cosine on Eq. 13), so the
 /// evaluated part starts in motion, not with a velocity jump of
 /// `scale` x 31 mm/s.
 pub fn five_leaf(
