@@ -7,7 +7,8 @@
 //!
 //! Per plant: fts's controller stabilises the loop and achieves the gamma
 //! fts reports (the closed loop is rebuilt and its norm recomputed); it is
-//! no worse than SB10AD's controller; and where SB10AD's controller achieves
+//! no worse than SB10AD's controller beyond fts's backoff (3e-4, below);
+//! and where SB10AD's controller achieves
 //! SB10AD's claim, fts's gamma is within 3e-4 of it (fts builds its
 //! controller at its bisection bound times 1 + 1e-4 and reports the norm
 //! that controller achieves, up to the bound times 1 + 2e-4).
@@ -64,7 +65,7 @@ fn scaling_plants_match_sb10ad_and_are_achieved() {
         );
         assert!(slicot.sb10ad_closed_loop_stable, "{name}: SB10AD's loop");
         assert!(
-            r.gamma <= slicot.sb10ad_achieved * (1.0 + 1e-6),
+            r.gamma <= slicot.sb10ad_achieved * (1.0 + 3e-4),
             "{name}: fts {} worse than SB10AD's controller {}",
             r.gamma,
             slicot.sb10ad_achieved
