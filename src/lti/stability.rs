@@ -13,7 +13,7 @@
 //! The rationals are reduced at every step, so their size grows with the
 //! Schur–Cohn / Routh minors (linearly in the degree), not exponentially;
 //! degrees above [`EXACT_MAX_DEGREE`] are not attempted (`None`), and a
-//! recursion whose rationals outgrow [`EXACT_MAX_BITS`] is abandoned
+//! recursion whose work exceeds [`EXACT_MAX_WORK`] is abandoned
 //! (`None`): coefficients with full 53-bit mantissas make the rationals
 //! about 115 bits longer per step, and `fts zpetc` on a random degree-60
 //! denominator spent 2.3 s of CPU here (90 % of it in big-integer gcds),
@@ -28,19 +28,31 @@ use num_traits::{Signed, Zero};
 /// spread over 1e-10..1e10 takes tens of milliseconds).
 pub const EXACT_MAX_DEGREE: usize = 100;
 
-/// Largest numerator or denominator (bits) the exact recursions carry on
-/// with. The rationals grow about 115 bits a step for full-mantissa
-/// coefficients, so this decides those up to degree 17 or so exactly (the
-/// random degree-12 cases below need about 1,400); the clustered poles of
-/// `tests/data/stability` (up to 8-fold) need at most 579. The cost of the
-/// recursion grows as the cube of this bound: 4096 took 7.5 s on a random
-/// degree-100 denominator (test profile, loaded machine).
-pub const EXACT_MAX_BITS: u64 = 2048;
+/// Work, in (64-bit words)^2 summed over the rationals of every row, after
+/// which the exact recursions give up (`None`: the caller takes computed
+/// roots). Every operation on a rational takes a gcd, whose cost grows as
+/// the square of the length. Full-mantissa coefficients make the rationals
+/// about 115 bits longer per step, so this decides those up to degree 13
+/// or so exactly (random degree-12 root sets, as in the tests below, spend
+/// at most about 3,000; the clustered poles of `tests/data/stability`, up
+/// to 8-fold, at most 823). Measured on `fts zpetc` with a random
+/// degree-100 denominator (release, loaded machine): a bound of 2048 bits
+/// on the length alone left 0.6 s of gcds, a work bound of 100,000 left
+/// 0.12 s, against 14 ms for degree 101 where the computed roots decide.
+pub const EXACT_MAX_WORK: u64 = 10_000;
 
-/// Whether any rational of `row` is too long to carry on exactly.
-fn too_long(row: &[BigRational]) -> bool {
-    row.iter()
-        .any(|x| x.numer().bits().max(x.denom().bits()) > EXACT_MAX_BITS)
+/// Work spent so far by an exact recursion (see [`EXACT_MAX_WORK`]).
+struct Budget(u64);
+
+impl Budget {
+    /// Charges a new row; true once the budget is exhausted.
+    fn exhausted_by(&mut self, row: &[BigRational]) -> bool {
+        for x in row {
+            let words = x.numer().bits().max(x.denom().bits()) / 64 + 1;
+            self.0 += words * words;
+        }
+        self.0 > EXACT_MAX_WORK
+    }
 }
 
 fn exact(x: f64) -> BigRational {
@@ -68,11 +80,12 @@ fn usable(descending: &[f64]) -> Option<&[f64]> {
 /// Controlled Systems*, Sec. 3.3): with `p(z) = sum c_k z^k` (ascending),
 /// `p` is Schur stable iff `|c_0| < |c_n|` and
 /// `q(z) = (c_n p(z) - c_0 p*(z)) / z` is, `p*` the reversed polynomial.
-/// `None` when the degree exceeds [`EXACT_MAX_DEGREE`], the rationals
-/// exceed [`EXACT_MAX_BITS`], a coefficient is not finite, or all are zero.
+/// `None` when the degree exceeds [`EXACT_MAX_DEGREE`], the work exceeds
+/// [`EXACT_MAX_WORK`], a coefficient is not finite, or all are zero.
 pub fn schur_stable(descending: &[f64]) -> Option<bool> {
     let p = usable(descending)?;
     let mut c: Vec<BigRational> = p.iter().rev().map(|&x| exact(x)).collect();
+    let mut budget = Budget(0);
     while c.len() > 1 {
         let n = c.len() - 1;
         let (c0, cn) = (c[0].clone(), c[n].clone());
@@ -84,7 +97,7 @@ pub fn schur_stable(descending: &[f64]) -> Option<bool> {
         c = (0..n)
             .map(|k| (&cn * &c[k + 1] - &c0 * &c[n - 1 - k]) / &lead)
             .collect();
-        if too_long(&c) {
+        if budget.exhausted_by(&c) {
             return None;
         }
     }
@@ -103,6 +116,7 @@ pub fn hurwitz_stable(descending: &[f64]) -> Option<bool> {
     let mut upper: Vec<BigRational> = a.iter().step_by(2).cloned().collect();
     let mut lower: Vec<BigRational> = a.iter().skip(1).step_by(2).cloned().collect();
     let positive = a[0].is_positive();
+    let mut budget = Budget(0);
     for _ in 0..n {
         let pivot = match lower.first() {
             Some(x) if !x.is_zero() && x.is_positive() == positive => x.clone(),
@@ -113,7 +127,7 @@ pub fn hurwitz_stable(descending: &[f64]) -> Option<bool> {
         let next: Vec<BigRational> = (0..upper.len().max(lower.len()).saturating_sub(1))
             .map(|i| (&pivot * at(&upper, i + 1) - &upper[0] * at(&lower, i + 1)) / &pivot)
             .collect();
-        if too_long(&next) {
+        if budget.exhausted_by(&next) {
             return None;
         }
         upper = std::mem::replace(&mut lower, next);
@@ -197,10 +211,10 @@ mod tests {
     }
 
     #[test]
-    fn full_mantissa_coefficients_stop_at_the_bit_budget() {
+    fn full_mantissa_coefficients_stop_at_the_work_budget() {
         // 1 + sum a_k z^-k with sum |a_k| = 0.5 and full 53-bit mantissas:
         // stable by Rouche on |z| = 1. Exactly, the Schur–Cohn rationals
-        // grow ~53 bits a step; the recursion now stops at EXACT_MAX_BITS
+        // grow ~115 bits a step; the recursion now stops at EXACT_MAX_WORK
         // (None: the caller takes the computed roots) instead of taking
         // tens of seconds at degree 100. A short one is still decided.
         let mut seed = 20261127u64;
