@@ -5,16 +5,32 @@ left by 1 + sqrt(n) (seed 20261125 + n).
 
     python3 benches/hinf_scaling.py write DIR      # DIR/P<n>.json (fts.ss/1)
     python3 benches/hinf_scaling.py slycot DIR/P<n>.json   # SB10AD via python-control
+    python3 benches/hinf_scaling.py time DIR FTS [RUNS_FTS RUNS_SB10AD]
+    python3 benches/hinf_scaling.py reference DIR   # tests/data/hinf_scaling/sb10ad.json
 
-`fts hinf --generalized DIR/P<n>.json --nmeas 1 --ncon 1` is timed beside
-the `slycot` run as a whole process.
+`time` runs, order by order, on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
+--ncon 1` and the `slycot` command above side by side as whole processes
+under `/usr/bin/time -v` (wall time and peak resident memory; each run's
+wall and CPU (user + system) time also go to stderr: on a loaded machine
+the CPU time of these one-thread processes is the steadier figure), RUNS_FTS
+times (default 5) and RUNS_SB10AD times (default 3; one run from order 64,
+where one run takes most of a minute; a run is stopped after
+SB10AD_LIMIT_S), and prints the table of
+docs/benchmarks.md (medians) plus each order's step against n^3.
+The plants of orders 8 to 48 are also stored in tests/data/hinf_scaling/
+for the criterion bench (benches/hinf_scaling.rs).
 """
 import json
+import os
+import re
+import statistics
+import subprocess
 import sys
 
 import numpy as np
 
-ORDERS = [8, 16, 24, 32, 36, 38, 40, 48, 64, 80, 100]
+ORDERS = [8, 16, 32, 48, 64, 100]
+SB10AD_LIMIT_S = 300  # one SB10AD run is stopped after this long
 
 
 def plant(n):
@@ -46,5 +62,80 @@ def slycot(path):
     print(f"gamma {gam:.9f}")
 
 
+def reference(folder):
+    """SB10AD's claimed gamma and the H-inf norm its own controller achieves
+    (python-control `linfnorm` of the closed loop) for the orders stored in
+    tests/data/hinf_scaling/, written to sb10ad.json there (read by
+    tests/hinf_scaling.rs)."""
+    import control
+    import slycot
+    out = {"generator": "benches/hinf_scaling.py reference", "python_control": control.__version__,
+           "slycot": slycot.__version__, "plants": {}}
+    for n in (8, 16, 32, 48):
+        a, b, c, d = plant(n)
+        p = control.ss(a, b, c, d)
+        k, cl, gam, _ = control.hinfsyn(p, 1, 1)
+        achieved = control.linfnorm(cl)[0]
+        out["plants"][f"P{n}"] = {"sb10ad_gamma": float(gam), "sb10ad_achieved": float(achieved),
+                                  "sb10ad_closed_loop_stable": bool(max(cl.poles().real) < 0)}
+    with open(f"{folder}/sb10ad.json", "w") as f:
+        json.dump(out, f, indent=1)
+
+
+# fts runs on one thread (faer without rayon); OpenBLAS under python-control
+# is held to one too: its spinning worker threads made SB10AD 40 times slower
+# on a shared two-core machine.
+ONE_THREAD = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+
+
+def timed(argv, limit=None):
+    """One whole-process run under /usr/bin/time -v: (wall s, MiB, stdout);
+    None past `limit` seconds."""
+    try:
+        res = subprocess.run(["/usr/bin/time", "-v"] + argv, capture_output=True, text=True,
+                             timeout=limit, env=ONE_THREAD)
+    except subprocess.TimeoutExpired:
+        return None
+    wall = re.search(r"Elapsed \(wall clock\) time.*: (?:(\d+):)?(\d+):([\d.]+)", res.stderr)
+    hours, mins, secs = wall.groups()
+    seconds = int(hours or 0) * 3600 + int(mins) * 60 + float(secs)
+    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", res.stderr).group(1))
+    cpu = sum(float(x) for x in re.findall(r"(?:User|System) time \(seconds\): ([\d.]+)", res.stderr))
+    print(f"#   {argv[1]} {argv[-1] if 'slycot' in argv else argv[3]}: wall {seconds:.2f} s, "
+          f"cpu {cpu:.2f} s", file=sys.stderr, flush=True)
+    return seconds, rss / 1024, res.stdout
+
+
+def median_run(argv, runs, limit=None):
+    out = [timed(argv, limit) for _ in range(runs)]
+    if None in out:
+        return None
+    return statistics.median(t for t, _, _ in out), max(m for _, m, _ in out), out[-1][2]
+
+
+def time(folder, fts, runs_fts="5", runs_sb10ad="3"):
+    print("| order | fts s | fts gamma | SB10AD s | SB10AD gamma | SB10AD / fts "
+          "| fts step (n^3 step) | fts MiB | SB10AD MiB |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    last = None
+    for n in ORDERS:
+        path = f"{folder}/P{n}.json"
+        t_f, m_f, out_f = median_run([fts, "hinf", "--generalized", path, "--nmeas", "1",
+                                      "--ncon", "1", "--json"], int(runs_fts))
+        runs = int(runs_sb10ad) if n < 64 else 1
+        sb10ad = median_run(["python3", __file__, "slycot", path], runs, SB10AD_LIMIT_S)
+        g_f = json.loads(out_f)["gamma"]
+        step = "" if last is None else f"{t_f / last[1]:.2f} ({(n / last[0]) ** 3:.2f})"
+        if sb10ad is None:
+            sb = f"> {SB10AD_LIMIT_S} (stopped) | | > {SB10AD_LIMIT_S / t_f:.0f}"
+            m_s = ""
+        else:
+            t_s, m_s, out_s = sb10ad
+            sb = f"{t_s:.2f} | {float(out_s.split()[1]):.6f} | {t_s / t_f:.1f}"
+            m_s = f"{m_s:.0f}"
+        print(f"| {n} | {t_f:.3f} | {g_f:.6f} | {sb} | {step} | {m_f:.1f} | {m_s} |", flush=True)
+        last = (n, t_f)
+
+
 if __name__ == "__main__":
-    {"write": write, "slycot": slycot}[sys.argv[1]](sys.argv[2])
+    {"write": write, "slycot": slycot, "time": time, "reference": reference}[sys.argv[1]](*sys.argv[2:])

@@ -12,7 +12,13 @@
 //!
 //! The rationals are reduced at every step, so their size grows with the
 //! Schur–Cohn / Routh minors (linearly in the degree), not exponentially;
-//! degrees above [`EXACT_MAX_DEGREE`] are not attempted (`None`).
+//! degrees above [`EXACT_MAX_DEGREE`] are not attempted (`None`), and a
+//! recursion whose work exceeds [`EXACT_MAX_WORK`] is abandoned
+//! (`None`): coefficients with full 53-bit mantissas make the rationals
+//! about 115 bits longer per step, and `fts zpetc` on a random degree-60
+//! denominator spent 2.3 s of CPU here (90 % of it in big-integer gcds),
+//! growing steeply with the degree up to the cut-off at 100
+//! (docs/benchmarks.md, "Every size from 2 to 160 states").
 
 use num_bigint::BigInt;
 use num_rational::BigRational;
@@ -21,6 +27,33 @@ use num_traits::{Signed, Zero};
 /// Highest degree tested exactly (a degree-100 polynomial with coefficients
 /// spread over 1e-10..1e10 takes tens of milliseconds).
 pub const EXACT_MAX_DEGREE: usize = 100;
+
+/// Work, in (64-bit words)^2 summed over the rationals of every row, after
+/// which the exact recursions give up (`None`: the caller takes computed
+/// roots). Every operation on a rational takes a gcd, whose cost grows as
+/// the square of the length. Full-mantissa coefficients make the rationals
+/// about 115 bits longer per step, so this decides those up to degree 13
+/// or so exactly (random degree-12 root sets, as in the tests below, spend
+/// at most about 3,000; the clustered poles of `tests/data/stability`, up
+/// to 8-fold, at most 823). Measured on `fts zpetc` with a random
+/// degree-100 denominator (release, loaded machine): a bound of 2048 bits
+/// on the length alone left 0.6 s of gcds, a work bound of 100,000 left
+/// 0.12 s, against 14 ms for degree 101 where the computed roots decide.
+pub const EXACT_MAX_WORK: u64 = 10_000;
+
+/// Work spent so far by an exact recursion (see [`EXACT_MAX_WORK`]).
+struct Budget(u64);
+
+impl Budget {
+    /// Charges a new row; true once the budget is exhausted.
+    fn exhausted_by(&mut self, row: &[BigRational]) -> bool {
+        for x in row {
+            let words = x.numer().bits().max(x.denom().bits()) / 64 + 1;
+            self.0 += words * words;
+        }
+        self.0 > EXACT_MAX_WORK
+    }
+}
 
 fn exact(x: f64) -> BigRational {
     // Finite floats are checked by the callers; from_float is exact.
@@ -47,11 +80,12 @@ fn usable(descending: &[f64]) -> Option<&[f64]> {
 /// Controlled Systems*, Sec. 3.3): with `p(z) = sum c_k z^k` (ascending),
 /// `p` is Schur stable iff `|c_0| < |c_n|` and
 /// `q(z) = (c_n p(z) - c_0 p*(z)) / z` is, `p*` the reversed polynomial.
-/// `None` when the degree exceeds [`EXACT_MAX_DEGREE`], a coefficient is not
-/// finite, or all are zero.
+/// `None` when the degree exceeds [`EXACT_MAX_DEGREE`], the work exceeds
+/// [`EXACT_MAX_WORK`], a coefficient is not finite, or all are zero.
 pub fn schur_stable(descending: &[f64]) -> Option<bool> {
     let p = usable(descending)?;
     let mut c: Vec<BigRational> = p.iter().rev().map(|&x| exact(x)).collect();
+    let mut budget = Budget(0);
     while c.len() > 1 {
         let n = c.len() - 1;
         let (c0, cn) = (c[0].clone(), c[n].clone());
@@ -63,6 +97,9 @@ pub fn schur_stable(descending: &[f64]) -> Option<bool> {
         c = (0..n)
             .map(|k| (&cn * &c[k + 1] - &c0 * &c[n - 1 - k]) / &lead)
             .collect();
+        if budget.exhausted_by(&c) {
+            return None;
+        }
     }
     Some(true)
 }
@@ -79,6 +116,7 @@ pub fn hurwitz_stable(descending: &[f64]) -> Option<bool> {
     let mut upper: Vec<BigRational> = a.iter().step_by(2).cloned().collect();
     let mut lower: Vec<BigRational> = a.iter().skip(1).step_by(2).cloned().collect();
     let positive = a[0].is_positive();
+    let mut budget = Budget(0);
     for _ in 0..n {
         let pivot = match lower.first() {
             Some(x) if !x.is_zero() && x.is_positive() == positive => x.clone(),
@@ -89,6 +127,9 @@ pub fn hurwitz_stable(descending: &[f64]) -> Option<bool> {
         let next: Vec<BigRational> = (0..upper.len().max(lower.len()).saturating_sub(1))
             .map(|i| (&pivot * at(&upper, i + 1) - &upper[0] * at(&lower, i + 1)) / &pivot)
             .collect();
+        if budget.exhausted_by(&next) {
+            return None;
+        }
         upper = std::mem::replace(&mut lower, next);
     }
     Some(true)
@@ -167,6 +208,35 @@ mod tests {
         assert_eq!(hurwitz_stable(&[5.0]), Some(true));
         // A root at the origin.
         assert_eq!(hurwitz_stable(&[1.0, 1.0, 0.0]), Some(false));
+    }
+
+    #[test]
+    fn full_mantissa_coefficients_stop_at_the_work_budget() {
+        // 1 + sum a_k z^-k with sum |a_k| = 0.5 and full 53-bit mantissas:
+        // stable by Rouche on |z| = 1. Exactly, the Schur–Cohn rationals
+        // grow ~115 bits a step; the recursion now stops at EXACT_MAX_WORK
+        // (None: the caller takes the computed roots) instead of taking
+        // tens of seconds at degree 100. A short one is still decided.
+        let mut seed = 20261127u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let a: Vec<f64> = (0..100).map(|_| rnd()).collect();
+        let scale = 0.5 / a.iter().map(|x| x.abs()).sum::<f64>();
+        let den: Vec<f64> = std::iter::once(1.0)
+            .chain(a.iter().map(|x| x * scale))
+            .collect();
+        let started = std::time::Instant::now();
+        assert_eq!(schur_stable(&den), None);
+        assert!(
+            started.elapsed().as_secs_f64() < 5.0,
+            "{:?}",
+            started.elapsed()
+        );
+        assert_eq!(schur_stable(&den[..6]), Some(true));
     }
 
     #[test]
