@@ -56,7 +56,7 @@ fn scaling_plants_match_sb10ad_and_are_achieved() {
             r.stable && cl.is_stable().unwrap(),
             "{name}: closed loop unstable"
         );
-        let (achieved, _) = hinf_norm(&cl.balanced(), 1e-9).unwrap();
+        let achieved = hinf_norm(&cl.balanced(), 1e-9).unwrap().peak;
         let rel = |a: f64, b: f64| (a - b).abs() / b;
         assert!(
             rel(achieved, r.gamma) < 1e-6,
