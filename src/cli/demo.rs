@@ -231,13 +231,11 @@ fn learning_files(
         .iter()
         .find(|r| r.reference.starts_with("five-leaf"));
     if let (Some((_, bytes)), Some(learned)) = (controller, five_leaf) {
-        let mut file = crate::io::controller_file::parse_controller(
+        let file = crate::io::controller_file::parse_controller(
             std::str::from_utf8(bytes)?,
             "controller.json",
-        )?;
-        file.feedforward_table = Some(crate::io::controller_file::FeedforwardTableBlock {
-            samples: learned.feedforward.clone(),
-        });
+        )?
+        .with_feedforward(&learned.feedforward);
         out.push((
             "controller-ilc-five-leaf.json",
             file.to_json_string().into_bytes(),

@@ -512,6 +512,17 @@ impl ControllerFile {
             .and_then(|t| FeedforwardTable::new(&t.samples).ok())
     }
 
+    /// This controller with `samples` as its learned feedforward table
+    /// (none when `samples` is empty).
+    pub fn with_feedforward(&self, samples: &[f64]) -> Self {
+        Self {
+            feedforward_table: (!samples.is_empty()).then(|| FeedforwardTableBlock {
+                samples: samples.to_vec(),
+            }),
+            ..self.clone()
+        }
+    }
+
     /// The learned feedforward samples (empty without a table).
     pub fn learned_feedforward(&self) -> &[f64] {
         self.feedforward_table

@@ -20,8 +20,7 @@ use crate::ident::hysteresis::{Identified, IdentifyParams, identify};
 use crate::ident::linear::{Fits, NoiseModel, fits};
 use crate::ident::oe::{OeParams, refine_arx};
 use crate::io::controller_file::{
-    ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, Provenance, Units,
-    ZpetcBlock, parse_controller,
+    ControllerFile, Feedback, HysteresisBlock, Provenance, Units, ZpetcBlock, parse_controller,
 };
 use crate::lti::DiscreteTf;
 use crate::runtime::{PidSpec, RuntimeController};
@@ -722,10 +721,7 @@ fn learn_references(
             lp.trials,
             reference.ramp_end,
             |trial, learned| {
-                let mut file = controller.clone();
-                file.feedforward_table = (!learned.is_empty()).then(|| FeedforwardTableBlock {
-                    samples: learned.to_vec(),
-                });
+                let file = controller.with_feedforward(learned);
                 let run = 1000 * (i as u64 + 1) + trial as u64;
                 let (trace, metrics) = track(params, run, &file, reference)?;
                 rows.push(metrics);

@@ -334,11 +334,7 @@ impl Simulate {
     ) -> Result<closed_loop::Trace, StepError> {
         let mut vparams = prepared.vparams.clone();
         vparams.seed = vparams.seed.wrapping_add(run);
-        let mut file = prepared.file.clone();
-        file.feedforward_table =
-            (!learned.is_empty()).then(|| crate::io::controller_file::FeedforwardTableBlock {
-                samples: learned.to_vec(),
-            });
+        let file = prepared.file.with_feedforward(learned);
         self.drive(
             prepared.plant.clone(),
             vparams,

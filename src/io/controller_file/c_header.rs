@@ -15,22 +15,7 @@ use std::collections::HashMap;
 use std::fmt::Write;
 
 fn c_array(out: &mut String, name: &str, values: &[f64]) {
-    let _ = writeln!(out, "#define {name}_LEN {}", values.len());
-    let _ = write!(
-        out,
-        "static const double {name}[{}] = {{",
-        values.len().max(1)
-    );
-    if values.is_empty() {
-        out.push_str(" 0.0");
-    }
-    for (i, v) in values.iter().enumerate() {
-        if i > 0 {
-            out.push(',');
-        }
-        let _ = write!(out, " {}", c_double(*v));
-    }
-    out.push_str(" };\n");
+    c_array_in_lines(out, name, values, None);
 }
 
 /// Values per line of a long array (the learned feedforward table): the
@@ -40,6 +25,11 @@ const VALUES_PER_LINE: usize = 6;
 /// [`c_array`] with [`VALUES_PER_LINE`] values per line, for tables of
 /// thousands of samples.
 fn c_array_wrapped(out: &mut String, name: &str, values: &[f64]) {
+    c_array_in_lines(out, name, values, Some(VALUES_PER_LINE));
+}
+
+/// `#define NAME_LEN n` and the array, on one line or `per_line` values a line.
+fn c_array_in_lines(out: &mut String, name: &str, values: &[f64], per_line: Option<usize>) {
     let _ = writeln!(out, "#define {name}_LEN {}", values.len());
     let _ = write!(
         out,
@@ -53,12 +43,16 @@ fn c_array_wrapped(out: &mut String, name: &str, values: &[f64]) {
         if i > 0 {
             out.push(',');
         }
-        if i % VALUES_PER_LINE == 0 {
+        if per_line.is_some_and(|n| i % n == 0) {
             out.push_str("\n   ");
         }
         let _ = write!(out, " {}", c_double(*v));
     }
-    out.push_str("\n};\n");
+    out.push_str(if per_line.is_some() {
+        "\n};\n"
+    } else {
+        " };\n"
+    });
 }
 
 /// Shortest round-trip decimal in C syntax (always with an exponent, so the
