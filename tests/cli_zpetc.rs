@@ -154,7 +154,7 @@ fn tf_info_reports_poles_zeros_and_bode_csv() {
         .assert()
         .success()
         .stdout(predicate::str::contains("DC gain: 0.950256"))
-        .stdout(predicate::str::contains("poles (stable)"));
+        .stdout(predicate::str::contains("poles (stable, exact test)"));
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("freq_hz,magnitude,magnitude_db,phase_deg,re,im\n"));
     assert_eq!(text.lines().count(), 1002);

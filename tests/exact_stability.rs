@@ -85,9 +85,79 @@ fn tf_info_says_unstable_and_why() {
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
-    assert!(text.contains("poles (UNSTABLE)"), "{text}");
+    assert!(text.contains("poles (UNSTABLE, exact test)"), "{text}");
     assert!(
         text.contains("the exact test on the stored denominator says unstable"),
         "{text}"
     );
+}
+
+/// Descending coefficients of `prod (z^2 - 2 r cos(th) z + r^2)` over
+/// `pairs`, times `(z - extra)` for each real root in `extra`.
+fn expand(pairs: &[(f64, f64)], extra: &[f64]) -> Vec<f64> {
+    let mut c = vec![1.0];
+    let mut times = |q: &[f64]| {
+        let mut next = vec![0.0; c.len() + q.len() - 1];
+        for (i, &ci) in c.iter().enumerate() {
+            for (j, &qj) in q.iter().enumerate() {
+                next[i + j] += ci * qj;
+            }
+        }
+        c = next;
+    };
+    for &(r, th) in pairs {
+        times(&[1.0, -2.0 * r * th.cos(), r * r]);
+    }
+    for &x in extra {
+        times(&[1.0, -x]);
+    }
+    c
+}
+
+fn tf_info_text(den: &[f64]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("high.json");
+    let doc = serde_json::json!({
+        "format": "fts.tf/1", "var": "z^-1", "ts": 1e-3, "delay": 0, "num": [1.0], "den": den
+    });
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let out = Command::cargo_bin("fts")
+        .unwrap()
+        .args(["tf", "info"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn tf_info_certifies_high_degrees_and_says_when_it_cannot() {
+    // Degree 60, poles of modulus 0.7-0.99 with full-mantissa
+    // coefficients: beyond the exact test's budget, settled by the
+    // certified inclusion discs.
+    let mut seed = 3u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let pairs: Vec<(f64, f64)> = (0..30)
+        .map(|_| (0.7 + 0.29 * rnd(), std::f64::consts::PI * rnd()))
+        .collect();
+    assert_eq!(fts::lti::stability::schur_exact(&expand(&pairs, &[])), None);
+    let text = tf_info_text(&expand(&pairs, &[]));
+    assert!(text.contains("poles (stable, certified test)"), "{text}");
+    let text = tf_info_text(&expand(&pairs, &[1.02]));
+    assert!(text.contains("poles (UNSTABLE, certified test)"), "{text}");
+    // An isolated pole at 1 - 1.1e-15 is still certified inside: the disc
+    // around it is far smaller than its distance to the circle.
+    let text = tf_info_text(&expand(&pairs, &[1.0 - 1e-15]));
+    assert!(text.contains("poles (stable, certified test)"), "{text}");
+    // A pole at z = 1 (as stored, within about 1e-16 of it): neither test
+    // can decide, and the report says so instead of guessing silently.
+    let text = tf_info_text(&expand(&pairs, &[1.0]));
+    assert!(text.contains("computed-roots test"), "{text}");
+    assert!(text.contains("too close to call"), "{text}");
 }

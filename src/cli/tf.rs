@@ -2,6 +2,7 @@
 
 use super::common::{complex_pairs, fmt_complex, print_report, read_input, write_atomic};
 use crate::io::tf_json;
+use crate::lti::stability::{StabilityTest, Verdict};
 use crate::lti::{Bode, TransferFunction, c64, linspace, logspace};
 use clap::{Args, Subcommand};
 use serde::Serialize;
@@ -72,7 +73,10 @@ struct TfInfo {
     zeros: Vec<c64>,
     dc_gain: f64,
     stable: bool,
-    /// Set where the computed poles contradict the exact verdict.
+    /// `exact`, `certified` or `computed-roots` (too close to call).
+    stability_test: StabilityTest,
+    /// Set where the computed poles contradict the exact verdict, or where
+    /// neither test on the coefficients could decide.
     #[serde(skip_serializing_if = "Option::is_none")]
     stability_note: Option<String>,
     response: Vec<ResponseAt>,
@@ -104,7 +108,8 @@ impl TfInfo {
     fn new(g: &TransferFunction, source: &str, freq: &[f64]) -> anyhow::Result<Self> {
         let zeros = g.zeros()?;
         let poles = g.poles()?;
-        let stable = g.is_stable()?;
+        let verdict = g.stability()?;
+        let stable = verdict.stable;
         let (heading, plane, top) = match g {
             TransferFunction::Discrete(d) => (
                 format!(
@@ -137,7 +142,8 @@ impl TfInfo {
         };
         Ok(Self {
             model: tf_json::tf_to_value(g),
-            stability_note: stability_note(g, &poles, stable),
+            stability_note: stability_note(g, &poles, verdict),
+            stability_test: verdict.test,
             zeros,
             poles,
             dc_gain: g.dc_gain(),
@@ -149,22 +155,40 @@ impl TfInfo {
     }
 }
 
-/// The verdict is exact on the stored coefficients; a note says so where
-/// the computed poles (clustered: accurate to about eps^(1/k)) suggest
-/// otherwise.
-fn stability_note(g: &TransferFunction, poles: &[c64], stable: bool) -> Option<String> {
+/// The verdict is exact or certified on the stored coefficients; a note
+/// says so where the computed poles (clustered: accurate to about
+/// eps^(1/k)) suggest otherwise, and says when neither test could decide.
+fn stability_note(g: &TransferFunction, poles: &[c64], verdict: Verdict) -> Option<String> {
+    let word = |s: bool| if s { "stable" } else { "unstable" };
+    if verdict.test == StabilityTest::ComputedRoots {
+        return Some(format!(
+            "too close to call on the stored denominator (a pole on or within its accuracy of the \
+             stability boundary): the verdict {} is the computed poles' and may be wrong",
+            word(verdict.stable)
+        ));
+    }
     let by_roots = match g {
         TransferFunction::Discrete(_) => poles.iter().all(|p| p.norm() < 1.0),
         TransferFunction::Continuous(_) => poles.iter().all(|p| p.re < 0.0),
     };
-    (stable != by_roots).then(|| {
+    (verdict.stable != by_roots).then(|| {
         format!(
-            "the exact test on the stored denominator says {}, the computed poles below say {}: \
-             clustered poles are computed to about eps^(1/k) for a k-fold pole; the exact verdict holds",
-            if stable { "stable" } else { "unstable" },
-            if by_roots { "stable" } else { "unstable" }
+            "the {} test on the stored denominator says {}, the computed poles below say {}: \
+             clustered poles are computed to about eps^(1/k) for a k-fold pole; the {} verdict holds",
+            test_name(verdict.test),
+            word(verdict.stable),
+            word(by_roots),
+            test_name(verdict.test),
         )
     })
+}
+
+fn test_name(test: StabilityTest) -> &'static str {
+    match test {
+        StabilityTest::Exact => "exact",
+        StabilityTest::Certified => "certified",
+        StabilityTest::ComputedRoots => "computed-roots",
+    }
 }
 
 fn response_at(g: &TransferFunction, freq_hz: f64) -> ResponseAt {
@@ -184,8 +208,9 @@ impl std::fmt::Display for TfInfo {
         writeln!(f, "{}", self.heading)?;
         writeln!(
             f,
-            "poles ({}):",
-            if self.stable { "stable" } else { "UNSTABLE" }
+            "poles ({}, {} test):",
+            if self.stable { "stable" } else { "UNSTABLE" },
+            test_name(self.stability_test)
         )?;
         if let Some(note) = &self.stability_note {
             writeln!(f, "  note: {note}")?;

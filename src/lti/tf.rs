@@ -150,10 +150,20 @@ impl DiscreteTf {
     /// root moduli only beyond its degree limit. Clustered poles make the
     /// computed moduli unreliable (`eps^(1/k)` for a `k`-fold pole).
     pub fn is_stable(&self) -> Result<bool, RootsError> {
-        if let Some(verdict) = super::stability::schur_stable(self.den.coeffs()) {
+        Ok(self.stability()?.stable)
+    }
+
+    /// The stability verdict and the test that gave it: exact or certified
+    /// on the stored denominator ([`super::stability::schur_verdict`]), or,
+    /// when that is too close to call, the computed poles' moduli.
+    pub fn stability(&self) -> Result<super::stability::Verdict, RootsError> {
+        if let Some(verdict) = super::stability::schur_verdict(self.den.coeffs()) {
             return Ok(verdict);
         }
-        Ok(self.poles()?.iter().all(|p| p.norm() < 1.0))
+        Ok(super::stability::Verdict {
+            stable: self.poles()?.iter().all(|p| p.norm() < 1.0),
+            test: super::stability::StabilityTest::ComputedRoots,
+        })
     }
 
     /// Removes near pole-zero cancellations, as MATLAB's `minreal` does for
@@ -334,10 +344,19 @@ impl ContinuousTf {
     /// coefficients (Routh, [`super::stability`]); computed roots only
     /// beyond its degree limit.
     pub fn is_stable(&self) -> Result<bool, RootsError> {
-        if let Some(verdict) = super::stability::hurwitz_stable(&self.den) {
+        Ok(self.stability()?.stable)
+    }
+
+    /// The stability verdict and the test that gave it, as for the
+    /// discrete [`DiscreteTf::stability`], in the s-plane.
+    pub fn stability(&self) -> Result<super::stability::Verdict, RootsError> {
+        if let Some(verdict) = super::stability::hurwitz_verdict(&self.den) {
             return Ok(verdict);
         }
-        Ok(self.poles()?.iter().all(|p| p.re < 0.0))
+        Ok(super::stability::Verdict {
+            stable: self.poles()?.iter().all(|p| p.re < 0.0),
+            test: super::stability::StabilityTest::ComputedRoots,
+        })
     }
 
     /// `self * other`.
@@ -428,6 +447,14 @@ impl TransferFunction {
         match self {
             TransferFunction::Discrete(g) => g.is_stable(),
             TransferFunction::Continuous(g) => g.is_stable(),
+        }
+    }
+
+    /// Asymptotic stability and the test that decided it.
+    pub fn stability(&self) -> Result<super::stability::Verdict, RootsError> {
+        match self {
+            TransferFunction::Discrete(g) => g.stability(),
+            TransferFunction::Continuous(g) => g.stability(),
         }
     }
 }
