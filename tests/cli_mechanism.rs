@@ -3,6 +3,7 @@
 //! plot, and bad input exiting 2 naming the flag.
 
 use assert_cmd::Command;
+use predicates::prelude::*;
 use serde_json::Value;
 
 fn fts() -> Command {
@@ -76,4 +77,58 @@ fn bad_mechanism_inputs_exit_2_naming_the_flag() {
         .assert()
         .code(2)
         .stderr(predicates::str::contains("--width-mm"));
+}
+
+/// The inverse question with [Tang17]'s measured 3.87: a rigid bridge needs
+/// `acot(3.87)` (14.488203 deg, python math), a rigid lever `L_out = 3.87
+/// L_in`; with the [Li21] pivot the lever's ratio is below `L_out/L_in` and
+/// [Li21] Eq. 1 scales the stroke by `kp/(kp + k_in)`.
+#[test]
+fn lever_and_bridge_answer_tang17s_ratio() {
+    let b = json_of(fts().args(["mechanism", "bridge", "--json"]));
+    assert!((b["angle_for_target_ideal_deg"].as_f64().unwrap() - 14.488203).abs() < 1e-6);
+    assert!(b["ideal"].is_null() && b["compliant"].is_null());
+    let l = json_of(fts().args([
+        "mechanism",
+        "lever",
+        "--input-arm-mm",
+        "5",
+        "--output-arm-mm",
+        "19.35",
+        "--hinge-width-mm",
+        "10",
+        "--kp",
+        "200",
+        "--json",
+    ]));
+    let f = |k: &str| l[k].as_f64().unwrap();
+    assert!((f("ideal") - 3.87).abs() < 1e-12);
+    assert!(f("compliant") < f("ideal") && f("compliant") > 3.5);
+    assert!((f("output_arm_for_target_ideal_mm") - 19.35).abs() < 1e-12);
+    let k_in = f("input_stiffness_n_per_um");
+    assert!((f("delivered_input_um") - 10.0 * 200.0 / (200.0 + k_in)).abs() < 1e-12);
+    assert!((f("output_stroke_um") - f("delivered_input_um") * f("compliant")).abs() < 1e-12);
+}
+
+#[test]
+fn bad_lever_and_bridge_inputs_exit_2_naming_the_flag() {
+    for (args, flag) in [
+        (vec!["bridge", "--angle-deg", "90"], "--angle-deg"),
+        (vec!["bridge", "--hinge-width-mm", "8"], "--link-mm"),
+        (
+            vec!["bridge", "--link-mm", "5", "--hinge-width-mm", "-8"],
+            "--hinge-width-mm",
+        ),
+        (vec!["bridge", "--target-ratio", "0"], "--target-ratio"),
+        (vec!["lever", "--input-arm-mm", "0"], "--input-arm-mm"),
+        (vec!["lever", "--input-arm-mm", "5", "--kp", "100"], "--kp"),
+    ] {
+        fts()
+            .arg("mechanism")
+            .args(&args)
+            .assert()
+            .code(2)
+            .stderr(predicates::str::contains(flag))
+            .stderr(predicates::str::contains("panicked").not());
+    }
 }

@@ -612,3 +612,121 @@ out = "controller.json"
         .code(2)
         .stderr(predicate::str::contains("rc.json field 'ts'"));
 }
+
+/// `kind = "ct"` (SRIVC on the scipy multisine record of
+/// tests/data/ct-ident) and `kind = "mechanism"` (the bridge calculator)
+/// write what `fts identify ct -o` and `fts mechanism bridge --json` write,
+/// byte for byte; the bridge's ideal ratio is `cot(10 deg)` and the
+/// identified model's denominator has the truth's order.
+#[test]
+fn ct_and_mechanism_steps_match_the_commands() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(d.path().join("data")).unwrap();
+    std::fs::copy(
+        repo("tests/data/ct-ident/zaxis-multisine.csv"),
+        d.path().join("data/zaxis.csv"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.path().join("fts.toml"),
+        r#"[step.zaxis]
+kind = "ct"
+data = "data/zaxis.csv"
+np = 3
+nz = 1
+period = 10
+skip_periods = 2
+out = "models/zaxis.json"
+
+[step.amplifier]
+kind = "mechanism"
+calculator = "bridge"
+angle_deg = 10
+link_mm = 12
+hinge = { width_mm = 8, length_mm = 1, thickness_mm = 0.3, radius_mm = 0 }
+out = "mechanism/bridge.json"
+"#,
+    )
+    .unwrap();
+    build(d.path()).success();
+    check(d.path()).success();
+    fts()
+        .current_dir(d.path())
+        .args(["identify", "ct", "data/zaxis.csv", "--np", "3", "--nz", "1"])
+        .args(["--period", "10", "--skip-periods", "2", "-o", "cli.json"])
+        .assert()
+        .success();
+    let built = std::fs::read(d.path().join("models/zaxis.json")).unwrap();
+    assert_eq!(built, std::fs::read(d.path().join("cli.json")).unwrap());
+    let tf: serde_json::Value = serde_json::from_slice(&built).unwrap();
+    assert_eq!(tf["den"].as_array().unwrap().len(), 4, "{tf}");
+    let out = fts()
+        .args([
+            "mechanism",
+            "bridge",
+            "--angle-deg",
+            "10",
+            "--link-mm",
+            "12",
+        ])
+        .args(["--hinge-width-mm", "8", "--hinge-length-mm", "1"])
+        .args([
+            "--hinge-thickness-mm",
+            "0.3",
+            "--hinge-radius-mm",
+            "0",
+            "--json",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let built = std::fs::read(d.path().join("mechanism/bridge.json")).unwrap();
+    assert_eq!(String::from_utf8(built.clone()), String::from_utf8(out));
+    let v: serde_json::Value = serde_json::from_slice(&built).unwrap();
+    let cot = 1.0 / 10f64.to_radians().tan();
+    assert!((v["ideal"].as_f64().unwrap() - cot).abs() < 1e-12);
+    let compliant = v["compliant"].as_f64().unwrap();
+    assert!(compliant > 0.0 && compliant < cot, "{v}");
+}
+
+#[test]
+fn ct_and_mechanism_manifest_errors_name_the_line_and_field() {
+    let mech = "[step.m]\nkind = \"mechanism\"\ncalculator = \"bridge\"\nangle_deg = 10\nout = \"m.json\"\n";
+    manifest_error(
+        &mech.replace("calculator = \"bridge\"\n", ""),
+        &["line 1", "step.m.calculator", "missing", "\"lever\""],
+    );
+    manifest_error(
+        &mech.replace("\"bridge\"", "\"scissor\""),
+        &["line 3", "step.m.calculator", "\"bridge\""],
+    );
+    manifest_error(
+        &mech.replace("angle_deg = 10", "angle_deg = 95"),
+        &["line 4", "step.m.angle_deg", "between 0 and 90"],
+    );
+    manifest_error(
+        &mech.replace("angle_deg = 10", "angel_deg = 10"),
+        &["line 4", "step.m.angel_deg", "unknown field"],
+    );
+    manifest_error(
+        &mech.replace("angle_deg = 10", "hinge = { width_mm = 5 }"),
+        &["line 1", "step.m.link_mm", "missing"],
+    );
+    let ct =
+        "[step.p]\nkind = \"ct\"\ndata = \"data/triangle.csv\"\nnp = 2\nnz = 3\nout = \"p.json\"\n";
+    manifest_error(ct, &["line 5", "step.p.nz"]);
+    manifest_error(
+        &ct.replace("np = 2\n", ""),
+        &["step.p.np", "missing: the number of poles"],
+    );
+}
+
+#[test]
+fn a_nested_hinge_error_names_the_hinge() {
+    manifest_error(
+        "[step.m]\nkind = \"mechanism\"\ncalculator = \"lever\"\ninput_arm_mm = 10\n\nhinge = { width_mm = -5 }\nout = \"m.json\"\n",
+        &["line 6", "step.m.hinge", "'width_mm'"],
+    );
+}

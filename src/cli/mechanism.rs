@@ -1,4 +1,4 @@
-//! `fts mechanism flexure-loss|hinge|3puu`: the mechanism design formulas
+//! `fts mechanism flexure-loss|hinge|3puu|lever|bridge`: the mechanism design formulas
 //! (docs/mechanism.md). The steps are the library's
 //! ([`crate::workflow::mechanism`]); this file turns flags into them,
 //! renders the reports and draws the workspace.
@@ -6,7 +6,9 @@
 use super::common::{bad, print_report, step_error, write_atomic};
 use crate::io::plot::{Panel, Series, Style, panels_svg};
 use crate::workflow::Validate;
-use crate::workflow::mechanism::{FlexureLoss, Hinge, Puu3Report, Puu3Study};
+use crate::workflow::mechanism::{
+    Bridge, FlexureLoss, Hinge, Lever, Puu3Report, Puu3Study, TANG17_AMPLIFICATION,
+};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -19,6 +21,100 @@ pub enum MechanismCommand {
     /// [Tang17] 3-PUU parallel FTS: inverse kinematics, Jacobian, conditioning, Monte-Carlo workspace.
     #[command(name = "3puu")]
     Puu3(Puu3Args),
+    /// Lever amplifier: L_out/L_in, with a leaf-hinge pivot, and the output arm for a target ratio.
+    Lever(LeverArgs),
+    /// Bridge-type amplifier: cot(angle), with compliant hinges, and the angle for a target ratio.
+    Bridge(BridgeArgs),
+}
+
+/// A leaf hinge (all optional: without --hinge-width-mm there is no hinge).
+#[derive(Debug, Args)]
+pub struct HingeFlags {
+    /// Hinge width b, mm: gives the pivot/hinges their compliance ([Li21] Eq. 2 and E b t/l).
+    #[arg(long)]
+    hinge_width_mm: Option<f64>,
+    /// Hinge length l, mm.
+    #[arg(long, default_value_t = Hinge::default().length_mm)]
+    hinge_length_mm: f64,
+    /// Hinge thickness t, mm.
+    #[arg(long, default_value_t = Hinge::default().thickness_mm)]
+    hinge_thickness_mm: f64,
+    /// Hinge fillet radius R, mm.
+    #[arg(long, default_value_t = Hinge::default().radius_mm)]
+    hinge_radius_mm: f64,
+    /// Young's modulus, GPa.
+    #[arg(long, default_value_t = Hinge::default().e_gpa)]
+    e_gpa: f64,
+}
+
+impl HingeFlags {
+    /// The hinge, checked here so that an error names the `--hinge-*` flag
+    /// (the step's own message names the hinge's keys).
+    fn hinge(&self) -> anyhow::Result<Option<Hinge>> {
+        let Some(w) = self.hinge_width_mm else {
+            return Ok(None);
+        };
+        let h = Hinge {
+            e_gpa: self.e_gpa,
+            width_mm: Some(w),
+            length_mm: self.hinge_length_mm,
+            thickness_mm: self.hinge_thickness_mm,
+            radius_mm: self.hinge_radius_mm,
+        };
+        match h.validate() {
+            Err(crate::workflow::StepError::Input {
+                field: Some(field),
+                message,
+            }) if field != "e_gpa" => Err(bad(format!(
+                "--hinge-{}: {message}",
+                field.replace('_', "-")
+            ))),
+            Err(e) => Err(step_error(e)),
+            Ok(()) => Ok(Some(h)),
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct LeverArgs {
+    /// Pivot to input point, mm.
+    #[arg(long)]
+    input_arm_mm: f64,
+    /// Pivot to output point, mm (without it: only the arm for --target-ratio).
+    #[arg(long)]
+    output_arm_mm: Option<f64>,
+    #[command(flatten)]
+    hinge: HingeFlags,
+    /// Actuator stiffness, N/um ([Li21] Eq. 1 against the lever's input stiffness).
+    #[arg(long)]
+    kp: Option<f64>,
+    /// Actuator free stroke, um.
+    #[arg(long, default_value_t = Lever::default().dl0)]
+    dl0: f64,
+    /// Target ratio of the inverse ([Tang17]'s measured 3.87).
+    #[arg(long, default_value_t = TANG17_AMPLIFICATION)]
+    target_ratio: f64,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct BridgeArgs {
+    /// Link angle to the input axis, deg (without it: only the angle for --target-ratio).
+    #[arg(long)]
+    angle_deg: Option<f64>,
+    /// Link length between hinge centres, mm (needed with a hinge).
+    #[arg(long)]
+    link_mm: Option<f64>,
+    #[command(flatten)]
+    hinge: HingeFlags,
+    /// Target ratio of the inverse ([Tang17]'s measured 3.87).
+    #[arg(long, default_value_t = TANG17_AMPLIFICATION)]
+    target_ratio: f64,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -114,6 +210,26 @@ pub fn run(cmd: MechanismCommand) -> anyhow::Result<()> {
             print_report(&step.run().map_err(step_error)?, a.json)
         }
         MechanismCommand::Puu3(a) => run_puu3(a),
+        MechanismCommand::Lever(a) => {
+            let step = Lever {
+                input_arm_mm: Some(a.input_arm_mm),
+                output_arm_mm: a.output_arm_mm,
+                hinge: a.hinge.hinge()?,
+                kp: a.kp,
+                dl0: a.dl0,
+                target_ratio: a.target_ratio,
+            };
+            print_report(&step.run().map_err(step_error)?, a.json)
+        }
+        MechanismCommand::Bridge(a) => {
+            let step = Bridge {
+                angle_deg: a.angle_deg,
+                link_mm: a.link_mm,
+                hinge: a.hinge.hinge()?,
+                target_ratio: a.target_ratio,
+            };
+            print_report(&step.run().map_err(step_error)?, a.json)
+        }
     }
 }
 

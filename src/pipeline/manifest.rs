@@ -7,7 +7,9 @@ use crate::io::InputError;
 use crate::io::timeseries::{
     ColumnRef, DEFAULT_TIME_JITTER, Delimiter, HeaderMode, IoColumns, Layout, TimeUnit,
 };
+use crate::workflow::identify_ct::IdentifyCt;
 use crate::workflow::learning::DesignRepetitive;
+use crate::workflow::mechanism::{Bridge, FlexureLoss, Hinge, Lever, Puu3Study};
 use crate::workflow::{
     BuildController, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyOe,
     Mixsyn, StepError, Validate, VirtualSweep, VirtualTriangles, Weight,
@@ -59,6 +61,22 @@ pub struct LinearSpec<T> {
     pub step: T,
 }
 
+/// `kind = "mechanism"`: one of the `fts mechanism` calculators, chosen by
+/// the field `calculator`.
+#[derive(Debug, Clone)]
+pub enum MechanismSpec {
+    /// `calculator = "flexure-loss"`.
+    FlexureLoss(FlexureLoss),
+    /// `calculator = "hinge"`.
+    Hinge(Hinge),
+    /// `calculator = "3puu"`.
+    Puu3(Puu3Study),
+    /// `calculator = "lever"`.
+    Lever(Lever),
+    /// `calculator = "bridge"`.
+    Bridge(Bridge),
+}
+
 /// What a step does.
 #[derive(Debug, Clone)]
 pub enum Action {
@@ -73,6 +91,10 @@ pub enum Action {
     Arx(Box<LinearSpec<IdentifyArx>>),
     /// Output-error identification.
     Oe(Box<LinearSpec<IdentifyOe>>),
+    /// Continuous-time identification (SRIVC).
+    Ct(Box<LinearSpec<IdentifyCt>>),
+    /// A mechanism calculator (its report as JSON).
+    Mechanism(Box<MechanismSpec>),
     /// ZPETC design.
     Zpetc(DesignZpetc),
     /// Plug-in repetitive compensator designed on a closed-loop model.
@@ -556,7 +578,7 @@ fn normalise(s: &str) -> Option<String> {
 }
 
 /// The step kinds, as listed in errors.
-const KINDS: &str = "\"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"zpetc\", \"repetitive\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\"";
+const KINDS: &str = "\"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"ct\", \"zpetc\", \"repetitive\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\", \"mechanism\"";
 
 /// The step table's canonical settings hash: the table as JSON (sorted
 /// keys), the step name and the fts version.
@@ -591,6 +613,8 @@ fn step(
         "hysteresis" => hysteresis(&mut f),
         "arx" => linear(&mut f).map(Action::Arx),
         "oe" => linear(&mut f).map(Action::Oe),
+        "ct" => linear(&mut f).map(Action::Ct),
+        "mechanism" => mechanism(&mut f),
         "zpetc" => zpetc(&mut f),
         "repetitive" => repetitive(&mut f),
         "controller" => controller(&mut f),
@@ -729,6 +753,46 @@ fn mixsyn(f: &mut Fields<'_>) -> Result<Action, InputError> {
 fn synthesis<T: DeserializeOwned + Validate>(f: &mut Fields<'_>) -> Result<T, InputError> {
     files(f, &[("generalized", true)], &[("out", true)])?;
     f.typed()
+}
+
+/// `kind = "mechanism"`: `calculator` picks the `fts mechanism` command;
+/// the other fields are its settings; `out` receives its JSON report.
+fn mechanism(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    #[derive(Clone, Copy)]
+    enum Which {
+        FlexureLoss,
+        Hinge,
+        Puu3,
+        Lever,
+        Bridge,
+    }
+    let which = f
+        .choice(
+            "calculator",
+            &[
+                ("flexure-loss", Which::FlexureLoss),
+                ("hinge", Which::Hinge),
+                ("3puu", Which::Puu3),
+                ("lever", Which::Lever),
+                ("bridge", Which::Bridge),
+            ],
+        )?
+        .ok_or_else(|| {
+            f.err(
+                "calculator",
+                f.line,
+                "missing: one of \"flexure-loss\", \"hinge\", \"3puu\", \"lever\", \"bridge\"",
+            )
+        })?;
+    files(f, &[], &[("out", true)])?;
+    let spec = match which {
+        Which::FlexureLoss => MechanismSpec::FlexureLoss(f.typed()?),
+        Which::Hinge => MechanismSpec::Hinge(f.typed()?),
+        Which::Puu3 => MechanismSpec::Puu3(f.typed()?),
+        Which::Lever => MechanismSpec::Lever(f.typed()?),
+        Which::Bridge => MechanismSpec::Bridge(f.typed()?),
+    };
+    Ok(Action::Mechanism(Box::new(spec)))
 }
 
 fn c2d(f: &mut Fields<'_>) -> Result<Action, InputError> {

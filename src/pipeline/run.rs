@@ -4,7 +4,7 @@
 
 use super::hash::{Lock, LockEntry, sha256_hex};
 use super::manifest::{
-    Action, ColumnSpec, FileRef, HysteresisSpec, Plan, Step, keys, parse_manifest,
+    Action, ColumnSpec, FileRef, HysteresisSpec, MechanismSpec, Plan, Step, keys, parse_manifest,
 };
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::InputError;
@@ -565,6 +565,12 @@ fn execute(
             "out",
             tf_file(step, spec.step.run(io.linear(&spec.columns)?))?,
         )],
+        Action::Ct(spec) => {
+            let report = spec.step.run(io.linear(&spec.columns)?).map_err(err)?;
+            let tf = report.transfer_function().map_err(err)?;
+            vec![("out", tf_json::tf_to_string(&tf).into_bytes())]
+        }
+        Action::Mechanism(spec) => vec![("out", mechanism(spec).map_err(err)?)],
         Action::Zpetc(spec) => vec![("out", zpetc(&io, spec)?)],
         Action::Repetitive(spec) => vec![("out", repetitive(&io, spec)?)],
         Action::Controller(spec) => {
@@ -640,6 +646,24 @@ fn hysteresis(io: &Inputs<'_>, spec: &HysteresisSpec) -> Result<Vec<u8>, Pipelin
     };
     let report = spec.step.run(inputs).map_err(|e| step_error(io.step, e))?;
     Ok(model_to_string(&report.file).into_bytes())
+}
+
+/// A `mechanism` step's report, the JSON `fts mechanism ... --json` prints.
+fn mechanism(spec: &MechanismSpec) -> Result<Vec<u8>, StepError> {
+    fn json<T: serde::Serialize>(report: &T) -> Vec<u8> {
+        // Through a `Value`, as the command's `--json` prints it (same bytes).
+        let value = serde_json::to_value(report).expect("reports serialise");
+        let mut text = serde_json::to_string_pretty(&value).expect("values serialise");
+        text.push('\n');
+        text.into_bytes()
+    }
+    Ok(match spec {
+        MechanismSpec::FlexureLoss(s) => json(&s.run()?),
+        MechanismSpec::Hinge(s) => json(&s.run()?),
+        MechanismSpec::Puu3(s) => json(&s.run()?),
+        MechanismSpec::Lever(s) => json(&s.run()?),
+        MechanismSpec::Bridge(s) => json(&s.run()?),
+    })
 }
 
 fn zpetc(io: &Inputs<'_>, spec: &DesignZpetc) -> Result<Vec<u8>, PipelineError> {

@@ -7,6 +7,12 @@
 //! * \[Tang17\] Eq. 2-7, the 3-PUU parallel FTS: inverse kinematics, its
 //!   Jacobian `J = dS/d(x, y, z)`, conditioning, and the workspace by
 //!   seeded Monte-Carlo sampling.
+//! * Displacement amplifiers (\[Tang17\] measures 3.87, FEA 4.1, for its
+//!   amplifier without giving its geometry): the lever (ideal
+//!   `L_out/L_in`, and with a compliant pivot) and one limb of the
+//!   bridge-type amplifier (ideal `cot(alpha)`, and with compliant hinges),
+//!   pseudo-rigid-body models whose derivation is in docs/mechanism.md,
+//!   with their inverses (the arm ratio or angle giving a target ratio).
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -80,6 +86,143 @@ pub fn hinge_stiffness(g: &HingeGeometry) -> HingeStiffness {
         f,
         total: beam + fillets,
     }
+}
+
+/// Axial stiffness `E b t / l` of a straight leaf hinge (N/m; the fillets of
+/// \[Li21\] Eq. 2 are left out, which makes it a lower bound).
+pub fn leaf_axial_stiffness(g: &HingeGeometry) -> f64 {
+    g.youngs_modulus * g.width * g.thickness / g.length
+}
+
+/// A first-class lever (pivot between input and output) on a flexure
+/// pivot: arms in m, pivot stiffnesses `k_rot` (N m/rad) and `k_trans`
+/// (N/m, along the input force; `f64::INFINITY` for a fixed pivot).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lever {
+    /// Pivot to input point, m.
+    pub input_arm: f64,
+    /// Pivot to output point, m.
+    pub output_arm: f64,
+    /// Rotational stiffness of the pivot, N m/rad.
+    pub k_rot: f64,
+    /// Translational stiffness of the pivot along the force, N/m.
+    pub k_trans: f64,
+}
+
+/// What a lever or a bridge limb amplifies, unloaded output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Amplification {
+    /// The rigid-body (kinematic) ratio.
+    pub ideal: f64,
+    /// The ratio with the hinges' compliance.
+    pub compliant: f64,
+    /// Stiffness the actuator sees at the input, N/m.
+    pub input_stiffness: f64,
+}
+
+impl Lever {
+    /// Force `F` at the input, output free: the pivot turns by
+    /// `theta = F L_in / k_rot` and moves by `delta = F / k_trans` along
+    /// `F`, so `x_in = theta L_in + delta`, `x_out = theta L_out - delta`
+    /// and `R = (L_in L_out/k_rot - 1/k_trans) / (L_in^2/k_rot + 1/k_trans)`
+    /// (`L_out/L_in` for a rigid pivot).
+    pub fn amplification(&self) -> Amplification {
+        let (li, lo) = (self.input_arm, self.output_arm);
+        let (cr, ct) = (1.0 / self.k_rot, 1.0 / self.k_trans);
+        let input_compliance = li * li * cr + ct;
+        Amplification {
+            ideal: lo / li,
+            compliant: (li * lo * cr - ct) / input_compliance,
+            input_stiffness: 1.0 / input_compliance,
+        }
+    }
+
+    /// The output arm that gives `ratio` with this input arm and pivot
+    /// (the lever formula solved for `L_out`).
+    pub fn output_arm_for(&self, ratio: f64) -> f64 {
+        let li = self.input_arm;
+        let (cr, ct) = (1.0 / self.k_rot, 1.0 / self.k_trans);
+        (ratio * (li * li * cr + ct) + ct) / (li * cr)
+    }
+}
+
+/// One limb of a symmetric bridge-type amplifier: a rigid link of length
+/// `link` (m) at `angle` (rad) to the input axis between two identical
+/// hinges (axial `k_axial` N/m, rotational `k_rot` N m/rad), input and
+/// output blocks guided (they translate without turning). The input block
+/// moves `x` along the input axis, the output block `y` across it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BridgeLimb {
+    /// Link angle to the input axis, rad.
+    pub angle: f64,
+    /// Link length between the hinges, m.
+    pub link: f64,
+    /// Axial stiffness of one hinge, N/m.
+    pub k_axial: f64,
+    /// Rotational stiffness of one hinge, N m/rad.
+    pub k_rot: f64,
+}
+
+impl BridgeLimb {
+    /// Stiffness of the limb along the link (two hinges in series) and
+    /// across it (both hinges bend by the link's rotation `v/l`:
+    /// `2 (1/2) k_rot (v/l)^2`), N/m.
+    fn along_across(&self) -> (f64, f64) {
+        (
+            0.5 * self.k_axial,
+            2.0 * self.k_rot / (self.link * self.link),
+        )
+    }
+
+    /// The elongation `u = x cos a - y sin a` and the transverse motion
+    /// `v = x sin a + y cos a` of the link store `(k_a u^2 + k_t v^2)/2`;
+    /// the free output takes the `y` that minimises it:
+    /// `R = y/x = sin a cos a (k_a - k_t) / (k_a sin^2 a + k_t cos^2 a)`,
+    /// `cot a` for rigid links (`k_t -> 0` or `k_a -> inf`), and the input
+    /// stiffness `k_a k_t / (k_a sin^2 a + k_t cos^2 a)`.
+    pub fn amplification(&self) -> Amplification {
+        let (ka, kt) = self.along_across();
+        let (s, c) = self.angle.sin_cos();
+        let den = ka * s * s + kt * c * c;
+        Amplification {
+            ideal: c / s,
+            compliant: s * c * (ka - kt) / den,
+            input_stiffness: ka * kt / den,
+        }
+    }
+
+    /// The largest compliant ratio over all angles and the angle (rad)
+    /// that gives it: with `u = tan a`, `R = u (k_a - k_t)/(k_a u^2 + k_t)`
+    /// peaks at `u = sqrt(k_t/k_a)` with `(k_a - k_t)/(2 sqrt(k_a k_t))`.
+    pub fn peak(&self) -> (f64, f64) {
+        let (ka, kt) = self.along_across();
+        (
+            (ka - kt) / (2.0 * (ka * kt).sqrt()),
+            (kt / ka).sqrt().atan(),
+        )
+    }
+
+    /// The angles (rad, smaller first) at which the compliant ratio equals
+    /// `ratio`: the roots of `k_a R u^2 - (k_a - k_t) u + k_t R = 0`,
+    /// `u = tan a`; `None` above the peak.
+    pub fn angles_for(&self, ratio: f64) -> Option<(f64, f64)> {
+        let (ka, kt) = self.along_across();
+        let b = ka - kt;
+        let disc = b * b - 4.0 * ka * kt * ratio * ratio;
+        if !(disc >= 0.0 && ratio > 0.0 && b > 0.0) {
+            return None;
+        }
+        let big = (b + disc.sqrt()) / (2.0 * ka * ratio);
+        // The product of the roots is k_t/k_a: the small one without cancellation.
+        let small = kt / (ka * big);
+        Some((small.atan(), big.atan()))
+    }
+}
+
+/// The link angle (rad) at which a rigid bridge amplifies by `ratio`:
+/// `cot a = ratio`.
+pub fn ideal_bridge_angle(ratio: f64) -> f64 {
+    (1.0 / ratio).atan()
 }
 
 /// The 3-PUU geometry of \[Tang17\] (any length unit, the same throughout).
@@ -226,6 +369,103 @@ pub fn workspace(m: &Puu3, p: &WorkspaceParams) -> Workspace {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lever against its limits (pin pivot: `L_out/L_in`), Clapeyron's
+    /// theorem (the work `F x_in / 2` equals the energy stored in the
+    /// pivot) and its inverse.
+    #[test]
+    fn lever_limits_energy_and_inverse() {
+        let pin = Lever {
+            input_arm: 0.01,
+            output_arm: 0.0387,
+            k_rot: 1e-12,
+            k_trans: f64::INFINITY,
+        };
+        let a = pin.amplification();
+        assert!((a.ideal - 3.87).abs() < 1e-12 && (a.compliant - 3.87).abs() < 1e-9);
+        let l = Lever {
+            k_rot: 35.0,
+            k_trans: 2e8,
+            ..pin
+        };
+        let a = l.amplification();
+        assert!(a.compliant < a.ideal);
+        // Force F: theta = F L_in/k_rot, delta = F/k_trans.
+        let f = 1.0;
+        let (theta, delta) = (f * l.input_arm / l.k_rot, f / l.k_trans);
+        let x_in = f / a.input_stiffness;
+        let stored = 0.5 * l.k_rot * theta * theta + 0.5 * l.k_trans * delta * delta;
+        assert!((0.5 * f * x_in / stored - 1.0).abs() < 1e-12);
+        let x_out = theta * l.output_arm - delta;
+        assert!((x_out / x_in / a.compliant - 1.0).abs() < 1e-12);
+        let arm = l.output_arm_for(3.87);
+        let back = Lever {
+            output_arm: arm,
+            ..l
+        };
+        assert!((back.amplification().compliant - 3.87).abs() < 1e-12);
+    }
+
+    /// The bridge limb: rigid links give `cot(a)`; the compliant ratio
+    /// equals the free output of the limb's 2x2 stiffness matrix, built
+    /// here by rotating `diag(k_a, k_t)` (an independent route); the peak
+    /// and the inverse roots reproduce themselves.
+    #[test]
+    fn bridge_limb_limits_stiffness_matrix_peak_and_inverse() {
+        let a = 10f64.to_radians();
+        let rigid = BridgeLimb {
+            angle: a,
+            link: 0.01,
+            k_axial: 1e30,
+            k_rot: 1.0,
+        };
+        let r = rigid.amplification();
+        assert!((r.compliant / r.ideal - 1.0).abs() < 1e-12, "{r:?}");
+        assert!((r.ideal - 1.0 / a.tan()).abs() < 1e-12);
+        let limb = BridgeLimb {
+            k_axial: 1.7e8,
+            k_rot: 35.0,
+            ..rigid
+        };
+        let (ka, kt) = (
+            0.5 * limb.k_axial,
+            2.0 * limb.k_rot / (limb.link * limb.link),
+        );
+        // u = c x - s y, v = s x + c y, i.e. (u, v) = T (x, y) with
+        // T = [c -s; s c]: the limb's stiffness in (x, y) is T' diag(ka, kt) T.
+        let (s, c) = a.sin_cos();
+        let kxy = -ka * c * s + kt * s * c;
+        let kyy = ka * s * s + kt * c * c;
+        let kxx = ka * c * c + kt * s * s;
+        // Free output: K_yx x + K_yy y = 0; input stiffness: Schur complement.
+        let ratio = -kxy / kyy;
+        let k_in = kxx - kxy * kxy / kyy;
+        let got = limb.amplification();
+        assert!(
+            (got.compliant / ratio - 1.0).abs() < 1e-12,
+            "{got:?} {ratio}"
+        );
+        assert!((got.input_stiffness / k_in - 1.0).abs() < 1e-9);
+        let (peak, at) = limb.peak();
+        let at_peak = BridgeLimb { angle: at, ..limb }.amplification().compliant;
+        assert!((at_peak / peak - 1.0).abs() < 1e-12);
+        for da in [-1e-3, 1e-3] {
+            let near = BridgeLimb {
+                angle: at + da,
+                ..limb
+            };
+            assert!(near.amplification().compliant < peak);
+        }
+        let (lo, hi) = limb.angles_for(3.87).unwrap();
+        assert!(lo < at && at < hi);
+        for ang in [lo, hi] {
+            let r = BridgeLimb { angle: ang, ..limb }.amplification().compliant;
+            assert!((r - 3.87).abs() < 1e-9, "{r}");
+        }
+        assert!(limb.angles_for(peak * 1.01).is_none());
+        // Tang17's 3.87 needs acot(3.87) = 14.488203 deg with rigid links (python math).
+        assert!((ideal_bridge_angle(3.87).to_degrees() - 14.488203).abs() < 1e-6);
+    }
 
     #[test]
     fn li21_eq1_loses_0_55_um_of_10() {

@@ -1,11 +1,14 @@
 //! `fts mechanism ...` steps (docs/mechanism.md): \[Li21\] Eq. 1 flexure
 //! displacement loss, \[Li21\] Eq. 2 hinge stiffness, \[Tang17\] 3-PUU
-//! kinematics, Jacobian, conditioning and Monte-Carlo workspace.
+//! kinematics, Jacobian, conditioning and Monte-Carlo workspace, and the
+//! lever and bridge-type amplifiers with their inverses (the arm ratio and
+//! the angle that give \[Tang17\]'s measured 3.87).
 
 use super::{StepError, Validate, positive};
 use crate::synth::mechanism::{
-    HingeGeometry, Puu3, WorkspaceParams, condition_number, flexure_displacement, hinge_stiffness,
-    workspace,
+    Amplification, BridgeLimb, HingeGeometry, Lever as LeverModel, Puu3, WorkspaceParams,
+    condition_number, flexure_displacement, hinge_stiffness, ideal_bridge_angle,
+    leaf_axial_stiffness, workspace,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -154,14 +157,7 @@ impl Hinge {
     /// Evaluates Eq. 2.
     pub fn run(&self) -> Result<HingeReport, StepError> {
         self.validate()?;
-        let mm = 1e-3;
-        let k = hinge_stiffness(&HingeGeometry {
-            youngs_modulus: self.e_gpa * 1e9,
-            width: self.width_mm.unwrap_or_default() * mm,
-            length: self.length_mm * mm,
-            thickness: self.thickness_mm * mm,
-            radius: self.radius_mm * mm,
-        });
+        let k = hinge_stiffness(&self.geometry());
         Ok(HingeReport {
             inputs: self.clone(),
             s: k.s,
@@ -362,6 +358,358 @@ impl fmt::Display for Puu3Report {
             f,
             "    paper (measured): x [{}, {}]  y [{}, {}]  z [{}, {}] um",
             p[0][0], p[0][1], p[1][0], p[1][1], p[2][0], p[2][1]
+        )
+    }
+}
+
+/// \[Tang17\]'s measured amplification of its displacement amplifier (FEA
+/// 4.1; the paper gives no geometry): the default target of the inverses.
+pub const TANG17_AMPLIFICATION: f64 = 3.87;
+
+impl Hinge {
+    /// The geometry in SI units (width 0 when missing: validate first).
+    fn geometry(&self) -> HingeGeometry {
+        let mm = 1e-3;
+        HingeGeometry {
+            youngs_modulus: self.e_gpa * 1e9,
+            width: self.width_mm.unwrap_or_default() * mm,
+            length: self.length_mm * mm,
+            thickness: self.thickness_mm * mm,
+            radius: self.radius_mm * mm,
+        }
+    }
+
+    /// Rotational (\[Li21\] Eq. 2, N m/rad) and axial (`E b t / l`, N/m)
+    /// stiffness.
+    fn stiffnesses(&self) -> (f64, f64) {
+        let g = self.geometry();
+        (hinge_stiffness(&g).total, leaf_axial_stiffness(&g))
+    }
+}
+
+/// A nested hinge's settings error, named under `hinge`.
+fn check_hinge(h: &Hinge) -> Result<(), StepError> {
+    h.validate().map_err(|e| match e {
+        StepError::Input {
+            field: Some(f),
+            message,
+        } => StepError::setting("hinge", format!("`{f}`: {message}")),
+        other => other,
+    })
+}
+
+fn target_ratio(x: f64) -> Result<f64, StepError> {
+    positive("target_ratio", x)
+}
+
+/// A lever amplifier: first-class lever on a leaf-hinge pivot whose axis
+/// lies along the input force (docs/mechanism.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Lever {
+    /// Pivot to input point, mm; required.
+    pub input_arm_mm: Option<f64>,
+    /// Pivot to output point, mm; without it only the inverse is answered.
+    pub output_arm_mm: Option<f64>,
+    /// The pivot hinge (\[Li21\] Eq. 2 for its rotational stiffness, `E b t/l`
+    /// along the force); without it the pivot is a pin (ideal lever).
+    pub hinge: Option<Hinge>,
+    /// Actuator stiffness, N/um: with it, \[Li21\] Eq. 1 gives the stroke the
+    /// lever's input stiffness lets through.
+    pub kp: Option<f64>,
+    /// Actuator free stroke, um; default 10.
+    pub dl0: f64,
+    /// Ratio the inverse aims at; default 3.87 (\[Tang17\], measured).
+    pub target_ratio: f64,
+}
+
+impl Default for Lever {
+    fn default() -> Self {
+        Lever {
+            input_arm_mm: None,
+            output_arm_mm: None,
+            hinge: None,
+            kp: None,
+            dl0: 10.0,
+            target_ratio: TANG17_AMPLIFICATION,
+        }
+    }
+}
+
+impl Validate for Lever {
+    fn validate(&self) -> Result<(), StepError> {
+        let li = self.input_arm_mm.ok_or_else(|| {
+            StepError::setting("input_arm_mm", "missing: the pivot-to-input distance in mm")
+        })?;
+        positive("input_arm_mm", li)?;
+        if let Some(lo) = self.output_arm_mm {
+            positive("output_arm_mm", lo)?;
+        }
+        if let Some(h) = &self.hinge {
+            check_hinge(h)?;
+        }
+        if let Some(kp) = self.kp {
+            positive("kp", kp)?;
+            if self.hinge.is_none() {
+                return Err(StepError::setting(
+                    "kp",
+                    "needs a pivot hinge (its width): a pin-jointed lever has no input stiffness",
+                ));
+            }
+        }
+        positive("dl0", self.dl0)?;
+        target_ratio(self.target_ratio).map(|_| ())
+    }
+}
+
+/// What [`Lever`] reports (ratios dimensionless, stiffnesses N/um).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LeverReport {
+    /// The inputs.
+    pub inputs: Lever,
+    /// `L_out/L_in` (with the output arm).
+    pub ideal: Option<f64>,
+    /// With the compliant pivot (with the output arm and the hinge).
+    pub compliant: Option<f64>,
+    /// Pivot stiffnesses: rotational N m/rad, along the force N/um.
+    pub pivot_k_rot_nm_per_rad: Option<f64>,
+    pub pivot_k_trans_n_per_um: Option<f64>,
+    /// Stiffness the actuator sees, N/um (with the hinge).
+    pub input_stiffness_n_per_um: Option<f64>,
+    /// \[Li21\] Eq. 1: the input stroke delivered against that stiffness,
+    /// and the output stroke, um (with `kp` and the output arm).
+    pub delivered_input_um: Option<f64>,
+    pub output_stroke_um: Option<f64>,
+    /// Output arm giving `target_ratio`: ideal, and with the pivot, mm.
+    pub output_arm_for_target_ideal_mm: f64,
+    pub output_arm_for_target_compliant_mm: Option<f64>,
+}
+
+impl Lever {
+    /// Evaluates the lever and its inverse.
+    pub fn run(&self) -> Result<LeverReport, StepError> {
+        self.validate()?;
+        let mm = 1e-3;
+        let li = self.input_arm_mm.unwrap_or_default();
+        let model = self.hinge.as_ref().map(|h| {
+            let (k_rot, k_trans) = h.stiffnesses();
+            LeverModel {
+                input_arm: li * mm,
+                output_arm: self.output_arm_mm.unwrap_or(li) * mm,
+                k_rot,
+                k_trans,
+            }
+        });
+        let amp: Option<Amplification> = match (&model, self.output_arm_mm) {
+            (Some(m), Some(_)) => Some(m.amplification()),
+            _ => None,
+        };
+        let input_stiffness = model.map(|m| m.amplification().input_stiffness * 1e-6);
+        let delivered = self
+            .kp
+            .zip(input_stiffness)
+            .map(|(kp, k)| flexure_displacement(kp, k, self.dl0).0);
+        let compliant = amp.map(|a| a.compliant);
+        Ok(LeverReport {
+            inputs: self.clone(),
+            ideal: self.output_arm_mm.map(|lo| lo / li),
+            compliant,
+            pivot_k_rot_nm_per_rad: model.map(|m| m.k_rot),
+            pivot_k_trans_n_per_um: model.map(|m| m.k_trans * 1e-6),
+            input_stiffness_n_per_um: input_stiffness,
+            delivered_input_um: delivered.filter(|_| compliant.is_some()),
+            output_stroke_um: delivered.zip(compliant).map(|(d, r)| d * r),
+            output_arm_for_target_ideal_mm: self.target_ratio * li,
+            output_arm_for_target_compliant_mm: model
+                .map(|m| m.output_arm_for(self.target_ratio) / mm),
+        })
+    }
+}
+
+fn opt(x: Option<f64>, digits: usize) -> String {
+    x.map_or("-".into(), |v| format!("{v:.digits$}"))
+}
+
+impl fmt::Display for LeverReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let i = &self.inputs;
+        writeln!(
+            f,
+            "Lever (first class, leaf-hinge pivot): L_in = {} mm, L_out = {} mm",
+            i.input_arm_mm.unwrap_or_default(),
+            opt(i.output_arm_mm, 3)
+        )?;
+        if let (Some(kr), Some(kt)) = (self.pivot_k_rot_nm_per_rad, self.pivot_k_trans_n_per_um) {
+            writeln!(
+                f,
+                "  pivot: {kr:.4} N m/rad ([Li21] Eq. 2), {kt:.3} N/um along the force (E b t/l)"
+            )?;
+        }
+        writeln!(
+            f,
+            "  ratio: ideal {}, with the compliant pivot {}; input stiffness {} N/um",
+            opt(self.ideal, 4),
+            opt(self.compliant, 4),
+            opt(self.input_stiffness_n_per_um, 4)
+        )?;
+        if let (Some(d), Some(o)) = (self.delivered_input_um, self.output_stroke_um) {
+            writeln!(
+                f,
+                "  [Li21] Eq. 1, kp = {} N/um, free stroke {} um: input {d:.4} um, output {o:.4} um",
+                i.kp.unwrap_or_default(),
+                i.dl0
+            )?;
+        }
+        writeln!(
+            f,
+            "  for a ratio of {}: L_out = {:.3} mm ideal, {} mm with the pivot",
+            i.target_ratio,
+            self.output_arm_for_target_ideal_mm,
+            opt(self.output_arm_for_target_compliant_mm, 3)
+        )
+    }
+}
+
+/// One limb of a symmetric bridge-type amplifier (docs/mechanism.md): the
+/// ratio of the output blocks' separation to the actuator's elongation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Bridge {
+    /// Link angle to the input axis, deg; without it only the inverse is answered.
+    pub angle_deg: Option<f64>,
+    /// Link length between the hinge centres, mm (with the hinge).
+    pub link_mm: Option<f64>,
+    /// The two identical hinges of a link; without them the links are rigid
+    /// on pins (ideal `cot(angle)`).
+    pub hinge: Option<Hinge>,
+    /// Ratio the inverse aims at; default 3.87 (\[Tang17\], measured).
+    pub target_ratio: f64,
+}
+
+impl Default for Bridge {
+    fn default() -> Self {
+        Bridge {
+            angle_deg: None,
+            link_mm: None,
+            hinge: None,
+            target_ratio: TANG17_AMPLIFICATION,
+        }
+    }
+}
+
+impl Validate for Bridge {
+    fn validate(&self) -> Result<(), StepError> {
+        if let Some(a) = self.angle_deg
+            && !(a > 0.0 && a < 90.0)
+        {
+            return Err(StepError::setting(
+                "angle_deg",
+                format!("expected an angle strictly between 0 and 90 deg, got {a}"),
+            ));
+        }
+        if let Some(h) = &self.hinge {
+            check_hinge(h)?;
+            let l = self.link_mm.ok_or_else(|| {
+                StepError::setting("link_mm", "missing: the hinge-to-hinge link length in mm")
+            })?;
+            positive("link_mm", l)?;
+        } else if let Some(l) = self.link_mm {
+            positive("link_mm", l)?;
+        }
+        target_ratio(self.target_ratio).map(|_| ())
+    }
+}
+
+/// What [`Bridge`] reports (angles in deg, stiffnesses N/um).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BridgeReport {
+    /// The inputs.
+    pub inputs: Bridge,
+    /// `cot(angle)` (with the angle).
+    pub ideal: Option<f64>,
+    /// With the hinges' compliance (with the angle and the hinge).
+    pub compliant: Option<f64>,
+    /// Hinge stiffnesses: rotational N m/rad, axial N/um.
+    pub hinge_k_rot_nm_per_rad: Option<f64>,
+    pub hinge_k_axial_n_per_um: Option<f64>,
+    /// Stiffness the actuator sees, N/um (with the angle and the hinge).
+    pub input_stiffness_n_per_um: Option<f64>,
+    /// The angle at which a rigid bridge gives `target_ratio`: `acot`.
+    pub angle_for_target_ideal_deg: f64,
+    /// The angles at which the compliant limb gives it (none above its peak).
+    pub angles_for_target_compliant_deg: Option<(f64, f64)>,
+    /// The compliant limb's largest ratio and its angle, deg.
+    pub peak_ratio: Option<f64>,
+    pub peak_angle_deg: Option<f64>,
+}
+
+impl Bridge {
+    /// Evaluates the limb and the inverses.
+    pub fn run(&self) -> Result<BridgeReport, StepError> {
+        self.validate()?;
+        let angle = self.angle_deg.map(f64::to_radians);
+        let limb = self.hinge.as_ref().map(|h| {
+            let (k_rot, k_axial) = h.stiffnesses();
+            BridgeLimb {
+                angle: angle.unwrap_or(std::f64::consts::FRAC_PI_4),
+                link: self.link_mm.unwrap_or_default() * 1e-3,
+                k_axial,
+                k_rot,
+            }
+        });
+        let amp = limb.filter(|_| angle.is_some()).map(|l| l.amplification());
+        let deg = |(a, b): (f64, f64)| (a.to_degrees(), b.to_degrees());
+        Ok(BridgeReport {
+            inputs: self.clone(),
+            ideal: angle.map(|a| 1.0 / a.tan()),
+            compliant: amp.map(|a| a.compliant),
+            hinge_k_rot_nm_per_rad: limb.map(|l| l.k_rot),
+            hinge_k_axial_n_per_um: limb.map(|l| l.k_axial * 1e-6),
+            input_stiffness_n_per_um: amp.map(|a| a.input_stiffness * 1e-6),
+            angle_for_target_ideal_deg: ideal_bridge_angle(self.target_ratio).to_degrees(),
+            angles_for_target_compliant_deg: limb
+                .and_then(|l| l.angles_for(self.target_ratio))
+                .map(deg),
+            peak_ratio: limb.map(|l| l.peak().0),
+            peak_angle_deg: limb.map(|l| l.peak().1.to_degrees()),
+        })
+    }
+}
+
+impl fmt::Display for BridgeReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let i = &self.inputs;
+        writeln!(
+            f,
+            "Bridge-type amplifier (one limb; output separation / actuator elongation): angle {} deg, link {} mm",
+            opt(i.angle_deg, 3),
+            opt(i.link_mm, 3)
+        )?;
+        if let (Some(kr), Some(ka)) = (self.hinge_k_rot_nm_per_rad, self.hinge_k_axial_n_per_um) {
+            writeln!(
+                f,
+                "  hinge: {kr:.4} N m/rad ([Li21] Eq. 2), {ka:.3} N/um axial (E b t/l)"
+            )?;
+        }
+        writeln!(
+            f,
+            "  ratio: ideal cot(angle) {}, with compliant hinges {}; input stiffness {} N/um",
+            opt(self.ideal, 4),
+            opt(self.compliant, 4),
+            opt(self.input_stiffness_n_per_um, 4)
+        )?;
+        if let (Some(p), Some(a)) = (self.peak_ratio, self.peak_angle_deg) {
+            writeln!(f, "  compliant limb: at most {p:.4}, at {a:.3} deg")?;
+        }
+        let compliant = match (self.angles_for_target_compliant_deg, self.peak_ratio) {
+            (Some((a, b)), _) => format!("{a:.3} or {b:.3} deg with the hinges"),
+            (None, Some(_)) => "unreachable with the hinges".into(),
+            (None, None) => "-".into(),
+        };
+        writeln!(
+            f,
+            "  for a ratio of {}: angle {:.3} deg ideal (acot), {compliant}",
+            i.target_ratio, self.angle_for_target_ideal_deg
         )
     }
 }
