@@ -168,7 +168,7 @@ fn sweep_peak(p: &StateSpace, k: &StateSpace, nmeas: usize, ncon: usize) -> f64 
 /// of spectral radius `rho`; `None` when `rho` needs more than 8192 points.
 fn h2_by_quadrature(p: &StateSpace, k: &StateSpace, c: &Case, rho: f64) -> Option<f64> {
     let n = (-28.0 / rho.ln()).ceil();
-    if !(n <= 8192.0) {
+    if rho.is_nan() || rho >= 1.0 || n > 8192.0 {
         return None;
     }
     let n = (n as usize).max(64);

@@ -12,7 +12,7 @@ Families (`family`):
   from SciPy's Lyapunov solver. Independently the optimum is given by the
   Riccati trace formula (`h2_formula`: continuous
   `tr(B1'X B1) + tr(R1 F Y F')`, discrete the full-information plus
-  output-estimation cost); a case is kept only if the two agree to 1e-10.
+  output-estimation cost); a case is kept only if the two agree to 1e-9.
   `slycot_h2` is the closed-loop H2 norm of SB10HD's controller
   (continuous) or of SB10DD's central controller at gamma = 1e6 (discrete;
   it tends to the H2 optimum as gamma grows), null where Slycot refused.
@@ -27,15 +27,19 @@ Families (`family`):
   stable subspace `[U1; U2]` has `U1` invertible, `X = U2 U1^-1 >= 0`;
   (iii) the same for the dual `Y`; (iv) `rho(XY) < gamma^2`. X and Y are
   computed from an ordered real Schur form of the Hamiltonian (SciPy's
-  `schur(sort='lhp')`), checked by residual and closed-loop stability. The
+  `schur(sort='lhp')`, after an exact diagonal state balancing), checked
+  by residual (1e-7 relative), PSD-ness and closed-loop stability; an
+  eigenvalue with `|Re| < 1e-5 |lambda|` counts as on the axis. The
   conditions are necessary and sufficient, so bisection on them (to 1e-8)
   gives `gamma_opt`. They are evaluated again at `gamma_opt (1 + 1e-4)`,
   where they must hold, also with SciPy's `solve_continuous_are` in place
   of the Schur solver (else the case is dropped), and at
   `gamma_opt (1 - 1e-4)`, where the reason they fail is stored
-  (`below_fails`). `slycot_gamma` is SB10AD's claimed optimum and
+  (`below_fails`; SciPy's solver's in `below_fails_scipy`). A case where a
+  controller is verified here to achieve less than `gamma_opt` is
+  dropped. `slycot_gamma` is SB10AD's claimed optimum and
   `slycot_achieved` the norm (Hamiltonian bisection here) its controller
-  achieves, both informative only.
+  achieves (null: unstable), both informative only.
 * `hinf_d`: discrete H-inf. `gamma_opt` by the same bisection on the
   continuous conditions of the bilinear equivalent `z = (1 + s)/(1 - s)`
   (it preserves the H-inf norm and stability, so both optima coincide),
