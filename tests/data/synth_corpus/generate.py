@@ -1,32 +1,60 @@
 """Synthesis corpus for tests/synth_corpus.rs (issue #19): random continuous
-and discrete generalised plants with reference figures from SLICOT (through
-Slycot 0.7.1) and SciPy, fixed seeds. Run once: `python3 generate.py`
-writes `cases.json` beside this file. No test needs Python.
+and discrete generalised plants, orders 2 to 40, with reference figures
+computed here from the Riccati theory with SciPy, fixed seed. Run once:
+`python3 generate.py` writes `cases.json` beside this file. No test needs
+Python. SLICOT (through Slycot) is only an extra column, never a reference.
 
-References, each computed here independently of fts:
-* discrete H2: the H2 norm (SciPy discrete Lyapunov solve of the closed
-  loop) of SLICOT SB10DD's central controller at a very large gamma. The
-  central controller tends to the H2-optimal one as gamma -> infinity (its
-  closed-loop H2 norm converges to the optimum from above, to second order
-  in 1/gamma). Levels 1e2..1e7 are tried; the reference is the value at the
-  larger of the two consecutive levels that agree best (their relative
-  difference is stored as `h2_reference_spread`; more than 1e-8 drops the
-  case). Beyond that SB10DD's own rounding grows. (Slycot has no SB10ED.)
-* continuous H2: the H2 norm of SLICOT SB10HD's controller (SciPy Lyapunov).
-* discrete H-inf: the smallest gamma at which SB10DD returns a controller
-  whose closed loop is stable and whose H-inf norm (dense sweep of the unit
-  circle, refined around the peak) is at most gamma (1 + 1e-6), by
-  bisection to 1e-5: an upper bound on the optimum that SLICOT's claims
-  alone do not give (its gamma is not trusted without that check). Then
-  the discrete Riccati feasibility conditions (`conditions` below: X and Z
-  stabilising, positive semidefinite, accurate to 1e-6, with `R3 > 0`,
-  `Nabla < 0`, `St3 > 0`, `St1 - St2 St3^-1 St2' < 0`, as in SB10DD) are
-  evaluated with SciPy's DARE solver at `gamma (1 + 1e-4)`, where they must
-  hold (else the case is dropped), and at `gamma (1 - 1e-4)`, where the
-  reason they fail is stored (`conditions_below.fails`; null if they hold).
-  A failure by "not PSD" or a violated inequality is evidence that no
-  controller reaches that level; "residual" (SciPy's solution inaccurate
-  there) is not.
+Families (`family`):
+* `h2_c`, `h2_d`: continuous / discrete H2. The optimal controller is built
+  here from SciPy's CARE / DARE solutions (Zhou & Doyle, Essentials
+  Thm 14.7; discrete: Zhou, Doyle & Glover 1996 ch. 21, SLICOT SB10SD's
+  form), and the reference `h2_reference` is the H2 norm of its closed loop
+  from SciPy's Lyapunov solver. Independently the optimum is given by the
+  Riccati trace formula (`h2_formula`: continuous
+  `tr(B1'X B1) + tr(R1 F Y F')`, discrete the full-information plus
+  output-estimation cost); a case is kept only if the two agree to 1e-9.
+  `slycot_h2` is the closed-loop H2 norm of SB10HD's controller
+  (continuous) or of SB10DD's central controller at gamma = 1e6 (discrete;
+  it tends to the H2 optimum as gamma grows), null where Slycot refused.
+* `hinf_c`: continuous H-inf. The optimum is the infimum of the gammas at
+  which the Glover-Doyle conditions hold, in the general form with D11
+  (Zhou, Doyle & Glover 1996 Thm 17.1, written without normalising D12,
+  D21: the X and Y Riccati equations are invariant under the scalings):
+  (i) gamma > max(||(I - P12) D11||, ||D11 (I - P21)||), P12 / P21 the
+  projections on the range of D12 / the row space of D21; (ii) the
+  Hamiltonian of `A'X + XA - (XB + C1'D1.) R^-1 (B'X + D1.'C1) + C1'C1 = 0`,
+  `R = D1.'D1. - diag(g^2 I, 0)`, has no imaginary-axis eigenvalue, its
+  stable subspace `[U1; U2]` has `U1` invertible, `X = U2 U1^-1 >= 0`;
+  (iii) the same for the dual `Y`; (iv) `rho(XY) < gamma^2`. X and Y are
+  computed from an ordered real Schur form of the Hamiltonian (SciPy's
+  `schur(sort='lhp')`, after an exact diagonal state balancing), checked
+  by residual (1e-7 relative), PSD-ness and closed-loop stability; an
+  eigenvalue with `|Re| < 1e-5 |lambda|` counts as on the axis. The
+  conditions are necessary and sufficient, so bisection on them (to 1e-8)
+  gives `gamma_opt`. They are evaluated again at `gamma_opt (1 + 1e-4)`,
+  where they must hold, also with SciPy's `solve_continuous_are` in place
+  of the Schur solver (else the case is dropped), and at
+  `gamma_opt (1 - 1e-4)`, where the reason they fail is stored
+  (`below_fails`; SciPy's solver's in `below_fails_scipy`). A case where a
+  controller is verified here to achieve less than `gamma_opt` is
+  dropped. `slycot_gamma` is SB10AD's claimed optimum and
+  `slycot_achieved` the norm (Hamiltonian bisection here) its controller
+  achieves (null: unstable), both informative only.
+* `hinf_d`: discrete H-inf. `gamma_opt` by the same bisection on the
+  continuous conditions of the bilinear equivalent `z = (1 + s)/(1 - s)`
+  (it preserves the H-inf norm and stability, so both optima coincide),
+  cross-checked by a second bisection on the discrete Riccati conditions
+  (SB10DD's: X and Z stabilising, PSD, `R3 > 0`, `Nabla < 0`, `St3 > 0`,
+  `St1 - St2 St3^-1 St2' < 0`, with SciPy's DARE solver): `cross_gamma_opt`,
+  which must agree to 1e-5 or the case is dropped (the DAREs' accuracy
+  checks fail a few 1e-6 early near the optimum). The ±1e-4 checks as
+  above (the discrete conditions too, `below_fails_discrete`).
+  `slycot_achieved` is the norm of SB10DD's controller at
+  `gamma_opt (1 + 1e-4)`.
+
+`scaled` cases are badly scaled: a diagonal state similarity with entries
+10^U(-2, 2) (A's entries then span about 1e-4..1e4) and a small control
+weight (D12 multiplied by 1e-3 or 1e-2).
 """
 
 import json
@@ -35,16 +63,50 @@ import numpy as np
 import scipy.linalg as sl
 import slycot
 
-GAMMAS_H2 = [10.0**k for k in range(2, 8)]
+SEED = 20261127
+BISECT_RTOL = 1e-8
+STEP = 1e-4
+
+
+# ---------------------------------------------------------------- plants
+
+def random_plant(rng, dims, discrete, d11, d22, scaled):
+    n, m1, m2, p1, p2 = dims
+    A = rng.standard_normal((n, n))
+    ev = np.linalg.eigvals(A)
+    if discrete:
+        A *= rng.uniform(0.6, 1.2) / max(abs(ev))
+    else:
+        A -= (max(ev.real) + rng.uniform(-1.0, 1.0)) * np.eye(n)
+    B = rng.standard_normal((n, m1 + m2))
+    C = rng.standard_normal((p1 + p2, n))
+    D = np.zeros((p1 + p2, m1 + m2))
+    D[:p1, m1:] = rng.standard_normal((p1, m2))
+    D[p1:, :m1] = rng.standard_normal((p2, m1))
+    if d11:
+        D[:p1, :m1] = 0.5 * rng.standard_normal((p1, m1))
+    if d22:
+        D[p1:, m1:] = 0.5 * rng.standard_normal((p2, m2))
+    if scaled:
+        t = 10.0 ** rng.uniform(-2, 2, n)
+        A = A * t[None, :] / t[:, None]
+        B = B / t[:, None]
+        C = C * t[None, :]
+        D[:p1, m1:] *= 10.0 ** -rng.integers(2, 4)
+    return A, B, C, D
+
+
+def split(p, ncon, nmeas):
+    A, B, C, D = p
+    m1, p1 = B.shape[1] - ncon, C.shape[0] - nmeas
+    return (A, B[:, :m1], B[:, m1:], C[:p1], C[p1:],
+            D[:p1, :m1], D[:p1, m1:], D[p1:, :m1], D[p1:, m1:])
 
 
 def closed_loop(p, k, ncon, nmeas):
     """F_l(P, K) with u = K y (positive feedback), D22 included."""
-    A, B, C, D = p
+    A, B1, B2, C1, C2, D11, D12, D21, D22 = split(p, ncon, nmeas)
     Ak, Bk, Ck, Dk = k
-    m1, p1 = B.shape[1] - ncon, C.shape[0] - nmeas
-    B1, B2, C1, C2 = B[:, :m1], B[:, m1:], C[:p1], C[p1:]
-    D11, D12, D21, D22 = D[:p1, :m1], D[:p1, m1:], D[p1:, :m1], D[p1:, m1:]
     M = np.linalg.inv(np.eye(ncon) - Dk @ D22)
     cu_x, cu_k, du = M @ Dk @ C2, M @ Ck, M @ Dk @ D21
     cy_x, cy_k, dy = C2 + D22 @ cu_x, D22 @ cu_k, D21 + D22 @ du
@@ -54,43 +116,186 @@ def closed_loop(p, k, ncon, nmeas):
     return Acl, Bcl, Ccl, D11 + D12 @ du
 
 
+def bilinear_to_continuous(p):
+    """z = (1 + s)/(1 - s): same H-inf norm, same stability."""
+    A, B, C, D = p
+    E = np.linalg.inv(A + np.eye(A.shape[0]))
+    r2 = np.sqrt(2.0)
+    return (E @ (A - np.eye(A.shape[0])), r2 * E @ B, r2 * C @ E, D - C @ E @ B)
+
+
+# ---------------------------------------------------------------- norms
+
+def stable(A, discrete):
+    ev = np.linalg.eigvals(A)
+    return max(abs(ev)) < 1 if discrete else max(ev.real) < 0
+
+
 def h2(cl, discrete):
     A, B, C, D = cl
+    if not stable(A, discrete):
+        return np.inf
     if discrete:
-        if max(abs(np.linalg.eigvals(A))) >= 1:
-            return np.inf
         P = sl.solve_discrete_lyapunov(A, B @ B.T)
         return float(np.sqrt(np.trace(C @ P @ C.T + D @ D.T)))
-    if max(np.linalg.eigvals(A).real) >= 0:
-        return np.inf
     P = sl.solve_continuous_lyapunov(A, -B @ B.T)
     return float(np.sqrt(np.trace(C @ P @ C.T)))
 
 
-def hinf_discrete(cl):
+def hinf_continuous(cl):
+    """H-inf norm of a stable continuous system: bisection on the
+    imaginary-axis eigenvalues of the Hamiltonian (Boyd, Balakrishnan &
+    Kabamba 1989), started from a sweep's lower bound; relative 1e-7."""
     A, B, C, D = cl
-    if max(abs(np.linalg.eigvals(A))) >= 1:
+    if not stable(A, False):
         return np.inf
+    ws = np.concatenate([[0.0], np.logspace(-4, 6, 400)])
+    lo = max(max(sigma_at(cl, w) for w in ws), np.linalg.norm(D, 2))
+    if not np.isfinite(lo) or lo == 0.0:
+        return float(lo)
+    hi = 2 * lo
+    while has_axis_eig(cl, hi):
+        hi *= 2
+        if hi > 1e200:
+            return np.inf
+    while hi / lo - 1 > 1e-7:
+        mid = np.sqrt(lo * hi)
+        if has_axis_eig(cl, mid):
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def sigma_at(cl, w):
+    A, B, C, D = cl
+    g = C @ np.linalg.solve(1j * w * np.eye(A.shape[0]) - A, B) + D
+    return np.linalg.svd(g, compute_uv=False)[0]
+
+
+def has_axis_eig(cl, g):
+    """Whether the Hamiltonian of ||G|| < g has an imaginary-axis
+    eigenvalue, confirmed by the gain at its frequency (a stiff closed loop
+    puts eigenvalues near the axis only by rounding)."""
+    A, B, C, D = cl
+    R = g * g * np.eye(D.shape[1]) - D.T @ D
+    Ri = np.linalg.inv(R)
+    Ah = A + B @ Ri @ D.T @ C
+    H = np.block([[Ah, B @ Ri @ B.T],
+                  [-C.T @ (np.eye(D.shape[0]) + D @ Ri @ D.T) @ C, -Ah.T]])
+    for lam in np.linalg.eigvals(H):
+        if abs(lam.real) <= 1e-6 * max(1.0, abs(lam)):
+            if sigma_at(cl, abs(lam.imag)) >= g * (1 - 1e-6):
+                return True
+    return False
+
+
+# ------------------------------------------- continuous H-inf conditions
+
+class Fails(Exception):
+    pass
+
+
+def care_schur(A, B, Q, R, S):
+    """Stabilising solution from the ordered Schur form of the Hamiltonian."""
     n = A.shape[0]
+    Ri = np.linalg.inv(R)
+    Ah = A - B @ Ri @ S.T
+    H = np.block([[Ah, -B @ Ri @ B.T], [-(Q - S @ Ri @ S.T), -Ah.T]])
+    # The spectrum is symmetric about the axis: fewer than n eigenvalues
+    # on the left means some lie on it (to rounding). Eigenvalues that have
+    # reached the axis can also split symmetrically by rounding (a
+    # quadruple +-eps +-jw): 1e-5 relative is far below the real parts
+    # the bisection meets just above the optimum (those grow like the
+    # square root of the distance to it), far above rounding.
+    ev = np.linalg.eigvals(H)
+    ratio = np.min(np.abs(ev.real) / np.maximum(np.abs(ev), 1e-300))
+    if ratio < 1e-5:
+        raise Fails("Hamiltonian has imaginary-axis eigenvalues (|Re|/|lambda| %.1e)" % ratio)
+    try:
+        _, Z, sdim = sl.schur(H, output="real", sort="lhp")
+    except np.linalg.LinAlgError:
+        raise Fails("Hamiltonian eigenvalues at the axis (ordering failed)")
+    if sdim != n:
+        raise Fails("Hamiltonian has imaginary-axis eigenvalues (%d stable of %d)"
+                    % (sdim, 2 * n))
+    U1, U2 = Z[:n, :n], Z[n:, :n]
+    if np.linalg.cond(U1) > 1e12:
+        raise Fails("U1 singular (no stabilising solution)")
+    return np.linalg.solve(U1.T, U2.T).T
 
-    def sig(th):
-        g = C @ np.linalg.solve(np.exp(1j * th) * np.eye(n) - A, B) + D
-        return np.linalg.svd(g, compute_uv=False)[0]
 
-    grid = np.linspace(0, np.pi, 4000)
-    vals = [sig(t) for t in grid]
-    i = int(np.argmax(vals))
-    fine = np.linspace(grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)], 2001)
-    return float(max(max(vals), max(sig(t) for t in fine)))
+def care_scipy(A, B, Q, R, S):
+    try:
+        return sl.solve_continuous_are(A, B, Q, R, s=S)
+    except (np.linalg.LinAlgError, ValueError) as e:
+        raise Fails("scipy: %s" % str(e).split("\n")[0])
 
 
-def psd(M, tol=1e-9):
-    M = 0.5 * (M + M.T)
-    return np.linalg.eigvalsh(M).min() >= -tol * max(1.0, np.abs(M).max())
+def riccati(solver, A, B, Q, R, S, what):
+    try:
+        X = solver(A, B, Q, R, S)
+    except Fails as e:
+        raise Fails("%s: %s" % (what, e))
+    X = 0.5 * (X + X.T)
+    K = np.linalg.solve(R, B.T @ X + S.T)
+    terms = [A.T @ X, X @ A, (X @ B + S) @ K, Q]
+    res = terms[0] + terms[1] - terms[2] + terms[3]
+    if np.linalg.norm(res) > 1e-7 * sum(np.linalg.norm(t) for t in terms):
+        raise Fails("%s: residual" % what)
+    if not stable(A - B @ K, False):
+        raise Fails("%s: not stabilising" % what)
+    if np.linalg.eigvalsh(X).min() < -1e-9 * max(1.0, np.abs(X).max()):
+        raise Fails("%s not PSD" % what)
+    return X
 
-def pd(M):
-    M = 0.5 * (M + M.T)
-    return np.linalg.eigvalsh(M).min() > 0
+
+def d11_bound(D11, D12, D21):
+    """Thm 17.1 (i) without normalisation."""
+    P12 = D12 @ np.linalg.pinv(D12)
+    P21 = np.linalg.pinv(D21) @ D21
+    return max(np.linalg.norm((np.eye(P12.shape[0]) - P12) @ D11, 2),
+               np.linalg.norm(D11 @ (np.eye(P21.shape[0]) - P21), 2))
+
+
+def balance(p):
+    """An exact diagonal state similarity (SciPy's matrix balancing of
+    [A B; C 0]): gamma_opt is invariant, badly scaled plants are helped."""
+    A, B, C, D = p
+    n = A.shape[0]
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n] = np.abs(A)
+    M[:n, n] = np.abs(B).sum(axis=1)
+    M[n, :n] = np.abs(C).sum(axis=0)
+    _, (t, _) = sl.matrix_balance(M, permute=False, separate=True)
+    t = t[:n] / t[n]
+    return A * t[None, :] / t[:, None], B / t[:, None], C * t[None, :], D
+
+
+def conditions_c(p, ncon, nmeas, g, solver=care_schur):
+    """None when the continuous conditions hold at g, else why not."""
+    A, B1, B2, C1, C2, D11, D12, D21, _ = split(balance(p), ncon, nmeas)
+    m1, p1 = B1.shape[1], C1.shape[0]
+    if not g > d11_bound(D11, D12, D21):
+        return "D11: gamma below the feedthrough bound"
+    g2 = g * g
+    B, D1 = np.hstack([B1, B2]), np.hstack([D11, D12])
+    R = D1.T @ D1
+    R[:m1, :m1] -= g2 * np.eye(m1)
+    C, Dd1 = np.vstack([C1, C2]), np.vstack([D11, D21])
+    Rt = Dd1 @ Dd1.T
+    Rt[:p1, :p1] -= g2 * np.eye(p1)
+    try:
+        X = riccati(solver, A, B, C1.T @ C1, R, C1.T @ D1, "X")
+        Y = riccati(solver, A.T, C.T, B1 @ B1.T, Rt, B1 @ Dd1.T, "Y")
+    except Fails as e:
+        return str(e)
+    if max(abs(np.linalg.eigvals(X @ Y))) >= g2:
+        return "rho(XY) >= gamma^2"
+    return None
+
+
+# --------------------------------------------- discrete H-inf conditions
 
 def dare_stab(A, B, Q, R, S):
     X = sl.solve_discrete_are(A, B, Q, R, s=S)
@@ -102,17 +307,28 @@ def dare_stab(A, B, Q, R, S):
         raise np.linalg.LinAlgError("not stabilising")
     return X
 
-def conditions(p, ncon, nmeas, g):
-    A, B, C, D = p
-    n = A.shape[0]; m1 = B.shape[1] - ncon; p1 = C.shape[0] - nmeas; m2, p2 = ncon, nmeas
-    B1, B2, C1, C2 = B[:, :m1], B[:, m1:], C[:p1], C[p1:]
-    D1 = D[:p1]; D21 = D[p1:, :m1]
-    g2 = g * g
-    R0 = D1.T @ D1; R0[:m1, :m1] -= g2 * np.eye(m1)
+
+def psd(M, tol=1e-9):
+    M = 0.5 * (M + M.T)
+    return np.linalg.eigvalsh(M).min() >= -tol * max(1.0, np.abs(M).max())
+
+
+def pd(M):
+    return np.linalg.eigvalsh(0.5 * (M + M.T)).min() > 0
+
+
+def conditions_d(p, ncon, nmeas, g):
+    """None when SB10DD's discrete conditions hold at g, else why not."""
+    A, B1, B2, C1, C2, D11, D12, D21, _ = split(p, ncon, nmeas)
+    m1, m2 = B1.shape[1], ncon
+    B, C, D1 = np.hstack([B1, B2]), np.vstack([C1, C2]), np.hstack([D11, D12])
+    n, g2 = A.shape[0], g * g
+    R0 = D1.T @ D1
+    R0[:m1, :m1] -= g2 * np.eye(m1)
     try:
         X = dare_stab(A, B, C1.T @ C1, R0, C1.T @ D1)
     except (np.linalg.LinAlgError, ValueError) as e:
-        return "X: %s" % e
+        return "X: %s" % str(e).split("\n")[0]
     if not psd(X):
         return "X not PSD"
     R = R0 + B.T @ X @ B
@@ -134,11 +350,12 @@ def conditions(p, ncon, nmeas, g):
     Dt = np.vstack([R2s, D21]) @ V21i
     Ct = np.vstack([L2, C2]) + Dt @ Lt
     Bt1, Dt = g * Bt1, g * Dt
-    S0 = Dt @ Dt.T; S0[:m2, :m2] -= g2 * np.eye(m2)
+    S0 = Dt @ Dt.T
+    S0[:m2, :m2] -= g2 * np.eye(m2)
     try:
         Z = dare_stab(At.T, Ct.T, Bt1 @ Bt1.T, S0, Bt1 @ Dt.T)
     except (np.linalg.LinAlgError, ValueError) as e:
-        return "Z: %s" % e
+        return "Z: %s" % str(e).split("\n")[0]
     if not psd(Z):
         return "Z not PSD"
     St = S0 + Ct @ Z @ Ct.T
@@ -150,138 +367,246 @@ def conditions(p, ncon, nmeas, g):
     return None
 
 
-def random_plant(rng, n, m1, m2, p1, p2, discrete, d11, d22):
-    A = rng.standard_normal((n, n))
-    ev = np.linalg.eigvals(A)
-    if discrete:
-        A *= rng.uniform(0.6, 1.2) / max(abs(ev))
-    else:
-        A -= (max(ev.real) + rng.uniform(-1.0, 1.0)) * np.eye(n)
-    B = rng.standard_normal((n, m1 + m2))
-    C = rng.standard_normal((p1 + p2, n))
-    D = np.zeros((p1 + p2, m1 + m2))
-    D[:p1, m1:] = rng.standard_normal((p1, m2))
-    D[p1:, :m1] = rng.standard_normal((p2, m1))
-    if d11:
-        D[:p1, :m1] = 0.5 * rng.standard_normal((p1, m1))
-    if d22:
-        D[p1:, m1:] = 0.5 * rng.standard_normal((p2, m2))
+def bisect(holds, lo, rtol=BISECT_RTOL):
+    """Smallest gamma where `holds` (monotone), bracketed to rtol:
+    returns (hi, lo) with holds(hi) and not holds(lo)."""
+    hi = max(1.0, 2.0 * lo)
+    while not holds(hi):
+        lo, hi = hi, 2.0 * hi
+        if hi > 1e9:
+            return None
+    if lo == 0.0:
+        lo = hi / 2
+        while holds(lo):
+            hi, lo = lo, lo / 2
+    while hi / lo - 1 > rtol:
+        mid = np.sqrt(lo * hi)
+        if holds(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi, lo
+
+
+# ---------------------------------------------------------------- H2
+
+def h2_controller_c(p, ncon, nmeas):
+    """Zhou & Doyle, Essentials Thm 14.7 (general form), D22 left out:
+    F_l(P, K shifted by D22) = F_l(P with D22 = 0, K)."""
+    A, B1, B2, C1, C2, D11, D12, D21, _ = split(p, ncon, nmeas)
+    R1, R2 = D12.T @ D12, D21 @ D21.T
+    X = sl.solve_continuous_are(A, B2, C1.T @ C1, R1, s=C1.T @ D12)
+    Y = sl.solve_continuous_are(A.T, C2.T, B1 @ B1.T, R2, s=B1 @ D21.T)
+    F = -np.linalg.solve(R1, B2.T @ X + D12.T @ C1)
+    L = -np.linalg.solve(R2, C2 @ Y + D21 @ B1.T).T
+    k = (A + B2 @ F + L @ C2, -L, F, np.zeros((ncon, nmeas)))
+    formula = np.sqrt(np.trace(B1.T @ X @ B1) + np.trace(R1 @ F @ Y @ F.T))
+    return k, float(formula)
+
+
+def h2_controller_d(p, ncon, nmeas):
+    """[ZDG96] ch. 21 / SLICOT SB10SD's controller (general form), D22 left out."""
+    A, B1, B2, C1, C2, D11, D12, D21, _ = split(p, ncon, nmeas)
+    R1, R2 = D12.T @ D12, D21 @ D21.T
+    X = sl.solve_discrete_are(A, B2, C1.T @ C1, R1, s=C1.T @ D12)
+    Y = sl.solve_discrete_are(A.T, C2.T, B1 @ B1.T, R2, s=B1 @ D21.T)
+    Rb = R1 + B2.T @ X @ B2
+    F2 = -np.linalg.solve(Rb, B2.T @ X @ A + D12.T @ C1)
+    F0 = -np.linalg.solve(Rb, B2.T @ X @ B1 + D12.T @ D11)
+    S = R2 + C2 @ Y @ C2.T
+    L2 = -np.linalg.solve(S, C2 @ Y @ A.T + D21 @ B1.T).T
+    L0 = np.linalg.solve(S.T, (F2 @ Y @ C2.T + F0 @ D21.T).T).T
+    Ck = F2 - L0 @ C2
+    k = (A + B2 @ Ck + L2 @ C2, -L2 + B2 @ L0, Ck, L0)
+    fi = np.trace(D11.T @ D11 + B1.T @ X @ B1) - np.trace(F0.T @ Rb @ F0)
+    oe = np.trace(Rb @ (F2 @ Y @ F2.T + F0 @ F0.T - L0 @ S @ L0.T))
+    return k, float(np.sqrt(fi + oe))
+
+
+def without_d22(p, ncon, nmeas):
+    A, B, C, D = p
+    D = D.copy()
+    D[C.shape[0] - nmeas:, B.shape[1] - ncon:] = 0.0
     return A, B, C, D
 
 
-def sb10dd(p, ncon, nmeas, gamma):
+def slycot_h2(p, ncon, nmeas, discrete):
     A, B, C, D = p
     n, m, q = A.shape[0], B.shape[1], C.shape[0]
     try:
-        r = slycot.sb10dd(n, m, q, ncon, nmeas, gamma, A, B, C, D)
+        if discrete:
+            k = slycot.sb10dd(n, m, q, ncon, nmeas, 1e6, A, B, C, D)[1:5]
+        else:
+            k = slycot.sb10hd(n, m, q, ncon, nmeas, A, B, C, D)[:4]
     except Exception:
         return None
-    return r[1:5]
+    return h2(closed_loop(p, k, ncon, nmeas), discrete)
 
 
-def discrete_h2_case(rng, name, dims, d22):
-    p = random_plant(rng, *dims, True, True, d22)
-    ncon, nmeas = dims[2], dims[4]
-    vals = []
-    for g in GAMMAS_H2:
-        k = sb10dd(p, ncon, nmeas, g)
-        vals.append(np.inf if k is None else h2(closed_loop(p, k, ncon, nmeas), True))
-    # The pair of consecutive levels that agree best: beyond it SB10DD's
-    # rounding (R0 ~ -gamma^2 I) takes over from the 1/gamma^2 convergence.
-    diffs = [abs(vals[i] / vals[i + 1] - 1) if np.isfinite(vals[i] + vals[i + 1]) else np.inf
-             for i in range(len(vals) - 1)]
-    i = int(np.argmin(diffs))
-    if not diffs[i] < 1e-8:
-        print(f"{name}: dropped (SB10DD at large gamma does not settle: {vals})")
+def h2_case(p, ncon, nmeas, discrete, name):
+    build = h2_controller_d if discrete else h2_controller_c
+    k, formula = build(p, ncon, nmeas)
+    ref = h2(closed_loop(without_d22(p, ncon, nmeas), k, ncon, nmeas), discrete)
+    if not abs(ref / formula - 1) < 1e-9:
+        print(f"{name}: dropped (Gramian {ref} vs formula {formula})")
         return None
-    return {"kind": "h2", "ts": 1.0, "h2_reference": vals[i + 1],
-            "h2_reference_spread": diffs[i], "reference_gamma": GAMMAS_H2[i + 1]}, p
+    return {"kind": "h2", "h2_reference": ref, "h2_formula": formula,
+            "slycot_h2": slycot_h2(p, ncon, nmeas, discrete)}
 
 
-def continuous_h2_case(rng, name, dims, d22):
-    p = random_plant(rng, *dims, False, False, d22)
+# ---------------------------------------------------------------- H-inf
+
+def slycot_hinf_c(p, ncon, nmeas):
     A, B, C, D = p
-    ncon, nmeas = dims[2], dims[4]
+    n, m, q = A.shape[0], B.shape[1], C.shape[0]
     try:
-        r = slycot.sb10hd(A.shape[0], B.shape[1], C.shape[0], ncon, nmeas, A, B, C, D)
+        r = slycot.sb10ad(n, m, q, ncon, nmeas, 1e6, A, B, C, D)
     except Exception as e:
-        print(f"{name}: dropped (SB10HD: {e})")
+        print("  SB10AD refused: %s" % str(e).split("\n")[0])
+        return None, None
+    return float(r[0]), hinf_continuous(closed_loop(p, r[1:5], ncon, nmeas))
+
+
+def slycot_hinf_d(p, ncon, nmeas, g):
+    A, B, C, D = p
+    n, m, q = A.shape[0], B.shape[1], C.shape[0]
+    try:
+        k = slycot.sb10dd(n, m, q, ncon, nmeas, g, A, B, C, D)[1:5]
+    except Exception as e:
+        print("  SB10DD refused: %s" % str(e).split("\n")[0])
         return None
-    val = h2(closed_loop(p, r[:4], ncon, nmeas), False)
-    return {"kind": "h2", "ts": None, "h2_reference": val}, p
+    cl = bilinear_to_continuous(closed_loop(p, k, ncon, nmeas))
+    return hinf_continuous(cl)
 
 
-def discrete_hinf_case(rng, name, dims, d22):
-    p = random_plant(rng, *dims, True, True, d22)
-    ncon, nmeas = dims[2], dims[4]
-
-    def verified(g):
-        k = sb10dd(p, ncon, nmeas, g)
-        if k is None:
-            return None
-        norm = hinf_discrete(closed_loop(p, k, ncon, nmeas))
-        return norm if norm <= g * (1 + 1e-6) else None
-
-    hi = 1.0
-    while verified(hi) is None:
-        hi *= 2
-        if hi > 1e7:
-            print(f"{name}: dropped (no verified SB10DD controller up to 1e7)")
-            return None
-    lo = hi / 2 if hi > 1 else 0.0
-    while hi - lo > 1e-5 * hi:
-        mid = 0.5 * (lo + hi)
-        if verified(mid) is None:
-            lo = mid
-        else:
-            hi = mid
-    # The discrete Riccati conditions (SB10DD's, plus X >= 0 and Z >= 0),
-    # evaluated here with SciPy's DARE solver, must hold just above the
-    # verified level; just below it they show where gamma cannot go.
-    above = conditions(p, ncon, nmeas, hi * (1 + 1e-4))
-    if above is not None:
-        print(f"{name}: dropped (conditions fail above the verified level: {above})")
+def certify(pc, ncon, nmeas, name):
+    """gamma_opt by bisection on the continuous conditions, checked at
+    gamma_opt (1 +- STEP); None (dropped) when they do not hold above."""
+    d11 = d11_bound(*split(pc, ncon, nmeas)[5:8])
+    got = bisect(lambda g: conditions_c(pc, ncon, nmeas, g) is None, d11)
+    if got is None:
+        print(f"{name}: dropped (conditions never hold)")
         return None
-    below = conditions(p, ncon, nmeas, hi * (1 - 1e-4))
-    return {"kind": "hinf", "ts": 1.0, "slycot_verified_gamma": hi,
-            "slycot_achieved": verified(hi),
-            "conditions_below": {"gamma": hi * (1 - 1e-4), "fails": below}}, p
+    hi, lo = got
+    for solver in (care_schur, care_scipy):
+        above = conditions_c(pc, ncon, nmeas, hi * (1 + STEP), solver)
+        if above is not None:
+            print(f"{name}: dropped ({solver.__name__} above: {above})")
+            return None
+    return {"kind": "hinf", "gamma_opt": hi, "gamma_bracket": hi / lo - 1,
+            "below_fails": conditions_c(pc, ncon, nmeas, hi * (1 - STEP)),
+            "below_fails_scipy": conditions_c(pc, ncon, nmeas, hi * (1 - STEP), care_scipy)}
+
+
+def hinf_case(p, ncon, nmeas, discrete, name):
+    pc = bilinear_to_continuous(p) if discrete else p
+    ref = certify(pc, ncon, nmeas, name)
+    if ref is None:
+        return None
+    g = ref["gamma_opt"]
+    if not discrete:
+        ref["slycot_gamma"], ref["slycot_achieved"] = slycot_hinf_c(p, ncon, nmeas)
+        return consistent(ref, name)
+    got = bisect(lambda x: conditions_d(p, ncon, nmeas, x) is None, 0.0)
+    cross = got[0] if got else None
+    if cross is None or abs(cross / g - 1) > 1e-5:
+        print(f"{name}: dropped (discrete conditions' optimum {cross} vs {g})")
+        return None
+    ref.update({"cross_gamma_opt": cross,
+                "below_fails_discrete": conditions_d(p, ncon, nmeas, g * (1 - STEP)),
+                "slycot_achieved": slycot_hinf_d(p, ncon, nmeas, g * (1 + STEP))})
+    if conditions_d(p, ncon, nmeas, g * (1 + STEP)) is not None:
+        print(f"{name}: dropped (discrete conditions fail above)")
+        return None
+    return consistent(ref, name)
+
+
+def consistent(ref, name):
+    """A controller verified here to achieve less than gamma_opt would
+    prove the bisection wrong (conditions failing by rounding)."""
+    achieved = ref.get("slycot_achieved")
+    if achieved is not None and achieved < ref["gamma_opt"] * (1 - 1e-7):
+        print(f"{name}: dropped (SLICOT's controller achieves {achieved} "
+              f"< gamma_opt {ref['gamma_opt']})")
+        return None
+    return ref
+
+
+# ---------------------------------------------------------------- plan
+
+# (family, n, m1, m2, p1, p2, d11, d22, scaled)
+PLAN = [
+    ("h2_c", 2, 2, 1, 2, 1, False, False, False),
+    ("h2_c", 3, 2, 1, 2, 1, False, True, False),
+    ("h2_c", 5, 3, 2, 3, 2, False, True, False),
+    ("h2_c", 8, 2, 1, 2, 1, False, False, True),
+    ("h2_c", 12, 3, 2, 3, 2, False, True, False),
+    ("h2_c", 16, 2, 2, 3, 2, False, False, True),
+    ("h2_c", 20, 3, 1, 2, 2, False, True, False),
+    ("h2_c", 25, 4, 2, 3, 2, False, False, False),
+    ("h2_c", 30, 2, 1, 2, 1, False, True, True),
+    ("h2_c", 40, 3, 2, 3, 2, False, True, False),
+    ("h2_c", 40, 2, 1, 2, 1, False, False, True),
+    ("h2_d", 2, 2, 1, 2, 1, True, False, False),
+    ("h2_d", 4, 3, 2, 3, 2, True, True, False),
+    ("h2_d", 6, 2, 1, 2, 1, True, True, True),
+    ("h2_d", 10, 3, 2, 3, 2, True, False, False),
+    ("h2_d", 14, 2, 1, 3, 1, True, True, True),
+    ("h2_d", 20, 3, 1, 2, 2, True, True, False),
+    ("h2_d", 24, 3, 2, 3, 2, False, False, False),
+    ("h2_d", 30, 2, 1, 2, 1, True, True, True),
+    ("h2_d", 36, 4, 2, 3, 3, True, False, False),
+    ("h2_d", 40, 3, 2, 3, 2, True, True, False),
+    ("hinf_c", 2, 2, 1, 2, 1, False, False, False),
+    ("hinf_c", 3, 2, 1, 2, 1, True, False, False),
+    ("hinf_c", 4, 3, 2, 3, 2, True, True, False),
+    ("hinf_c", 6, 2, 1, 2, 1, False, True, True),
+    ("hinf_c", 8, 3, 2, 3, 2, False, False, False),
+    ("hinf_c", 10, 2, 1, 3, 1, True, True, True),
+    ("hinf_c", 12, 3, 1, 2, 2, True, False, False),
+    ("hinf_c", 16, 2, 2, 3, 2, False, True, True),
+    ("hinf_c", 20, 3, 2, 3, 2, True, True, False),
+    ("hinf_c", 24, 2, 1, 2, 1, False, False, True),
+    ("hinf_c", 30, 3, 2, 3, 2, True, False, False),
+    ("hinf_c", 26, 2, 1, 2, 1, True, True, False),
+    ("hinf_c", 40, 3, 2, 3, 2, False, False, True),
+    ("hinf_d", 2, 2, 1, 2, 1, False, False, False),
+    ("hinf_d", 4, 3, 2, 3, 2, True, True, False),
+    ("hinf_d", 6, 2, 1, 2, 1, True, False, True),
+    ("hinf_d", 8, 2, 1, 2, 1, True, True, False),
+    ("hinf_d", 12, 3, 2, 3, 2, False, True, True),
+    ("hinf_d", 16, 3, 2, 3, 2, True, False, False),
+    ("hinf_d", 20, 2, 1, 3, 1, True, True, False),
+    ("hinf_d", 30, 3, 1, 2, 2, True, False, True),
+    ("hinf_d", 40, 2, 1, 2, 1, True, True, False),
+]
 
 
 def main():
-    rng = np.random.default_rng(20261126)
     cases = []
-    plan = [
-        # (builder, n, m1, m2, p1, p2, d22)
-        (discrete_h2_case, 2, 2, 1, 2, 1, False),
-        (discrete_h2_case, 4, 3, 2, 3, 2, True),
-        (discrete_h2_case, 8, 2, 1, 2, 1, True),
-        (discrete_h2_case, 12, 3, 2, 3, 2, False),
-        (discrete_h2_case, 20, 3, 1, 2, 2, True),
-        (discrete_h2_case, 40, 3, 2, 3, 2, True),
-        (continuous_h2_case, 3, 2, 1, 2, 1, False),
-        (continuous_h2_case, 6, 3, 2, 3, 2, True),
-        (continuous_h2_case, 15, 2, 1, 2, 1, False),
-        (continuous_h2_case, 40, 3, 2, 3, 2, True),
-        (discrete_hinf_case, 2, 2, 1, 2, 1, False),
-        (discrete_hinf_case, 4, 3, 2, 3, 2, True),
-        (discrete_hinf_case, 8, 2, 1, 2, 1, True),
-        (discrete_hinf_case, 16, 3, 2, 3, 2, False),
-        (discrete_hinf_case, 40, 2, 1, 2, 1, True),
-    ]
-    for i, (builder, n, m1, m2, p1, p2, d22) in enumerate(plan):
-        name = f"{builder.__name__.replace('_case', '')}_{i}_n{n}"
-        got = builder(rng, name, (n, m1, m2, p1, p2), d22)
-        if got is None:
+    for i, (family, n, m1, m2, p1, p2, d11, d22, scaled) in enumerate(PLAN):
+        # One stream per case: editing one line of the plan leaves the others.
+        rng = np.random.default_rng([SEED, i])
+        discrete = family.endswith("_d")
+        name = f"{family}_{i}_n{n}" + ("_scaled" if scaled else "")
+        p = random_plant(rng, (n, m1, m2, p1, p2), discrete, d11, d22, scaled)
+        build = h2_case if family.startswith("h2") else hinf_case
+        ref = build(p, m2, p2, discrete, name)
+        if ref is None:
             continue
-        ref, (A, B, C, D) = got
-        ref.update({"name": name, "nmeas": p2, "ncon": m2, "a": A.tolist(),
+        A, B, C, D = p
+        # JSON has no Infinity / NaN: an unstable SLICOT loop is stored as null.
+        ref = {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+               for k, v in ref.items()}
+        ref.update({"name": name, "family": family, "ts": 1.0 if discrete else None,
+                    "scaled": scaled, "nmeas": p2, "ncon": m2, "a": A.tolist(),
                     "b": B.tolist(), "c": C.tolist(), "d": D.tolist()})
         cases.append(ref)
-        print(name, {k: v for k, v in ref.items() if k not in "abcd"})
+        print(name, {k: v for k, v in ref.items() if k not in "abcd"}, flush=True)
     meta = {"generator": "tests/data/synth_corpus/generate.py",
             "slycot": slycot.__version__, "numpy": np.__version__,
-            "scipy": __import__("scipy").__version__, "seed": 20261126}
+            "scipy": __import__("scipy").__version__, "seed": SEED,
+            "bisection_rtol": BISECT_RTOL, "step": STEP}
     with open(__file__.replace("generate.py", "cases.json"), "w") as f:
         json.dump({"meta": meta, "cases": cases}, f)
 
