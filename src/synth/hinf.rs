@@ -33,9 +33,12 @@ pub struct HinfOptions {
     pub eps: f64,
     /// Largest gamma tried before declaring the problem infeasible.
     pub gamma_max: f64,
-    /// The returned controller is built for `gamma_opt * (1 + backoff)`:
-    /// at the optimum itself `I - Y X / gamma^2` is singular and the central
-    /// controller is numerically meaningless (cf. MATLAB hinfsyn's backoff).
+    /// The returned controller is built for `lo * (1 + backoff)`, `lo` the
+    /// largest level the bisection found infeasible (so at most
+    /// `gamma_opt * (1 + backoff)`, and above the bisection bound when
+    /// `backoff > rtol`): at the optimum itself `I - Y X / gamma^2` is
+    /// singular and the central controller is numerically meaningless (cf.
+    /// MATLAB hinfsyn's backoff).
     pub backoff: f64,
     /// Discrete plants: the smallest accepted `1 - |z|` of a closed-loop
     /// pole the controller moves (fixed plant modes exempt); the synthesis
@@ -71,8 +74,9 @@ pub struct HinfResult {
     /// Certified upper bound on the closed-loop norm (`gamma <= ||Tzw|| <=
     /// gamma_upper`, [`HinfNorm`]); infinite when none could be certified.
     pub gamma_upper: f64,
-    /// Diagnostic: the level the central controller was built for,
-    /// `bisection_bound (1 + backoff)`, on the synthesis problem
+    /// Diagnostic: the level the central controller was built for, the
+    /// bisection's infeasible end times `1 + backoff` (at least
+    /// `bisection_bound`), on the synthesis problem
     /// (regularised, if `regularised` says so). `gamma` is at most
     /// `design_level (1 + 1e-6)` or `bisection_bound (1 + 2 backoff)`,
     /// whichever is larger (docs/robust.md, "Verified H-inf controllers").
@@ -455,6 +459,8 @@ fn hinfsyn_regularised(
         discrete: discrete_partition(plant, p0, regularised)?,
         regularised,
         iterations,
+        // The bracket's lower end, unless the bisection stopped short of rtol.
+        infeasible_below: if hi / lo - 1.0 <= opts.rtol { lo } else { hi },
         opts,
     };
     ctx.choose(hi, best)
@@ -470,6 +476,10 @@ struct Verify<'a> {
     discrete: Option<Partition>,
     regularised: (Option<f64>, Option<f64>),
     iterations: usize,
+    /// The largest level the bisection found infeasible (`gamma_opt` lies
+    /// between it and the bisection bound): backing off from it, not from
+    /// the bound, keeps the design level within `backoff` of the optimum.
+    infeasible_below: f64,
     opts: HinfOptions,
 }
 
@@ -550,11 +560,13 @@ impl Verify<'_> {
         )))
     }
 
-    /// The central controller (continuous, normalised) at `gamma_opt (1 + backoff)`;
-    /// at the first backoff, the optimum's own if that level fails.
+    /// The central controller (continuous, normalised) at
+    /// `infeasible_below (1 + backoff)` (at least `gamma_opt`, the
+    /// bisection bound); at the first backoff, the bound's own if that
+    /// level fails.
     fn at_level(&self, gamma_opt: f64, backoff: f64) -> Result<(f64, AtGamma), SynthError> {
         let pss = self.norm.p.to_ss()?;
-        let gb = gamma_opt * (1.0 + backoff);
+        let gb = (self.infeasible_below * (1.0 + backoff)).max(gamma_opt);
         match feasible(&self.norm.p, &pss, gb) {
             Ok(r) => Ok((gb, r)),
             Err(SynthError::Infeasible(_)) if backoff <= self.opts.backoff => {
