@@ -50,7 +50,10 @@ fn parallel(p: f64, i: f64, d: f64, n: f64, limit: f64) -> ParallelPid {
 }
 
 fn file() -> MultiAxisControllerFile {
-    let block = |f: Feedback| AxisController::Block(Box::new(f));
+    let block = |f: Feedback| AxisController::Block {
+        feedback: Box::new(f),
+        ts: TS,
+    };
     let x = block(Feedback::ParallelPid(parallel(
         1.0, 0.01, 0.0005, 100.0, X_LIMIT,
     )));

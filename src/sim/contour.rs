@@ -132,9 +132,14 @@ pub enum AxisController {
     Pid(ParallelPid),
     /// A state-space controller (`u = K e`); continuous ones by Tustin.
     StateSpace(Box<StateSpace>),
-    /// A block of a controller file, already discrete at the loop's sample
-    /// time and run as written (limits included).
-    Block(Box<Feedback>),
+    /// A block of a controller file, discrete at `ts` (which must be the
+    /// loop's) and run as written (limits included).
+    Block {
+        /// The block.
+        feedback: Box<Feedback>,
+        /// Its file's sample time, s.
+        ts: f64,
+    },
 }
 
 /// The \[Karagoz18\] Table 2 axis gains `(P, I, D, N)` for X, Y, Z.
@@ -232,7 +237,14 @@ fn discrete(
 fn controller_block(c: &AxisController, ts: f64, what: &str) -> Result<Feedback, ContourError> {
     let setup = |e: String| ContourError::Setup(format!("{what}: {e}"));
     let (k, how) = match c {
-        AxisController::Block(f) => return Ok((**f).clone()),
+        AxisController::Block { feedback, ts: t } => {
+            if (t - ts).abs() > 1e-9 * ts {
+                return Err(setup(format!(
+                    "its file runs at ts = {t} s, but the loop runs at ts = {ts} s"
+                )));
+            }
+            return Ok((**feedback).clone());
+        }
         AxisController::Pid(pid) => {
             let tf = if pid.i == 0.0 {
                 pd_tustin(pid, ts)

@@ -7,6 +7,7 @@
 //! [`crate::sim::contour`]. Lengths are um, times s.
 
 use super::{Choices, StepError, Validate, positive, whole_number};
+use crate::io::controller_file::MultiAxisControllerFile;
 use crate::io::plot::{Panel, PlotError, Series, panels_svg};
 use crate::lti::ss::StateSpace;
 use crate::sim::contour::{
@@ -407,8 +408,12 @@ impl Default for Contour {
 pub struct ContourInputs {
     /// Command to position (um), continuous or discrete at `ts`.
     pub plants: [StateSpace; 3],
-    /// Controller files replacing the PIDs, with the name to report.
-    pub controllers: [Option<(StateSpace, String)>; 3],
+    /// Controllers replacing the PIDs (a state-space or transfer-function
+    /// system, or a controller file's block), with the name to report.
+    pub controllers: [Option<(AxisController, String)>; 3],
+    /// A controller replacing the cross-coupling PID (used when
+    /// `cross_coupling` is set), with the name to report.
+    pub cross: Option<(AxisController, String)>,
 }
 
 /// The \[Karagoz18\] Eq. 2-4 plants, continuous.
@@ -423,6 +428,7 @@ impl Default for ContourInputs {
         Self {
             plants: karagoz18_plants(),
             controllers: [None, None, None],
+            cross: None,
         }
     }
 }
@@ -469,6 +475,14 @@ impl Validate for Contour {
     }
 }
 
+/// `PID P + I/s + D N s/(s + N)`.
+fn pid_name(g: PidGains4) -> String {
+    format!(
+        "PID {} + {}/s + {} {} s/(s + {})",
+        g[0], g[1], g[2], g[3], g[3]
+    )
+}
+
 fn contour_error(e: ContourError) -> StepError {
     match e {
         ContourError::Setup(m) => StepError::input(m),
@@ -483,6 +497,8 @@ pub struct AxesRun {
     pub run: ContourRun,
     /// Each axis's own closed loop.
     pub axis_loops: [AxisLoop; 3],
+    /// The controllers as the multi-axis file the run executed.
+    pub controller: MultiAxisControllerFile,
 }
 
 impl Contour {
@@ -512,14 +528,11 @@ impl Contour {
             let controller = match &inputs.controllers[i] {
                 Some((k, name)) => {
                     names[i] = name.clone();
-                    AxisController::StateSpace(Box::new(k.clone()))
+                    k.clone()
                 }
                 None => {
                     let g = pids[i];
-                    names[i] = format!(
-                        "PID {} + {}/s + {} {} s/(s + {})",
-                        g[0], g[1], g[2], g[3], g[3]
-                    );
+                    names[i] = pid_name(g);
                     AxisController::Pid(pid_of(g))
                 }
             };
@@ -543,6 +556,7 @@ impl Contour {
         Ok(AxesRun {
             run,
             axis_loops: lp.axis_loops,
+            controller: lp.file,
         })
     }
 
@@ -552,7 +566,16 @@ impl Contour {
         self.validate()?;
         let trajectory = self.trajectory.plan()?;
         let (axes, controllers) = self.axes(inputs)?;
-        let cc = self.cross_coupling.map(|g| AxisController::Pid(pid_of(g)));
+        let cc = match (self.cross_coupling, &inputs.cross) {
+            (None, _) => None,
+            (Some(_), Some((k, _))) => Some(k.clone()),
+            (Some(g), None) => Some(AxisController::Pid(pid_of(g))),
+        };
+        let cross_name = match (&cc, &inputs.cross) {
+            (Some(_), Some((_, name))) => Some(name.clone()),
+            (Some(_), None) => self.cross_coupling.map(pid_name),
+            (None, _) => None,
+        };
         let started = std::time::Instant::now();
         let main = self.simulate(&axes, cc.as_ref(), &trajectory)?;
         let baseline = match (&cc, self.baseline) {
@@ -563,7 +586,7 @@ impl Contour {
             trajectory,
             ts: self.ts,
             controllers,
-            cross_coupling: self.cross_coupling,
+            cross_coupling: cross_name,
             disturbance: self.sines()?,
             main,
             baseline,
@@ -581,8 +604,8 @@ pub struct ContourReport {
     pub ts: f64,
     /// Each axis's controller, described.
     pub controllers: [String; 3],
-    /// Cross-coupling gains, if any.
-    pub cross_coupling: Option<PidGains4>,
+    /// The cross-coupling controller, described, if any.
+    pub cross_coupling: Option<String>,
     /// The output disturbance of every axis.
     pub disturbance: Vec<Sine>,
     /// The run (with cross-coupling when set).
@@ -629,9 +652,6 @@ impl ContourReport {
 
 impl Serialize for ContourReport {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let cc = self
-            .cross_coupling
-            .map(|g| json!({"p": g[0], "i": g[1], "d": g[2], "n": g[3]}));
         let improvement = self.improvement().map(
             |(exact, est)| json!({"contour_rms_ratio": exact, "contour_estimate_rms_ratio": est}),
         );
@@ -639,7 +659,7 @@ impl Serialize for ContourReport {
             "trajectory": trajectory_json(&self.trajectory),
             "ts": self.ts,
             "axes": self.axes_json(),
-            "cross_coupling": cc,
+            "cross_coupling": self.cross_coupling,
             "disturbance_um": self.disturbance,
             "errors_um": metrics_json(&self.main.run.metrics),
             "baseline_errors_um": self.baseline.as_ref().map(|b| metrics_json(&b.metrics)),
@@ -701,14 +721,14 @@ impl fmt::Display for ContourReport {
             f,
             "errors (um)                   e_x        e_y        e_z    contour   estimate"
         )?;
-        match self.cross_coupling {
-            Some(g) => write_metrics(
-                f,
-                &format!("CCC {},{},{},{}", g[0], g[1], g[2], g[3]),
-                &self.main.run.metrics,
-            )?,
-            None => write_metrics(f, "no cross-coupling", &self.main.run.metrics)?,
+        if let Some(cc) = &self.cross_coupling {
+            writeln!(f, "cross-coupling: {cc}")?;
         }
+        let label = match self.cross_coupling {
+            Some(_) => "with CCC",
+            None => "no cross-coupling",
+        };
+        write_metrics(f, label, &self.main.run.metrics)?;
         if let Some(b) = &self.baseline {
             write_metrics(f, "without CCC", &b.metrics)?;
         }
