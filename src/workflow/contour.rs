@@ -311,13 +311,15 @@ impl TrajectoryReport {
                 "x (um)",
                 "y (um)",
                 vec![line("reference", &s.xyz[0], &s.xyz[1])],
-            ),
+            )
+            .with_equal_aspect(),
             Panel::lines(
                 "path, y-z projection",
                 "y (um)",
                 "z (um)",
                 vec![line("reference", &s.xyz[1], &s.xyz[2])],
-            ),
+            )
+            .with_equal_aspect(),
             Panel::lines(
                 "speed along the path",
                 "t (s)",
@@ -822,8 +824,10 @@ impl ContourReport {
             ));
         }
         panels_svg(&[
-            Panel::lines("path, x-y projection", "x (um)", "y (um)", projection(0, 1)),
-            Panel::lines("path, y-z projection", "y (um)", "z (um)", projection(1, 2)),
+            Panel::lines("path, x-y projection", "x (um)", "y (um)", projection(0, 1))
+                .with_equal_aspect(),
+            Panel::lines("path, y-z projection", "y (um)", "z (um)", projection(1, 2))
+                .with_equal_aspect(),
             Panel::lines(
                 "tracking error per axis",
                 "t (s)",
