@@ -97,13 +97,11 @@ fn simulate(file: &MultiAxisControllerFile) -> Vec<LoopSample> {
 fn assert_same_bits(name: &str, got: &[[f64; 3]], want: &[LoopSample]) {
     assert_eq!(got.len(), want.len(), "{name}: one command per sample");
     for (k, (a, b)) in got.iter().zip(want).enumerate() {
-        for i in 0..3 {
+        for (i, (got, want)) in a.iter().zip(&b.command).enumerate() {
             assert_eq!(
-                a[i].to_bits(),
-                b.command[i].to_bits(),
-                "{name}: u_{i} differs at sample {k}: {:e} vs the simulation's {:e}",
-                a[i],
-                b.command[i]
+                got.to_bits(),
+                want.to_bits(),
+                "{name}: u_{i} differs at sample {k}: {got:e} vs the simulation's {want:e}"
             );
         }
     }
