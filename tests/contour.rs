@@ -260,3 +260,39 @@ fn hinf_axes_with_ccc_against_pid_cc_on_both_paths() {
         within(pid / paper, vs_table1, "PID-CC / Table 1 H-inf-CC");
     }
 }
+
+/// `examples/contour-hinf/fts.toml` is up to date (its `multiaxis` step's
+/// file and header included), and that file holds the controllers
+/// `fts contour -o` writes for the same axis controllers (provenance aside).
+#[test]
+fn the_hinf_example_is_up_to_date_and_is_what_contour_writes() {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/contour-hinf");
+    fts()
+        .args(["build", "--check", "-f"])
+        .arg(example.join("fts.toml"))
+        .assert()
+        .success();
+    let dir = tempfile::tempdir().unwrap();
+    let written = dir.path().join("k3.json");
+    let mut cmd = fts();
+    cmd.args([
+        "contour",
+        "square",
+        "--size",
+        "50",
+        "--no-disturbance",
+        "-o",
+    ])
+    .arg(&written);
+    for axis in ["x", "y", "z"] {
+        cmd.arg(format!("--controller-{axis}"))
+            .arg(example.join(format!("K-{axis}.json")));
+    }
+    cmd.assert().success();
+    let read = |p: &Path| -> Value {
+        let mut v: Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        v.as_object_mut().unwrap().remove("provenance");
+        v
+    };
+    assert_eq!(read(&written), read(&example.join("controller-3axis.json")));
+}

@@ -597,6 +597,80 @@ impl Contour {
     }
 }
 
+/// The multi-axis controller file without a run (the manifest's
+/// `multiaxis` step): each axis's controller (a system, by Tustin, or the
+/// Table 2 PID), the cross-coupling controller, at `ts`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BuildMultiAxis {
+    /// Sample time, s; default 1e-6.
+    pub ts: f64,
+    /// X PID `P, I, D, N` used without an X controller; default Table 2.
+    pub pid_x: PidGains4,
+    /// Y PID; default Table 2.
+    pub pid_y: PidGains4,
+    /// Z PID; default Table 2.
+    pub pid_z: PidGains4,
+    /// Cross-coupling PID used without a coupling controller; default Table 2.
+    pub cross_coupling: PidGains4,
+    /// Write the coupling (false: uncoupled axes); default true.
+    pub coupled: bool,
+}
+
+impl Default for BuildMultiAxis {
+    fn default() -> Self {
+        let c = Contour::default();
+        Self {
+            ts: c.ts,
+            pid_x: c.pid_x,
+            pid_y: c.pid_y,
+            pid_z: c.pid_z,
+            cross_coupling: gains_of(KARAGOZ18_CC_PID),
+            coupled: true,
+        }
+    }
+}
+
+impl Validate for BuildMultiAxis {
+    fn validate(&self) -> Result<(), StepError> {
+        positive("ts", self.ts)?;
+        check_pid("pid_x", self.pid_x)?;
+        check_pid("pid_y", self.pid_y)?;
+        check_pid("pid_z", self.pid_z)?;
+        check_pid("cross_coupling", self.cross_coupling)
+    }
+}
+
+impl BuildMultiAxis {
+    /// The file of `controllers` (`None`: that axis's PID) and `cross`
+    /// (`None`: the coupling PID), with `provenance`.
+    pub fn run(
+        &self,
+        controllers: [Option<AxisController>; 3],
+        cross: Option<AxisController>,
+        provenance: crate::io::controller_file::Provenance,
+    ) -> Result<MultiAxisControllerFile, StepError> {
+        self.validate()?;
+        let pids = [self.pid_x, self.pid_y, self.pid_z];
+        let axes: [AxisController; 3] = std::array::from_fn(|i| {
+            controllers[i]
+                .clone()
+                .unwrap_or_else(|| AxisController::Pid(pid_of(pids[i])))
+        });
+        let cross = self
+            .coupled
+            .then(|| cross.unwrap_or_else(|| AxisController::Pid(pid_of(self.cross_coupling))));
+        let mut file = crate::sim::contour::controller_file(
+            [&axes[0], &axes[1], &axes[2]],
+            cross.as_ref(),
+            self.ts,
+        )
+        .map_err(contour_error)?;
+        file.provenance = provenance;
+        Ok(file)
+    }
+}
+
 /// What a contouring run found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContourReport {
