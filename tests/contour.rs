@@ -296,3 +296,62 @@ fn the_hinf_example_is_up_to_date_and_is_what_contour_writes() {
     };
     assert_eq!(read(&written), read(&example.join("controller-3axis.json")));
 }
+
+/// An axis controller may be the feedback block of an `fts.controller/1`
+/// file, run as written at its own sample time: a mismatch with the loop's,
+/// or a file with feedforward blocks, is refused naming it (exit 2).
+#[test]
+fn a_controller_file_block_runs_as_an_axis_and_mismatches_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let kx = dir.path().join("kx.json");
+    fts()
+        .args([
+            "emit",
+            "--pid-form",
+            "parallel",
+            "--kp",
+            "1",
+            "--ki",
+            "0.01",
+        ])
+        .args(["--kd", "0.0005", "--pid-n", "100", "--ts", "1e-6"])
+        .args(["--output-min", "-1000", "--output-max", "1000", "-o"])
+        .arg(&kx)
+        .assert()
+        .success();
+    let run = |extra: &[&str]| {
+        let mut cmd = fts();
+        cmd.args(["contour", "square", "--size", "50", "--no-disturbance"])
+            .arg("--controller-x")
+            .arg(&kx)
+            .args(extra);
+        cmd.assert()
+    };
+    let out = run(&["--json", "-o"]).get_output().clone();
+    assert!(!out.status.success(), "-o needs a path");
+    let k3 = dir.path().join("k3.json");
+    let out = run(&["--json", "-o", k3.to_str().unwrap()]).success();
+    let v: Value = serde_json::from_slice(&out.get_output().stdout).unwrap();
+    assert!(
+        v["axes"][0]["controller"]
+            .as_str()
+            .unwrap()
+            .ends_with("(pid)")
+    );
+    // The file written carries the block as it was (the parallel PID).
+    let k3_text = std::fs::read_to_string(&k3).unwrap();
+    let doc: Value = serde_json::from_str(&k3_text).unwrap();
+    assert_eq!(doc["axes"]["x"]["form"], "parallel");
+    assert_eq!(doc["axes"]["x"]["continuous"]["n"], 100.0);
+    run(&["--ts", "1e-5"])
+        .code(2)
+        .stderr(predicate::str::contains("runs at ts = 0.000001 s"));
+    let demo =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/c_runtime/demo-controller.json");
+    fts()
+        .args(["contour", "circle", "--controller-y"])
+        .arg(demo)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("feedback controller alone"));
+}

@@ -823,7 +823,51 @@ impl fmt::Display for ContourReport {
     }
 }
 
+/// `r + gain (p - r)` in the path's plane: `(q . u1, q . u2)` with
+/// `u1 = (1, 0, 0)`, `u2 = (0, cos th, sin th)`.
+fn in_plane(
+    reference: &[Vec<f64>; 3],
+    position: &[Vec<f64>; 3],
+    gain: f64,
+    th: f64,
+) -> [Vec<f64>; 2] {
+    let q = |i: usize, k: usize| reference[i][k] + gain * (position[i][k] - reference[i][k]);
+    let n = reference[0].len().min(position[0].len());
+    [
+        (0..n).map(|k| q(0, k)).collect(),
+        (0..n)
+            .map(|k| q(1, k) * th.cos() + q(2, k) * th.sin())
+            .collect(),
+    ]
+}
+
 impl ContourReport {
+    /// The magnification (1, 2 or 5 times a power of ten, putting the
+    /// largest contour error at up to 15 % of the path's size) and the
+    /// in-plane reference, positions and positions without CCC.
+    fn in_plane_magnified(&self) -> (f64, Vec<[Vec<f64>; 2]>) {
+        let t = &self.main.run.trace;
+        let largest = std::iter::once(&self.main.run.metrics)
+            .chain(self.baseline.as_ref().map(|b| &b.metrics))
+            .map(|m| m.max_contour)
+            .fold(0.0, f64::max);
+        let size = match self.trajectory.path.shape {
+            Shape::Circle { diameter } => diameter,
+            Shape::Square { side } => side,
+        };
+        let raw = 0.15 * size / largest.max(1e-300);
+        let decade = 10f64.powf(raw.log10().floor());
+        let step = [5.0, 2.0, 1.0].into_iter().find(|m| m * decade <= raw);
+        let gain = (step.unwrap_or(1.0) * decade).max(1.0);
+        let th = self.trajectory.path.incline_deg.to_radians();
+        let mut out = vec![in_plane(&t.reference, &t.reference, 0.0, th)];
+        out.push(in_plane(&t.reference, &t.position, gain, th));
+        if let Some(b) = &self.baseline {
+            out.push(in_plane(&t.reference, &b.trace.position, gain, th));
+        }
+        (gain, out)
+    }
+
     /// The thinned trace as CSV: `t, x_ref, y_ref, z_ref, x, y, z, contour,
     /// contour_estimate` (s, um), then `x_nocc, y_nocc, z_nocc,
     /// contour_nocc, contour_estimate_nocc` with a baseline.
@@ -897,7 +941,21 @@ impl ContourReport {
                 &base.trace.contour,
             ));
         }
+        let (gain, plane) = self.in_plane_magnified();
+        let plane_title = format!("path in its own plane, errors magnified {gain}x");
+        let mut in_plane = vec![line("reference", &plane[0][0], &plane[0][1])];
+        let labels = ["position", "position without CCC"];
+        for (label, p) in labels.into_iter().zip(&plane[1..]) {
+            in_plane.push(line(label, &p[0], &p[1]));
+        }
         panels_svg(&[
+            Panel::lines(
+                &plane_title,
+                "along x (um)",
+                "along the inclined axis (um)",
+                in_plane,
+            )
+            .with_equal_aspect(),
             Panel::lines("path, x-y projection", "x (um)", "y (um)", projection(0, 1))
                 .with_equal_aspect(),
             Panel::lines("path, y-z projection", "y (um)", "z (um)", projection(1, 2))
