@@ -255,3 +255,62 @@ fn a_bad_multiaxis_file_is_refused_naming_the_field() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("axes.x.derivative_pole"), "{stderr}");
 }
+
+/// The multi-axis header and the example loop compile without a warning
+/// as C99 (gcc, clang) and as C++ (g++, clang++), those installed.
+#[test]
+fn the_multiaxis_files_compile_warning_free_as_c99_and_cpp() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = file();
+    std::fs::write(
+        dir.path().join("fts_multiaxis.h"),
+        to_multiaxis_c_header(&file),
+    )
+    .unwrap();
+    for (name, text) in [
+        ("fts_runtime.h", fts::io::controller_file::C_RUNTIME_H),
+        ("fts_runtime.c", fts::io::controller_file::C_RUNTIME_C),
+    ] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    for (cc, lang, std) in [
+        ("gcc", "c", "-std=c99"),
+        ("clang", "c", "-std=c99"),
+        ("g++", "c++", "-std=c++11"),
+        ("clang++", "c++", "-std=c++11"),
+    ] {
+        if Command::new(cc).arg("--version").output().is_err() {
+            eprintln!("note: {cc} not installed; not checked");
+            continue;
+        }
+        for source in [
+            repo("examples/c/fts_multiaxis_loop.c"),
+            dir.path().join("fts_runtime.c"),
+        ] {
+            let out = Command::new(cc)
+                .args([
+                    "-x",
+                    lang,
+                    std,
+                    "-Wall",
+                    "-Wextra",
+                    "-pedantic",
+                    "-Werror",
+                    "-c",
+                ])
+                .arg("-I")
+                .arg(dir.path())
+                .arg(&source)
+                .arg("-o")
+                .arg(dir.path().join("out.o"))
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "{cc} -x {lang} {}:\n{}",
+                source.display(),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+    }
+}

@@ -1027,6 +1027,24 @@ mod tests {
     }
 
     #[test]
+    fn in_plane_coordinates_are_along_u1_and_the_inclined_u2() {
+        // th = 30 deg: u2 = (0, cos, sin). The reference (0, 2 cos, 2 sin)
+        // is at (0, 2); a position 0.1 further along u2 shows 10x at 1.
+        let th = 30f64.to_radians();
+        let (c, s) = (th.cos(), th.sin());
+        let r = [vec![3.0, 0.0], vec![0.0, 2.0 * c], vec![0.0, 2.0 * s]];
+        let p = [vec![3.0, 0.0], vec![0.0, 2.1 * c], vec![0.0, 2.1 * s]];
+        let q = in_plane(&r, &p, 10.0, th);
+        assert_eq!(q[0], vec![3.0, 0.0]);
+        assert!(
+            (q[1][0]).abs() < 1e-15 && (q[1][1] - 3.0).abs() < 1e-12,
+            "{q:?}"
+        );
+        let q = in_plane(&r, &p, 0.0, th);
+        assert!((q[1][1] - 2.0).abs() < 1e-15);
+    }
+
+    #[test]
     fn bad_settings_name_their_key() {
         let bad = Contour {
             pid_x: [1.0, 0.0, 0.0, 0.0],
