@@ -707,6 +707,47 @@ mod tests {
     }
 
     #[test]
+    fn the_linear_model_of_a_runtime_pid_is_what_the_runtime_runs() {
+        // The poles are judged on `linear_controller`; the runtime steps the
+        // block. Fed the same error (reference 0, measurement -e, so the
+        // derivative on the measurement is on e), both give the same output.
+        use crate::io::controller_file::ParallelPid as FilePid;
+        use crate::runtime::PidSpec;
+        let ts = 1e-3;
+        let blocks = [
+            Feedback::ParallelPid(FilePid {
+                kp: 1.5,
+                ki: 20.0,
+                kd: 0.01,
+                n: Some(300.0),
+                output_min: -1e9,
+                output_max: 1e9,
+            }),
+            Feedback::Pid(PidSpec {
+                kp: 0.7,
+                ki: 0.05,
+                kd: 2.0,
+                output_min: -1e9,
+                output_max: 1e9,
+            }),
+        ];
+        for f in blocks {
+            let spec = f.runtime_spec(ts);
+            let mut step = crate::runtime::CrossCoupledStep::new([&spec; 3], None).unwrap();
+            let mut linear = SisoBlock::new(&linear_controller(&f, ts).unwrap()).unwrap();
+            for k in 0..200 {
+                let e = (0.37 * k as f64).sin() + 0.2 * ((k % 7) as f64);
+                let u = step.step(&[0.0; 3], &[1.0, 0.0, 0.0], &[-e; 3])[0];
+                let v = linear.step(e);
+                assert!(
+                    (u - v).abs() <= 1e-9 * (1.0 + u.abs()),
+                    "{f:?} k {k}: {u} vs {v}"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn an_unstable_axis_is_refused_and_a_biproper_plant_too() {
         let mut a = axes([1.0; 3]);
         a[1].controller = AxisController::Pid(ParallelPid {
