@@ -4,6 +4,7 @@
 //! outside.
 
 use assert_cmd::Command;
+use fts::sim::contour::AxisController;
 use fts::workflow::contour::{Contour, ContourInputs, PathShape, TrajectorySettings};
 use predicates::prelude::*;
 use serde_json::Value;
@@ -198,4 +199,159 @@ fn contour_json_on_a_second_order_plant() {
         text.contains("cross-coupling does NOT lower the contour error"),
         "{text}"
     );
+}
+
+/// The axis controllers of `examples/contour-hinf/{dir}K-{x,y,z}.json`
+/// (`fts build -f examples/contour-hinf/fts.toml`), continuous, run by Tustin.
+fn hinf_inputs(dir: &str) -> ContourInputs {
+    let read = |axis: &str| {
+        let path = format!("examples/contour-hinf/{dir}K-{axis}.json");
+        let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(&path));
+        let sys = fts::io::ss_json::parse_system(&text.unwrap(), &path).unwrap();
+        Some((AxisController::StateSpace(Box::new(sys)), path))
+    };
+    ContourInputs {
+        controllers: [read("x"), read("y"), read("z")],
+        ..ContourInputs::default()
+    }
+}
+
+/// `(contour RMS with CCC, RMS ratio without/with)` of a run.
+fn contour_and_ccc(shape: PathShape, inputs: &ContourInputs) -> (f64, f64) {
+    let report = fast(shape).run(inputs).unwrap();
+    (
+        report.main.run.metrics.rms_contour,
+        report.improvement().unwrap().0,
+    )
+}
+
+/// docs/contouring.md "fts's H-infinity axis controllers": with the same
+/// Table 2 CC PID, fts's H-inf axes (|S| ~0.06 at 75 rad/s) leave a
+/// contour error several times smaller than the Table 2 PID-CC, and the
+/// coupling lowers it on both paths; the H-inf axes designed with
+/// [Karagoz18] Table 1's weights (|S| ~0.5 at 75 rad/s) leave more than
+/// PID-CC, so the paper's ranking (PID-CC worst) does not hold against the
+/// printed PID gains. Measured ratios (30 mm/s, 1 MHz): circle 7.04, CCC
+/// 3.35, Table 1 0.64; square 3.09, CCC 1.98, Table 1 0.69.
+#[test]
+fn hinf_axes_with_ccc_against_pid_cc_on_both_paths() {
+    let (ours, table1) = (hinf_inputs(""), hinf_inputs("table1/"));
+    for (shape, vs_pid, ccc, vs_table1) in [
+        (PathShape::Circle, 7.04, 3.35, 0.64),
+        (PathShape::Square, 3.09, 1.98, 0.69),
+    ] {
+        let (pid, pid_ccc) = contour_and_ccc(shape, &ContourInputs::default());
+        let (hinf, hinf_ccc) = contour_and_ccc(shape, &ours);
+        let (paper, _) = contour_and_ccc(shape, &table1);
+        let within = |got: f64, want: f64, what: &str| {
+            assert!(
+                (got / want - 1.0).abs() < 0.05,
+                "{shape:?} {what}: {got} (measured {want})"
+            );
+        };
+        // The claims, then the measured figures to 5 %.
+        assert!(pid / hinf > 2.5 && hinf_ccc > 1.5 && pid_ccc > 1.25);
+        assert!(
+            pid / paper < 0.8,
+            "{shape:?}: Table 1 H-inf-CC {paper} vs PID-CC {pid}"
+        );
+        within(pid / hinf, vs_pid, "PID-CC / H-inf-CC contour RMS");
+        within(hinf_ccc, ccc, "H-inf without / with CCC");
+        within(pid / paper, vs_table1, "PID-CC / Table 1 H-inf-CC");
+    }
+}
+
+/// `examples/contour-hinf/fts.toml` is up to date (its `multiaxis` step's
+/// file and header included), and that file holds the controllers
+/// `fts contour -o` writes for the same axis controllers (provenance aside).
+#[test]
+fn the_hinf_example_is_up_to_date_and_is_what_contour_writes() {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/contour-hinf");
+    fts()
+        .args(["build", "--check", "-f"])
+        .arg(example.join("fts.toml"))
+        .assert()
+        .success();
+    let dir = tempfile::tempdir().unwrap();
+    let written = dir.path().join("k3.json");
+    let mut cmd = fts();
+    cmd.args([
+        "contour",
+        "square",
+        "--size",
+        "50",
+        "--no-disturbance",
+        "-o",
+    ])
+    .arg(&written);
+    for axis in ["x", "y", "z"] {
+        cmd.arg(format!("--controller-{axis}"))
+            .arg(example.join(format!("K-{axis}.json")));
+    }
+    cmd.assert().success();
+    let read = |p: &Path| -> Value {
+        let mut v: Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        v.as_object_mut().unwrap().remove("provenance");
+        v
+    };
+    assert_eq!(read(&written), read(&example.join("controller-3axis.json")));
+}
+
+/// An axis controller may be the feedback block of an `fts.controller/1`
+/// file, run as written at its own sample time: a mismatch with the loop's,
+/// or a file with feedforward blocks, is refused naming it (exit 2).
+#[test]
+fn a_controller_file_block_runs_as_an_axis_and_mismatches_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let kx = dir.path().join("kx.json");
+    fts()
+        .args([
+            "emit",
+            "--pid-form",
+            "parallel",
+            "--kp",
+            "1",
+            "--ki",
+            "0.01",
+        ])
+        .args(["--kd", "0.0005", "--pid-n", "100", "--ts", "1e-6"])
+        .args(["--output-min", "-1000", "--output-max", "1000", "-o"])
+        .arg(&kx)
+        .assert()
+        .success();
+    let run = |extra: &[&str]| {
+        let mut cmd = fts();
+        cmd.args(["contour", "square", "--size", "50", "--no-disturbance"])
+            .arg("--controller-x")
+            .arg(&kx)
+            .args(extra);
+        cmd.assert()
+    };
+    let out = run(&["--json", "-o"]).get_output().clone();
+    assert!(!out.status.success(), "-o needs a path");
+    let k3 = dir.path().join("k3.json");
+    let out = run(&["--json", "-o", k3.to_str().unwrap()]).success();
+    let v: Value = serde_json::from_slice(&out.get_output().stdout).unwrap();
+    assert!(
+        v["axes"][0]["controller"]
+            .as_str()
+            .unwrap()
+            .ends_with("(pid)")
+    );
+    // The file written carries the block as it was (the parallel PID).
+    let k3_text = std::fs::read_to_string(&k3).unwrap();
+    let doc: Value = serde_json::from_str(&k3_text).unwrap();
+    assert_eq!(doc["axes"]["x"]["form"], "parallel");
+    assert_eq!(doc["axes"]["x"]["continuous"]["n"], 100.0);
+    run(&["--ts", "1e-5"])
+        .code(2)
+        .stderr(predicate::str::contains("runs at ts = 0.000001 s"));
+    let demo =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/c_runtime/demo-controller.json");
+    fts()
+        .args(["contour", "circle", "--controller-y"])
+        .arg(demo)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("feedback controller alone"));
 }

@@ -3,7 +3,9 @@
 //! control of the contour error.
 
 use super::common::{bad, choice, print_report, read_input, step_error, write_atomic};
+use crate::io::controller_file::{CONTROLLER_FORMAT, Feedback, parse_controller, parse_multiaxis};
 use crate::io::ss_json::parse_system;
+use crate::sim::contour::AxisController;
 use crate::sim::disturbance::Disturbance;
 use crate::workflow::Validate;
 use crate::workflow::contour::{
@@ -93,9 +95,9 @@ pub fn run_trajectory(args: TrajectoryArgs) -> anyhow::Result<()> {
 pub struct ContourArgs {
     #[command(flatten)]
     path: PathArgs,
-    /// Loop sample time, s (continuous plants by ZOH, controllers by Tustin).
-    #[arg(long, default_value_t = 1e-6)]
-    ts: f64,
+    /// Loop sample time, s (continuous plants by ZOH, controllers by Tustin) [1e-6].
+    #[arg(long)]
+    ts: Option<f64>,
     /// Time simulated after the trajectory ends, s.
     #[arg(long, default_value_t = 0.0)]
     settle: f64,
@@ -108,15 +110,31 @@ pub struct ContourArgs {
     /// Z plant [Karagoz18 Eq. 4].
     #[arg(long, value_name = "G.json")]
     plant_z: Option<PathBuf>,
-    /// X controller file (u = K e), replacing --pid-x.
+    /// X controller (u = K e), replacing --pid-x: `fts.ss/1` or `fts.tf/1`
+    /// (continuous by Tustin, e.g. from `fts mixsyn`), or the feedback block
+    /// of an `fts.controller/1` file at --ts.
     #[arg(long, value_name = "K.json")]
     controller_x: Option<PathBuf>,
-    /// Y controller file, replacing --pid-y.
+    /// Y controller, replacing --pid-y.
     #[arg(long, value_name = "K.json")]
     controller_y: Option<PathBuf>,
-    /// Z controller file, replacing --pid-z.
+    /// Z controller, replacing --pid-z.
     #[arg(long, value_name = "K.json")]
     controller_z: Option<PathBuf>,
+    /// Cross-coupling controller, replacing the --cc PID (the same kinds of file).
+    #[arg(long, value_name = "K.json", conflicts_with_all = ["cc", "no_cc"])]
+    cc_controller: Option<PathBuf>,
+    /// All four controllers from a multi-axis file (`fts.multiaxis-controller/1`,
+    /// e.g. written by -o), run at its sample time.
+    #[arg(long, value_name = "K3.json", conflicts_with_all = [
+        "controller_x", "controller_y", "controller_z", "cc_controller",
+        "pid_x", "pid_y", "pid_z", "cc", "ts",
+    ])]
+    controller: Option<PathBuf>,
+    /// Write the controllers the run executed as a multi-axis controller file
+    /// (`fts.multiaxis-controller/1`; `fts emit --multiaxis` makes C of it).
+    #[arg(short = 'o', long = "out", value_name = "K3.json")]
+    output: Option<PathBuf>,
     /// X PID P,I,D,N of P + I/s + D N s/(s+N) [1,0.01,0.0005,100].
     #[arg(
         long,
@@ -205,7 +223,7 @@ impl ContourArgs {
             .transpose()?;
         Ok(Contour {
             trajectory: self.path.settings(),
-            ts: self.ts,
+            ts: self.ts.unwrap_or(d.ts),
             settle: self.settle,
             pid_x: gains("--pid-x", &self.pid_x, d.pid_x)?,
             pid_y: gains("--pid-y", &self.pid_y, d.pid_y)?,
@@ -230,9 +248,11 @@ impl ContourArgs {
                 inputs.plants[i] = read_system(path)?;
             }
             if let Some(path) = controllers[i] {
-                let name = path.display().to_string();
-                inputs.controllers[i] = Some((read_system(path)?, name));
+                inputs.controllers[i] = Some(read_controller(path)?);
             }
+        }
+        if let Some(path) = &self.cc_controller {
+            inputs.cross = Some(read_controller(path)?);
         }
         Ok(inputs)
     }
@@ -243,12 +263,66 @@ fn read_system(path: &std::path::Path) -> anyhow::Result<crate::lti::ss::StateSp
     Ok(parse_system(&text, &path.display().to_string())?)
 }
 
+/// A system file, or the feedback block of an `fts.controller/1` file.
+fn read_controller(path: &std::path::Path) -> anyhow::Result<(AxisController, String)> {
+    let text = read_input(path)?;
+    let source = path.display().to_string();
+    let is_controller_file = serde_json::from_str::<serde_json::Value>(&text)
+        .is_ok_and(|v| v["format"] == CONTROLLER_FORMAT);
+    if !is_controller_file {
+        let sys = parse_system(&text, &source)?;
+        return Ok((AxisController::StateSpace(Box::new(sys)), source));
+    }
+    let file = parse_controller(&text, &source)?;
+    if file.block_names().len() != 1 || file.feedback == Feedback::None {
+        return Err(bad(format!(
+            "{source}: a contour axis takes a feedback controller alone; this file has {}",
+            file.block_names().join(", ")
+        )));
+    }
+    let name = format!("{source} ({})", file.block_names()[0]);
+    let block = AxisController::Block {
+        feedback: Box::new(file.feedback),
+        ts: file.ts,
+    };
+    Ok((block, name))
+}
+
+/// The four controllers of a multi-axis file, as inputs and settings.
+fn multiaxis_inputs(
+    path: &std::path::Path,
+    step: &mut Contour,
+    inputs: &mut ContourInputs,
+) -> anyhow::Result<()> {
+    let source = path.display().to_string();
+    let file = parse_multiaxis(&read_input(path)?, &source)?;
+    let block = |f: &Feedback| AxisController::Block {
+        feedback: Box::new(f.clone()),
+        ts: file.ts,
+    };
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        inputs.controllers[i] = Some((block(&file.axes[i]), format!("{source} axes.{axis}")));
+    }
+    step.ts = file.ts;
+    match &file.cross_coupling {
+        Some(cc) => inputs.cross = Some((block(cc), format!("{source} cross_coupling"))),
+        None => step.cross_coupling = None,
+    }
+    Ok(())
+}
+
 /// `fts contour`.
 pub fn run_contour(args: ContourArgs) -> anyhow::Result<()> {
-    let step = args.step()?;
+    let mut step = args.step()?;
+    let mut inputs = args.inputs()?;
+    if let Some(path) = &args.controller {
+        multiaxis_inputs(path, &mut step, &mut inputs)?;
+    }
     step.validate().map_err(step_error)?;
-    let inputs = args.inputs()?;
     let report = step.run(&inputs).map_err(step_error)?;
+    if let Some(path) = &args.output {
+        write_atomic(path, report.main.controller.to_json_string().as_bytes())?;
+    }
     if let Some(path) = &args.csv {
         write_atomic(path, report.trace_csv().as_bytes())?;
     }

@@ -13,6 +13,9 @@
 use super::common::{bad, choice, name, read_input, step_error, write_atomic};
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::to_c_files;
+use crate::io::controller_file::{
+    C_RUNTIME_C, C_RUNTIME_H, parse_multiaxis, to_multiaxis_c_header,
+};
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
 use crate::io::{hysteresis_json, tf_json, zpetc_json};
 use crate::lti::ss::StateSpace;
@@ -121,6 +124,14 @@ pub struct EmitArgs {
     /// Write here (default: stdout); a directory with --format c.
     #[arg(short = 'o', long = "out", value_name = "CONTROLLER.json")]
     output: Option<PathBuf>,
+    /// A multi-axis controller file (`fts.multiaxis-controller/1`, from
+    /// `fts contour -o`) to write again as JSON, as a C header or as the C
+    /// runtime (`fts_multiaxis.h` + `fts_runtime.{h,c}`).
+    #[arg(long, value_name = "K3.json", conflicts_with_all = [
+        "hysteresis", "zpetc", "closed_loop", "pid_form", "kp", "ki", "kd", "pid_n",
+        "feedback", "ss", "output_min", "output_max", "repetitive", "ts", "c_header",
+    ])]
+    multiaxis: Option<PathBuf>,
 }
 
 /// Reads an input and records its hash under `role`.
@@ -250,6 +261,9 @@ pub fn build(args: &EmitArgs) -> anyhow::Result<ControllerFile> {
 }
 
 pub fn run(args: EmitArgs) -> anyhow::Result<()> {
+    if let Some(path) = &args.multiaxis {
+        return run_multiaxis(&args, path);
+    }
     let file = build(&args)?;
     let text = match args.format {
         Format::Json => file.to_json_string(),
@@ -277,6 +291,59 @@ pub fn run(args: EmitArgs) -> anyhow::Result<()> {
         None => say_part!("{text}"),
     }
     Ok(())
+}
+
+/// `--multiaxis`: the file read and checked, then written in `--format`.
+fn run_multiaxis(args: &EmitArgs, path: &Path) -> anyhow::Result<()> {
+    let source = path.display().to_string();
+    let file = parse_multiaxis(&read_input(path)?, &source)?;
+    let text = match args.format {
+        Format::Json => file.to_json_string(),
+        Format::CHeader => to_multiaxis_c_header(&file),
+        Format::C => {
+            let dir = output_dir(args)?;
+            let files = [
+                ("fts_multiaxis.h", to_multiaxis_c_header(&file)),
+                ("fts_runtime.h", C_RUNTIME_H.to_owned()),
+                ("fts_runtime.c", C_RUNTIME_C.to_owned()),
+            ];
+            for (name, text) in files {
+                write_atomic(&dir.join(name), text.as_bytes())?;
+            }
+            eprintln!(
+                "wrote {}/{{fts_multiaxis.h, fts_runtime.h, fts_runtime.c}} (ts {} s); compile with -ffp-contract=off",
+                dir.display(),
+                file.ts
+            );
+            return Ok(());
+        }
+    };
+    match &args.output {
+        Some(out) => {
+            write_atomic(out, text.as_bytes())?;
+            eprintln!("wrote {} (three axes, ts {} s)", out.display(), file.ts);
+        }
+        None => say_part!("{text}"),
+    }
+    Ok(())
+}
+
+/// The -o directory of `--format c`, created if missing.
+fn output_dir(args: &EmitArgs) -> anyhow::Result<&Path> {
+    let Some(dir) = &args.output else {
+        return Err(bad(
+            "-o/--out: --format c writes three files; give the directory to write them into",
+        ));
+    };
+    if dir.exists() && !dir.is_dir() {
+        return Err(bad(format!(
+            "-o/--out: {} is a file; --format c writes into a directory",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow::anyhow!("{}: cannot create the directory: {e}", dir.display()))?;
+    Ok(dir)
 }
 
 /// `--format c`: the three C files into the -o directory (created if

@@ -15,8 +15,12 @@
 
 mod c_header;
 mod document;
+mod multiaxis;
 
 pub use c_header::{C_RUNTIME_C, C_RUNTIME_H, parse_c_header, to_c_files, to_c_header};
+pub use multiaxis::{
+    MULTIAXIS_FORMAT, MultiAxisControllerFile, parse_multiaxis, to_multiaxis_c_header,
+};
 
 use super::InputError;
 use super::tf_json::check_format;
@@ -343,6 +347,27 @@ pub enum Feedback {
     StateSpace(StateSpaceBlock),
 }
 
+impl Feedback {
+    /// The runtime's coefficients at sample time `ts` (a parallel PID
+    /// discretised, absent state-space limits infinite).
+    pub fn runtime_spec(&self, ts: f64) -> FeedbackSpec<'_> {
+        match self {
+            Feedback::None => FeedbackSpec::None,
+            Feedback::Pid(p) => FeedbackSpec::Pid(*p),
+            Feedback::ParallelPid(p) => p.discretise(ts),
+            Feedback::StateSpace(k) => FeedbackSpec::StateSpace(StateSpaceSpec {
+                a: &k.a,
+                b: &k.b,
+                c: &k.c,
+                d: k.d,
+                output_min: k.output_min.unwrap_or(f64::NEG_INFINITY),
+                output_max: k.output_max.unwrap_or(f64::INFINITY),
+                anti_windup: k.anti_windup,
+            }),
+        }
+    }
+}
+
 impl From<PidSpec> for Feedback {
     fn from(p: PidSpec) -> Self {
         Feedback::Pid(p)
@@ -481,20 +506,7 @@ impl ControllerFile {
                 dead_zone_thresholds: &h.dead_zone_thresholds,
                 dead_zone_weights: &h.dead_zone_weights,
             }),
-            feedback: match &self.feedback {
-                Feedback::None => FeedbackSpec::None,
-                Feedback::Pid(p) => FeedbackSpec::Pid(*p),
-                Feedback::ParallelPid(p) => p.discretise(self.ts),
-                Feedback::StateSpace(k) => FeedbackSpec::StateSpace(StateSpaceSpec {
-                    a: &k.a,
-                    b: &k.b,
-                    c: &k.c,
-                    d: k.d,
-                    output_min: k.output_min.unwrap_or(f64::NEG_INFINITY),
-                    output_max: k.output_max.unwrap_or(f64::INFINITY),
-                    anti_windup: k.anti_windup,
-                }),
-            },
+            feedback: self.feedback.runtime_spec(self.ts),
             repetitive: self.repetitive.as_ref().map(|r| RepetitiveSpec {
                 period: r.period,
                 fraction: r.fraction,
@@ -632,7 +644,7 @@ impl ControllerFile {
     }
 }
 
-fn runtime_field(e: &crate::runtime::RuntimeError) -> &'static str {
+pub(crate) fn runtime_field(e: &crate::runtime::RuntimeError) -> &'static str {
     use crate::runtime::RuntimeError::*;
     match e {
         BadLength { field, .. }

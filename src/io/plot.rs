@@ -99,6 +99,10 @@ pub struct Panel<'a> {
     pub log_y: bool,
     /// Shade `[x0, x1]` and say what it is in the legend.
     pub shade: Option<(f64, f64, &'a str)>,
+    /// One unit is as long on x as on y (a path's projection: a circle
+    /// looks round); the shorter range is widened about its centre.
+    /// Linear axes only.
+    pub equal_aspect: bool,
 }
 
 impl<'a> Panel<'a> {
@@ -115,6 +119,14 @@ impl<'a> Panel<'a> {
             y_label,
             series: series.into_iter().map(|s| (s, Style::Line)).collect(),
             ..Panel::default()
+        }
+    }
+
+    /// The same panel with equal x and y scales.
+    pub fn with_equal_aspect(self) -> Self {
+        Panel {
+            equal_aspect: true,
+            ..self
         }
     }
 }
@@ -194,9 +206,28 @@ fn draw_panel<DB: DrawingBackend>(
     } else {
         (y0, y1)
     };
+    let equal = panel.equal_aspect && !log_x && !log_y;
+    // With equal scales the title is drawn first, so that the plotting
+    // area's size in pixels is known before the ranges are chosen.
+    let plot_area = if equal {
+        plot_area
+            .titled(panel.title, ("sans-serif", 18))
+            .map_err(perr)?
+    } else {
+        plot_area
+    };
+    let ((x0, x1), (y0, y1)) = if equal {
+        let (w, h) = plot_area.dim_in_pixel();
+        let pixels = (w.saturating_sub(2 * 10 + 60), h.saturating_sub(2 * 10 + 35));
+        equal_ranges((x0, x1), (y0, y1), pixels)
+    } else {
+        ((x0, x1), (y0, y1))
+    };
     let mut builder = ChartBuilder::on(&plot_area);
+    if !equal {
+        builder.caption(panel.title, ("sans-serif", 18));
+    }
     builder
-        .caption(panel.title, ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60);
@@ -284,6 +315,18 @@ fn draw_panel<DB: DrawingBackend>(
         ),
     }
     Ok(())
+}
+
+/// The ranges widened (about their centres) so that a unit spans as many
+/// pixels on x as on y in a plotting area of `pixels` (width, height).
+fn equal_ranges(x: (f64, f64), y: (f64, f64), pixels: (u32, u32)) -> ((f64, f64), (f64, f64)) {
+    let (w, h) = (f64::from(pixels.0.max(1)), f64::from(pixels.1.max(1)));
+    let per_pixel = ((x.1 - x.0) / w).max((y.1 - y.0) / h);
+    let about = |(lo, hi): (f64, f64), n: f64| {
+        let (mid, half) = (0.5 * (lo + hi), 0.5 * per_pixel * n);
+        (mid - half, mid + half)
+    };
+    (about(x, w), about(y, h))
 }
 
 /// A range for a logarithmic axis: from the smallest positive value of
@@ -407,6 +450,18 @@ pub fn bode_svg(title: &str, curves: &[(&str, &Bode)]) -> Result<String, PlotErr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn equal_ranges_give_one_scale_and_keep_the_data() {
+        // 100 x 10 units in 400 x 200 pixels: 0.25 units a pixel on both.
+        let ((x0, x1), (y0, y1)) = equal_ranges((0.0, 100.0), (-5.0, 5.0), (400, 200));
+        assert_eq!((x0, x1), (0.0, 100.0));
+        assert_eq!((y0, y1), (-25.0, 25.0));
+        // Tall data in a wide area: x is widened instead.
+        let ((x0, x1), (y0, y1)) = equal_ranges((0.0, 1.0), (0.0, 10.0), (400, 200));
+        assert_eq!((y0, y1), (0.0, 10.0));
+        assert!(((x1 - x0) / 400.0 - 10.0 / 200.0).abs() < 1e-15 && x0 < 0.0 && x1 > 1.0);
+    }
 
     #[test]
     fn renders_svg() {

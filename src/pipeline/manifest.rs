@@ -111,6 +111,8 @@ pub enum Action {
     H2(H2),
     /// Discretisation of a continuous system.
     C2d(C2d),
+    /// Multi-axis controller file (contouring with cross-coupled control).
+    MultiAxis(crate::workflow::contour::BuildMultiAxis),
 }
 
 /// One validated step.
@@ -578,7 +580,7 @@ fn normalise(s: &str) -> Option<String> {
 }
 
 /// The step kinds, as listed in errors.
-const KINDS: &str = "\"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"ct\", \"zpetc\", \"repetitive\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\", \"mechanism\"";
+const KINDS: &str = "\"virtual-triangles\", \"virtual-sweep\", \"hysteresis\", \"arx\", \"oe\", \"ct\", \"zpetc\", \"repetitive\", \"controller\", \"weight\", \"mixsyn\", \"hinf\", \"h2\", \"c2d\", \"mechanism\", \"multiaxis\"";
 
 /// The step table's canonical settings hash: the table as JSON (sorted
 /// keys), the step name and the fts version.
@@ -623,6 +625,7 @@ fn step(
         "hinf" => synthesis(&mut f).map(Action::Hinf),
         "h2" => synthesis(&mut f).map(Action::H2),
         "c2d" => c2d(&mut f),
+        "multiaxis" => multiaxis(&mut f),
         other => Err(f.err(
             "kind",
             kind_line,
@@ -798,6 +801,22 @@ fn mechanism(f: &mut Fields<'_>) -> Result<Action, InputError> {
 fn c2d(f: &mut Fields<'_>) -> Result<Action, InputError> {
     files(f, &[("system", true)], &[("out", true)])?;
     Ok(Action::C2d(f.typed()?))
+}
+
+/// `kind = "multiaxis"`: the multi-axis controller file of `fts contour -o`
+/// from per-axis controller systems `x`, `y`, `z` and `cross` (each
+/// optional: the step's PID gains otherwise); writes `out`, `header` or both.
+fn multiaxis(f: &mut Fields<'_>) -> Result<Action, InputError> {
+    let inputs = ["x", "y", "z", "cross"].map(|k| (k, false));
+    files(f, &inputs, &[("out", false), ("header", false)])?;
+    if f.outputs.is_empty() {
+        return Err(f.err(
+            "out",
+            f.line,
+            "missing: a multiaxis step writes `out` (fts.multiaxis-controller/1 JSON), `header` (C header) or both",
+        ));
+    }
+    Ok(Action::MultiAxis(f.typed()?))
 }
 
 /// Parses and validates a manifest. `source` names it in errors; `base` is

@@ -8,12 +8,16 @@ use super::manifest::{
 };
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::InputError;
-use crate::io::controller_file::{ControllerFile, InputHash, Provenance, to_c_header};
+use crate::io::controller_file::{
+    ControllerFile, InputHash, MultiAxisControllerFile, Provenance, to_c_header,
+    to_multiaxis_c_header,
+};
 use crate::io::hysteresis_json::{model_to_string, parse_model};
 use crate::io::timeseries::{IoData, read_io};
 use crate::io::{ss_json, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
 use crate::lti::ss::StateSpace;
+use crate::sim::contour::AxisController;
 use crate::workflow::controller::closed_loop_zpetc;
 use crate::workflow::identify::HysteresisInputs;
 use crate::workflow::learning::{DesignRepetitive, RepetitiveFile};
@@ -593,6 +597,13 @@ fn execute(
             let (sys, src) = io.required_system("system")?;
             vec![("out", ss_file(&c.run(&sys, &src).map_err(err)?.system))]
         }
+        Action::MultiAxis(m) => {
+            let file = multiaxis(&io, m)?;
+            vec![
+                ("out", file.to_json_string().into_bytes()),
+                ("header", to_multiaxis_c_header(&file).into_bytes()),
+            ]
+        }
         Action::Mixsyn(m) => {
             let report = mixsyn(&io, m)?;
             vec![
@@ -721,6 +732,21 @@ fn controller(io: &Inputs<'_>, spec: &BuildController) -> Result<ControllerFile,
         })
         .map_err(err)?;
     Ok(report.file)
+}
+
+fn multiaxis(
+    io: &Inputs<'_>,
+    m: &crate::workflow::contour::BuildMultiAxis,
+) -> Result<MultiAxisControllerFile, PipelineError> {
+    let provenance = io.provenance(&[("x", "x"), ("y", "y"), ("z", "z"), ("cross", "cross")]);
+    let controller = |field: &str| -> Result<_, PipelineError> {
+        Ok(io
+            .system(field)?
+            .map(|(sys, _)| AxisController::StateSpace(Box::new(sys))))
+    };
+    let axes = [controller("x")?, controller("y")?, controller("z")?];
+    m.run(axes, controller("cross")?, provenance)
+        .map_err(|e| step_error(io.step, e))
 }
 
 fn mixsyn(io: &Inputs<'_>, m: &Mixsyn) -> Result<MixsynReport, PipelineError> {

@@ -17,8 +17,12 @@
 
 use super::disturbance::Sine;
 use super::path::{Trajectory, Vec3, contour_estimate, length};
+use crate::io::controller_file::{
+    Feedback, MultiAxisControllerFile, Provenance, StateSpaceBlock, Units,
+};
 use crate::lti::c2d::{C2dMethod, c2d};
 use crate::lti::ss::StateSpace;
+use crate::runtime::{FeedbackSpec, SsAntiWindup};
 use crate::synth::pid::{Discretization, ParallelPid};
 use std::f64::consts::PI;
 
@@ -128,6 +132,14 @@ pub enum AxisController {
     Pid(ParallelPid),
     /// A state-space controller (`u = K e`); continuous ones by Tustin.
     StateSpace(Box<StateSpace>),
+    /// A block of a controller file, discrete at `ts` (which must be the
+    /// loop's) and run as written (limits included).
+    Block {
+        /// The block.
+        feedback: Box<Feedback>,
+        /// Its file's sample time, s.
+        ts: f64,
+    },
 }
 
 /// The \[Karagoz18\] Table 2 axis gains `(P, I, D, N)` for X, Y, Z.
@@ -185,6 +197,8 @@ pub struct MultiAxisLoop {
     ts: f64,
     plants: [SisoBlock; 3],
     controllers: crate::runtime::CrossCoupledStep,
+    /// The controllers as the multi-axis file that the step runs.
+    pub file: MultiAxisControllerFile,
     disturbances: [Vec<Sine>; 3],
     /// Each axis's own closed loop, judged by its poles.
     pub axis_loops: [AxisLoop; 3],
@@ -217,9 +231,20 @@ fn discrete(
     }
 }
 
-fn controller_ss(c: &AxisController, ts: f64, what: &str) -> Result<StateSpace, ContourError> {
-    let tustin = C2dMethod::Tustin { prewarp: None };
-    match c {
+/// The discrete controller block of `c` at `ts`: a PID or a state-space
+/// system by Tustin (a state-space block without limits), a file's block
+/// as it is.
+fn controller_block(c: &AxisController, ts: f64, what: &str) -> Result<Feedback, ContourError> {
+    let setup = |e: String| ContourError::Setup(format!("{what}: {e}"));
+    let (k, how) = match c {
+        AxisController::Block { feedback, ts: t } => {
+            if (t - ts).abs() > 1e-9 * ts {
+                return Err(setup(format!(
+                    "its file runs at ts = {t} s, but the loop runs at ts = {ts} s"
+                )));
+            }
+            return Ok((**feedback).clone());
+        }
         AxisController::Pid(pid) => {
             let tf = if pid.i == 0.0 {
                 pd_tustin(pid, ts)
@@ -227,12 +252,82 @@ fn controller_ss(c: &AxisController, ts: f64, what: &str) -> Result<StateSpace, 
                 pid.discretize(ts, Discretization::Tustin)
                     .map_err(|e| e.to_string())
             }
-            .map_err(|e| ContourError::Setup(format!("{what}: {e}")))?;
-            crate::lti::margins::discrete_tf_to_ss(&tf)
-                .map_err(|e| ContourError::Setup(format!("{what}: {e}")))
+            .map_err(setup)?;
+            let k =
+                crate::lti::margins::discrete_tf_to_ss(&tf).map_err(|e| setup(e.to_string()))?;
+            let how = format!(
+                "tustin of the PID {} + {}/s + {} {} s/(s + {})",
+                pid.p, pid.i, pid.d, pid.n, pid.n
+            );
+            (k, how)
         }
-        AxisController::StateSpace(k) => discrete(k, ts, tustin, what),
+        AxisController::StateSpace(k) => {
+            let how = if k.ts.is_some() { "given" } else { "tustin" };
+            let tustin = C2dMethod::Tustin { prewarp: None };
+            (discrete(k, ts, tustin, what)?, how.to_owned())
+        }
+    };
+    let mut block = StateSpaceBlock::from_discrete(&k, ts, &how).map_err(setup)?;
+    block.anti_windup = SsAntiWindup::None;
+    Ok(Feedback::StateSpace(block))
+}
+
+/// The linear controller a block runs (limits aside), for the closed-loop
+/// poles: a state-space block as it is; the runtime's PIDs as
+/// `kp + ki/(1 - z^-1) + kd (1 - z^-1)/(1 - pole z^-1)` (the derivative on
+/// the measurement moves a zero, not a pole, of the loop).
+fn linear_controller(f: &Feedback, ts: f64) -> Result<StateSpace, String> {
+    let (kp, ki, kd, pole) = match f.runtime_spec(ts) {
+        FeedbackSpec::StateSpace(_) => match f {
+            Feedback::StateSpace(k) => return k.to_state_space(ts),
+            _ => unreachable!("a state-space spec comes from a state-space block"),
+        },
+        FeedbackSpec::Pid(p) => (p.kp, p.ki, p.kd, 0.0),
+        FeedbackSpec::PidFiltered(p) => (p.kp, p.ki, p.kd, p.derivative_pole),
+        FeedbackSpec::None => return Err("an axis needs a feedback controller".into()),
+    };
+    // Over the common denominator (1 - z^-1)(1 - pole z^-1).
+    let num = [
+        kp + ki + kd,
+        -kp * (1.0 + pole) - ki * pole - 2.0 * kd,
+        kp * pole + kd,
+    ];
+    let den = vec![1.0, -(1.0 + pole), pole];
+    let tf = crate::lti::DiscreteTf::new(num.to_vec(), den, 0, ts).map_err(|e| e.to_string())?;
+    crate::lti::margins::discrete_tf_to_ss(&tf).map_err(|e| e.to_string())
+}
+
+/// The multi-axis controller file of `axes` and `cross` at `ts`.
+pub fn controller_file(
+    axes: [&AxisController; 3],
+    cross: Option<&AxisController>,
+    ts: f64,
+) -> Result<MultiAxisControllerFile, ContourError> {
+    let mut blocks = Vec::with_capacity(3);
+    for (i, c) in axes.iter().enumerate() {
+        blocks.push(controller_block(
+            c,
+            ts,
+            &format!("axis {} controller", AXES[i]),
+        )?);
     }
+    let cross = cross
+        .map(|c| controller_block(c, ts, "cross-coupling controller"))
+        .transpose()?;
+    Ok(MultiAxisControllerFile {
+        ts,
+        units: Units {
+            reference: "um".into(),
+            measurement: "um".into(),
+            command: "plant input".into(),
+        },
+        axes: blocks.try_into().expect("three axes"),
+        cross_coupling: cross,
+        provenance: Provenance {
+            fts_version: env!("CARGO_PKG_VERSION").into(),
+            inputs: Vec::new(),
+        },
+    })
 }
 
 /// `P + D N s/(s + N)` by Tustin, without the integrator's `(1 - z^-1)`
@@ -287,14 +382,28 @@ impl MultiAxisLoop {
         cross: Option<&AxisController>,
         ts: f64,
     ) -> Result<Self, ContourError> {
-        let mut plants = Vec::with_capacity(3);
-        let mut controllers = Vec::with_capacity(3);
+        let controllers = [0, 1, 2].map(|i| &axes[i].controller);
+        let file = controller_file(controllers, cross, ts)?;
+        let plants = [0, 1, 2].map(|i| (axes[i].plant.clone(), axes[i].disturbance.clone()));
+        Self::from_file(plants, file)
+    }
+
+    /// The loop of `plants` (each with its output disturbance) under the
+    /// controllers of `file`, at the file's sample time; each axis's own
+    /// loop is checked first.
+    pub fn from_file(
+        plants: [(StateSpace, Vec<Sine>); 3],
+        file: MultiAxisControllerFile,
+    ) -> Result<Self, ContourError> {
+        let ts = file.ts;
+        let mut blocks = Vec::with_capacity(3);
         let mut axis_loops = [AxisLoop::default(); 3];
-        for (i, axis) in axes.iter().enumerate() {
+        for (i, (plant, _)) in plants.iter().enumerate() {
             let name = AXES[i];
             let what = format!("axis {name} plant");
-            let g = discrete(&axis.plant, ts, C2dMethod::Zoh, &what)?;
-            let k = controller_ss(&axis.controller, ts, &format!("axis {name} controller"))?;
+            let g = discrete(plant, ts, C2dMethod::Zoh, &what)?;
+            let k = linear_controller(&file.axes[i], ts)
+                .map_err(|e| ContourError::Setup(format!("axis {name} controller: {e}")))?;
             axis_loops[i] = axis_loop(&g, &k, ts, name)?;
             let radius = axis_loops[i].pole_radius;
             if radius.is_nan() || radius >= 1.0 {
@@ -304,35 +413,24 @@ impl MultiAxisLoop {
                     radius,
                 });
             }
-            let plant =
+            let block =
                 SisoBlock::new(&g).map_err(|e| ContourError::Setup(format!("{what}: {e}")))?;
-            if plant.feedthrough() != 0.0 {
+            if block.feedthrough() != 0.0 {
                 return Err(ContourError::Setup(format!(
                     "{what}: it must be strictly proper (D = 0): the controller reads the position before it commands"
                 )));
             }
-            plants.push(plant);
-            controllers.push(RuntimeSs::new(&k, &format!("axis {name} controller"))?);
+            blocks.push(block);
         }
-        let cross = match cross {
-            None => None,
-            Some(c) => {
-                let k = controller_ss(c, ts, "cross-coupling controller")?;
-                Some(RuntimeSs::new(&k, "cross-coupling controller")?)
-            }
-        };
-        let spec = |i: usize| controllers[i].spec();
-        let step = crate::runtime::CrossCoupledStep::new(
-            [&spec(0), &spec(1), &spec(2)],
-            cross.as_ref().map(RuntimeSs::spec).as_ref(),
-        )
-        .map_err(|e| ContourError::Setup(format!("runtime step: {e}")))?;
-        let plants: [SisoBlock; 3] = plants.try_into().expect("three axes");
+        let step = file
+            .runtime_step()
+            .map_err(|e| ContourError::Setup(format!("runtime step: {e}")))?;
         Ok(Self {
             ts,
-            plants,
+            plants: blocks.try_into().expect("three axes"),
             controllers: step,
-            disturbances: axes.clone().map(|a| a.disturbance),
+            file,
+            disturbances: plants.map(|(_, d)| d),
             axis_loops,
         })
     }
@@ -351,56 +449,52 @@ impl MultiAxisLoop {
 
     /// One sample: the positions read now, and the commands applied.
     fn step(&mut self, k: usize, reference: Vec3, tangent: Vec3) -> (Vec3, Vec3, Vec3) {
+        let sample = self.sample(k, reference, tangent);
+        let e: Vec3 = std::array::from_fn(|i| reference[i] - sample.measurement[i]);
+        (sample.measurement, e, contour_estimate(e, tangent))
+    }
+
+    /// One sample `k`: read the positions, step the controllers, apply
+    /// the commands to the plants.
+    pub fn sample(&mut self, k: usize, reference: Vec3, tangent: Vec3) -> LoopSample {
         let t = k as f64 * self.ts;
         let y: Vec3 = std::array::from_fn(|i| self.plants[i].output(0.0) + self.disturbance(i, t));
-        let e: Vec3 = std::array::from_fn(|i| reference[i] - y[i]);
-        let eps = contour_estimate(e, tangent);
         let u = self.controllers.step(&reference, &tangent, &y);
         for (plant, u) in self.plants.iter_mut().zip(u) {
             plant.update(u);
         }
-        (y, e, eps)
+        LoopSample {
+            reference,
+            tangent,
+            measurement: y,
+            command: u,
+        }
     }
 }
 
-/// A discrete SISO controller's matrices, row-major, as the runtime's
-/// state-space block takes them (no limits, no anti-windup).
-struct RuntimeSs {
-    a: Vec<f64>,
-    b: Vec<f64>,
-    c: Vec<f64>,
-    d: f64,
+/// What the controllers saw and commanded at one sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopSample {
+    /// Reference point.
+    pub reference: Vec3,
+    /// Unit tangent of the path there.
+    pub tangent: Vec3,
+    /// Measured positions.
+    pub measurement: Vec3,
+    /// Commands applied.
+    pub command: Vec3,
 }
 
-impl RuntimeSs {
-    fn new(k: &StateSpace, what: &str) -> Result<Self, ContourError> {
-        if k.nu() != 1 || k.ny() != 1 {
-            return Err(ContourError::Setup(format!(
-                "{what}: expected one input and one output, got {} outputs x {} inputs",
-                k.ny(),
-                k.nu()
-            )));
-        }
-        let n = k.nx();
-        Ok(Self {
-            a: (0..n * n).map(|m| k.a[(m / n, m % n)]).collect(),
-            b: (0..n).map(|i| k.b[(i, 0)]).collect(),
-            c: (0..n).map(|j| k.c[(0, j)]).collect(),
-            d: k.d[(0, 0)],
+/// The first `samples` samples of `lp` (from rest) along `traj`, every
+/// signal the runtime step saw and returned (for replaying the step
+/// elsewhere, e.g. in the C runtime).
+pub fn record(lp: &mut MultiAxisLoop, traj: &Trajectory, samples: usize) -> Vec<LoopSample> {
+    (0..samples)
+        .map(|k| {
+            let r = traj.at(k as f64 * lp.ts);
+            lp.sample(k, r.point, r.tangent)
         })
-    }
-
-    fn spec(&self) -> crate::runtime::StateSpaceSpec<'_> {
-        crate::runtime::StateSpaceSpec {
-            a: &self.a,
-            b: &self.b,
-            c: &self.c,
-            d: self.d,
-            output_min: f64::NEG_INFINITY,
-            output_max: f64::INFINITY,
-            anti_windup: crate::runtime::SsAntiWindup::None,
-        }
-    }
+        .collect()
 }
 
 /// Figures of one run (in the path's length unit).
@@ -610,6 +704,47 @@ mod tests {
             coupled.rms_contour < 0.5 * uncoupled.rms_contour,
             "{coupled:?} vs {uncoupled:?}"
         );
+    }
+
+    #[test]
+    fn the_linear_model_of_a_runtime_pid_is_what_the_runtime_runs() {
+        // The poles are judged on `linear_controller`; the runtime steps the
+        // block. Fed the same error (reference 0, measurement -e, so the
+        // derivative on the measurement is on e), both give the same output.
+        use crate::io::controller_file::ParallelPid as FilePid;
+        use crate::runtime::PidSpec;
+        let ts = 1e-3;
+        let blocks = [
+            Feedback::ParallelPid(FilePid {
+                kp: 1.5,
+                ki: 20.0,
+                kd: 0.01,
+                n: Some(300.0),
+                output_min: -1e9,
+                output_max: 1e9,
+            }),
+            Feedback::Pid(PidSpec {
+                kp: 0.7,
+                ki: 0.05,
+                kd: 2.0,
+                output_min: -1e9,
+                output_max: 1e9,
+            }),
+        ];
+        for f in blocks {
+            let spec = f.runtime_spec(ts);
+            let mut step = crate::runtime::CrossCoupledStep::new([&spec; 3], None).unwrap();
+            let mut linear = SisoBlock::new(&linear_controller(&f, ts).unwrap()).unwrap();
+            for k in 0..200 {
+                let e = (0.37 * k as f64).sin() + 0.2 * ((k % 7) as f64);
+                let u = step.step(&[0.0; 3], &[1.0, 0.0, 0.0], &[-e; 3])[0];
+                let v = linear.step(e);
+                assert!(
+                    (u - v).abs() <= 1e-9 * (1.0 + u.abs()),
+                    "{f:?} k {k}: {u} vs {v}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //! [`crate::sim::contour`]. Lengths are um, times s.
 
 use super::{Choices, StepError, Validate, positive, whole_number};
+use crate::io::controller_file::MultiAxisControllerFile;
 use crate::io::plot::{Panel, PlotError, Series, panels_svg};
 use crate::lti::ss::StateSpace;
 use crate::sim::contour::{
@@ -310,13 +311,15 @@ impl TrajectoryReport {
                 "x (um)",
                 "y (um)",
                 vec![line("reference", &s.xyz[0], &s.xyz[1])],
-            ),
+            )
+            .with_equal_aspect(),
             Panel::lines(
                 "path, y-z projection",
                 "y (um)",
                 "z (um)",
                 vec![line("reference", &s.xyz[1], &s.xyz[2])],
-            ),
+            )
+            .with_equal_aspect(),
             Panel::lines(
                 "speed along the path",
                 "t (s)",
@@ -407,8 +410,12 @@ impl Default for Contour {
 pub struct ContourInputs {
     /// Command to position (um), continuous or discrete at `ts`.
     pub plants: [StateSpace; 3],
-    /// Controller files replacing the PIDs, with the name to report.
-    pub controllers: [Option<(StateSpace, String)>; 3],
+    /// Controllers replacing the PIDs (a state-space or transfer-function
+    /// system, or a controller file's block), with the name to report.
+    pub controllers: [Option<(AxisController, String)>; 3],
+    /// A controller replacing the cross-coupling PID (used when
+    /// `cross_coupling` is set), with the name to report.
+    pub cross: Option<(AxisController, String)>,
 }
 
 /// The \[Karagoz18\] Eq. 2-4 plants, continuous.
@@ -423,6 +430,7 @@ impl Default for ContourInputs {
         Self {
             plants: karagoz18_plants(),
             controllers: [None, None, None],
+            cross: None,
         }
     }
 }
@@ -469,6 +477,14 @@ impl Validate for Contour {
     }
 }
 
+/// `PID P + I/s + D N s/(s + N)`.
+fn pid_name(g: PidGains4) -> String {
+    format!(
+        "PID {} + {}/s + {} {} s/(s + {})",
+        g[0], g[1], g[2], g[3], g[3]
+    )
+}
+
 fn contour_error(e: ContourError) -> StepError {
     match e {
         ContourError::Setup(m) => StepError::input(m),
@@ -483,6 +499,8 @@ pub struct AxesRun {
     pub run: ContourRun,
     /// Each axis's own closed loop.
     pub axis_loops: [AxisLoop; 3],
+    /// The controllers as the multi-axis file the run executed.
+    pub controller: MultiAxisControllerFile,
 }
 
 impl Contour {
@@ -512,14 +530,11 @@ impl Contour {
             let controller = match &inputs.controllers[i] {
                 Some((k, name)) => {
                     names[i] = name.clone();
-                    AxisController::StateSpace(Box::new(k.clone()))
+                    k.clone()
                 }
                 None => {
                     let g = pids[i];
-                    names[i] = format!(
-                        "PID {} + {}/s + {} {} s/(s + {})",
-                        g[0], g[1], g[2], g[3], g[3]
-                    );
+                    names[i] = pid_name(g);
                     AxisController::Pid(pid_of(g))
                 }
             };
@@ -543,6 +558,7 @@ impl Contour {
         Ok(AxesRun {
             run,
             axis_loops: lp.axis_loops,
+            controller: lp.file,
         })
     }
 
@@ -552,7 +568,16 @@ impl Contour {
         self.validate()?;
         let trajectory = self.trajectory.plan()?;
         let (axes, controllers) = self.axes(inputs)?;
-        let cc = self.cross_coupling.map(|g| AxisController::Pid(pid_of(g)));
+        let cc = match (self.cross_coupling, &inputs.cross) {
+            (None, _) => None,
+            (Some(_), Some((k, _))) => Some(k.clone()),
+            (Some(g), None) => Some(AxisController::Pid(pid_of(g))),
+        };
+        let cross_name = match (&cc, &inputs.cross) {
+            (Some(_), Some((_, name))) => Some(name.clone()),
+            (Some(_), None) => self.cross_coupling.map(pid_name),
+            (None, _) => None,
+        };
         let started = std::time::Instant::now();
         let main = self.simulate(&axes, cc.as_ref(), &trajectory)?;
         let baseline = match (&cc, self.baseline) {
@@ -563,12 +588,86 @@ impl Contour {
             trajectory,
             ts: self.ts,
             controllers,
-            cross_coupling: self.cross_coupling,
+            cross_coupling: cross_name,
             disturbance: self.sines()?,
             main,
             baseline,
             seconds: started.elapsed().as_secs_f64(),
         })
+    }
+}
+
+/// The multi-axis controller file without a run (the manifest's
+/// `multiaxis` step): each axis's controller (a system, by Tustin, or the
+/// Table 2 PID), the cross-coupling controller, at `ts`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BuildMultiAxis {
+    /// Sample time, s; default 1e-6.
+    pub ts: f64,
+    /// X PID `P, I, D, N` used without an X controller; default Table 2.
+    pub pid_x: PidGains4,
+    /// Y PID; default Table 2.
+    pub pid_y: PidGains4,
+    /// Z PID; default Table 2.
+    pub pid_z: PidGains4,
+    /// Cross-coupling PID used without a coupling controller; default Table 2.
+    pub cross_coupling: PidGains4,
+    /// Write the coupling (false: uncoupled axes); default true.
+    pub coupled: bool,
+}
+
+impl Default for BuildMultiAxis {
+    fn default() -> Self {
+        let c = Contour::default();
+        Self {
+            ts: c.ts,
+            pid_x: c.pid_x,
+            pid_y: c.pid_y,
+            pid_z: c.pid_z,
+            cross_coupling: gains_of(KARAGOZ18_CC_PID),
+            coupled: true,
+        }
+    }
+}
+
+impl Validate for BuildMultiAxis {
+    fn validate(&self) -> Result<(), StepError> {
+        positive("ts", self.ts)?;
+        check_pid("pid_x", self.pid_x)?;
+        check_pid("pid_y", self.pid_y)?;
+        check_pid("pid_z", self.pid_z)?;
+        check_pid("cross_coupling", self.cross_coupling)
+    }
+}
+
+impl BuildMultiAxis {
+    /// The file of `controllers` (`None`: that axis's PID) and `cross`
+    /// (`None`: the coupling PID), with `provenance`.
+    pub fn run(
+        &self,
+        controllers: [Option<AxisController>; 3],
+        cross: Option<AxisController>,
+        provenance: crate::io::controller_file::Provenance,
+    ) -> Result<MultiAxisControllerFile, StepError> {
+        self.validate()?;
+        let pids = [self.pid_x, self.pid_y, self.pid_z];
+        let axes: [AxisController; 3] = std::array::from_fn(|i| {
+            controllers[i]
+                .clone()
+                .unwrap_or_else(|| AxisController::Pid(pid_of(pids[i])))
+        });
+        let cross = self
+            .coupled
+            .then(|| cross.unwrap_or_else(|| AxisController::Pid(pid_of(self.cross_coupling))));
+        let mut file = crate::sim::contour::controller_file(
+            [&axes[0], &axes[1], &axes[2]],
+            cross.as_ref(),
+            self.ts,
+        )
+        .map_err(contour_error)?;
+        file.provenance = provenance;
+        Ok(file)
     }
 }
 
@@ -581,8 +680,8 @@ pub struct ContourReport {
     pub ts: f64,
     /// Each axis's controller, described.
     pub controllers: [String; 3],
-    /// Cross-coupling gains, if any.
-    pub cross_coupling: Option<PidGains4>,
+    /// The cross-coupling controller, described, if any.
+    pub cross_coupling: Option<String>,
     /// The output disturbance of every axis.
     pub disturbance: Vec<Sine>,
     /// The run (with cross-coupling when set).
@@ -629,9 +728,6 @@ impl ContourReport {
 
 impl Serialize for ContourReport {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let cc = self
-            .cross_coupling
-            .map(|g| json!({"p": g[0], "i": g[1], "d": g[2], "n": g[3]}));
         let improvement = self.improvement().map(
             |(exact, est)| json!({"contour_rms_ratio": exact, "contour_estimate_rms_ratio": est}),
         );
@@ -639,7 +735,7 @@ impl Serialize for ContourReport {
             "trajectory": trajectory_json(&self.trajectory),
             "ts": self.ts,
             "axes": self.axes_json(),
-            "cross_coupling": cc,
+            "cross_coupling": self.cross_coupling,
             "disturbance_um": self.disturbance,
             "errors_um": metrics_json(&self.main.run.metrics),
             "baseline_errors_um": self.baseline.as_ref().map(|b| metrics_json(&b.metrics)),
@@ -701,14 +797,14 @@ impl fmt::Display for ContourReport {
             f,
             "errors (um)                   e_x        e_y        e_z    contour   estimate"
         )?;
-        match self.cross_coupling {
-            Some(g) => write_metrics(
-                f,
-                &format!("CCC {},{},{},{}", g[0], g[1], g[2], g[3]),
-                &self.main.run.metrics,
-            )?,
-            None => write_metrics(f, "no cross-coupling", &self.main.run.metrics)?,
+        if let Some(cc) = &self.cross_coupling {
+            writeln!(f, "cross-coupling: {cc}")?;
         }
+        let label = match self.cross_coupling {
+            Some(_) => "with CCC",
+            None => "no cross-coupling",
+        };
+        write_metrics(f, label, &self.main.run.metrics)?;
         if let Some(b) = &self.baseline {
             write_metrics(f, "without CCC", &b.metrics)?;
         }
@@ -727,7 +823,51 @@ impl fmt::Display for ContourReport {
     }
 }
 
+/// `r + gain (p - r)` in the path's plane: `(q . u1, q . u2)` with
+/// `u1 = (1, 0, 0)`, `u2 = (0, cos th, sin th)`.
+fn in_plane(
+    reference: &[Vec<f64>; 3],
+    position: &[Vec<f64>; 3],
+    gain: f64,
+    th: f64,
+) -> [Vec<f64>; 2] {
+    let q = |i: usize, k: usize| reference[i][k] + gain * (position[i][k] - reference[i][k]);
+    let n = reference[0].len().min(position[0].len());
+    [
+        (0..n).map(|k| q(0, k)).collect(),
+        (0..n)
+            .map(|k| q(1, k) * th.cos() + q(2, k) * th.sin())
+            .collect(),
+    ]
+}
+
 impl ContourReport {
+    /// The magnification (1, 2 or 5 times a power of ten, putting the
+    /// largest contour error at up to 15 % of the path's size) and the
+    /// in-plane reference, positions and positions without CCC.
+    fn in_plane_magnified(&self) -> (f64, Vec<[Vec<f64>; 2]>) {
+        let t = &self.main.run.trace;
+        let largest = std::iter::once(&self.main.run.metrics)
+            .chain(self.baseline.as_ref().map(|b| &b.metrics))
+            .map(|m| m.max_contour)
+            .fold(0.0, f64::max);
+        let size = match self.trajectory.path.shape {
+            Shape::Circle { diameter } => diameter,
+            Shape::Square { side } => side,
+        };
+        let raw = 0.15 * size / largest.max(1e-300);
+        let decade = 10f64.powf(raw.log10().floor());
+        let step = [5.0, 2.0, 1.0].into_iter().find(|m| m * decade <= raw);
+        let gain = (step.unwrap_or(1.0) * decade).max(1.0);
+        let th = self.trajectory.path.incline_deg.to_radians();
+        let mut out = vec![in_plane(&t.reference, &t.reference, 0.0, th)];
+        out.push(in_plane(&t.reference, &t.position, gain, th));
+        if let Some(b) = &self.baseline {
+            out.push(in_plane(&t.reference, &b.trace.position, gain, th));
+        }
+        (gain, out)
+    }
+
     /// The thinned trace as CSV: `t, x_ref, y_ref, z_ref, x, y, z, contour,
     /// contour_estimate` (s, um), then `x_nocc, y_nocc, z_nocc,
     /// contour_nocc, contour_estimate_nocc` with a baseline.
@@ -801,9 +941,25 @@ impl ContourReport {
                 &base.trace.contour,
             ));
         }
+        let (gain, plane) = self.in_plane_magnified();
+        let plane_title = format!("path in its own plane, errors magnified {gain}x");
+        let mut in_plane = vec![line("reference", &plane[0][0], &plane[0][1])];
+        let labels = ["position", "position without CCC"];
+        for (label, p) in labels.into_iter().zip(&plane[1..]) {
+            in_plane.push(line(label, &p[0], &p[1]));
+        }
         panels_svg(&[
-            Panel::lines("path, x-y projection", "x (um)", "y (um)", projection(0, 1)),
-            Panel::lines("path, y-z projection", "y (um)", "z (um)", projection(1, 2)),
+            Panel::lines(
+                &plane_title,
+                "along x (um)",
+                "along the inclined axis (um)",
+                in_plane,
+            )
+            .with_equal_aspect(),
+            Panel::lines("path, x-y projection", "x (um)", "y (um)", projection(0, 1))
+                .with_equal_aspect(),
+            Panel::lines("path, y-z projection", "y (um)", "z (um)", projection(1, 2))
+                .with_equal_aspect(),
             Panel::lines(
                 "tracking error per axis",
                 "t (s)",
@@ -868,6 +1024,24 @@ mod tests {
         );
         assert!(e.to_string().contains("2664.6"), "{e}");
         assert!(report.csv().starts_with("t,x,y,z,speed\n0,0,0,0,0\n"));
+    }
+
+    #[test]
+    fn in_plane_coordinates_are_along_u1_and_the_inclined_u2() {
+        // th = 30 deg: u2 = (0, cos, sin). The reference (0, 2 cos, 2 sin)
+        // is at (0, 2); a position 0.1 further along u2 shows 10x at 1.
+        let th = 30f64.to_radians();
+        let (c, s) = (th.cos(), th.sin());
+        let r = [vec![3.0, 0.0], vec![0.0, 2.0 * c], vec![0.0, 2.0 * s]];
+        let p = [vec![3.0, 0.0], vec![0.0, 2.1 * c], vec![0.0, 2.1 * s]];
+        let q = in_plane(&r, &p, 10.0, th);
+        assert_eq!(q[0], vec![3.0, 0.0]);
+        assert!(
+            (q[1][0]).abs() < 1e-15 && (q[1][1] - 3.0).abs() < 1e-12,
+            "{q:?}"
+        );
+        let q = in_plane(&r, &p, 0.0, th);
+        assert!((q[1][1] - 2.0).abs() < 1e-15);
     }
 
     #[test]

@@ -215,7 +215,7 @@ static fts_status init_hysteresis(fts_controller *c, const fts_hysteresis_spec *
     return FTS_OK;
 }
 
-static fts_status init_pid(fts_controller *c, const fts_pid_spec *p, int filtered,
+static fts_status init_pid(fts_feedback *c, const fts_pid_spec *p, int filtered,
                            const char **field)
 {
     FTS_CHECK(finite_or(p->kp), "pid.kp");
@@ -250,7 +250,7 @@ static fts_status all_finite(const double *v, size_t len)
     return FTS_OK;
 }
 
-static fts_status init_ss(fts_controller *c, const fts_ss_spec *k, const char **field)
+static fts_status init_ss(fts_feedback *c, const fts_ss_spec *k, const char **field)
 {
     size_t i, j, n = k->n;
     if (n > FTS_MAX_SS_ORDER) {
@@ -330,6 +330,38 @@ static fts_status init_repetitive(fts_controller *c, const fts_repetitive_spec *
     return FTS_OK;
 }
 
+/* One feedback controller (Rust Feedback::new); the kind is set on success. */
+static fts_status init_feedback(fts_feedback *f, const fts_feedback_spec *spec, const char **field)
+{
+    fts_status s = FTS_OK;
+    switch (spec->kind) {
+    case FTS_FEEDBACK_NONE:
+        break;
+    case FTS_FEEDBACK_PID:
+    case FTS_FEEDBACK_PID_FILTERED:
+        s = init_pid(f, &spec->pid, spec->kind == FTS_FEEDBACK_PID_FILTERED, field);
+        break;
+    case FTS_FEEDBACK_STATE_SPACE:
+        s = init_ss(f, &spec->ss, field);
+        break;
+    default:
+        FTS_FAIL(FTS_ERR_INVALID, "feedback");
+    }
+    if (s == FTS_OK) {
+        f->kind = spec->kind;
+    }
+    return s;
+}
+
+static void reset_feedback(fts_feedback *f)
+{
+    f->integral = 0.0;
+    f->derivative = 0.0;
+    f->previous_measurement = 0.0;
+    f->started = 0;
+    zero(f->x, FTS_MAX_SS_ORDER);
+}
+
 fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **field)
 {
     const char *unused = NULL;
@@ -341,7 +373,7 @@ fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **fiel
     ctl->preview = 0;
     ctl->order = 0;
     ctl->has_hysteresis = 0;
-    ctl->feedback = FTS_FEEDBACK_NONE;
+    ctl->fb.kind = FTS_FEEDBACK_NONE;
     ctl->has_repetitive = 0;
     if (spec->zpetc != NULL) {
         fts_status s = init_zpetc(ctl, spec->zpetc, field);
@@ -355,29 +387,17 @@ fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **fiel
             return s;
         }
     }
-    switch (spec->feedback) {
-    case FTS_FEEDBACK_NONE:
-        break;
-    case FTS_FEEDBACK_PID:
-    case FTS_FEEDBACK_PID_FILTERED: {
-        fts_status s =
-            init_pid(ctl, &spec->pid, spec->feedback == FTS_FEEDBACK_PID_FILTERED, field);
+    {
+        fts_feedback_spec feedback;
+        fts_status s;
+        feedback.kind = spec->feedback;
+        feedback.pid = spec->pid;
+        feedback.ss = spec->ss;
+        s = init_feedback(&ctl->fb, &feedback, field);
         if (s != FTS_OK) {
             return s;
         }
-        break;
     }
-    case FTS_FEEDBACK_STATE_SPACE: {
-        fts_status s = init_ss(ctl, &spec->ss, field);
-        if (s != FTS_OK) {
-            return s;
-        }
-        break;
-    }
-    default:
-        FTS_FAIL(FTS_ERR_INVALID, "feedback");
-    }
-    ctl->feedback = spec->feedback;
     if (spec->repetitive != NULL) {
         size_t preview = spec->zpetc != NULL ? spec->zpetc->preview : 0;
         fts_status s = init_repetitive(ctl, spec->repetitive, preview, field);
@@ -393,11 +413,7 @@ void fts_reset(fts_controller *ctl)
 {
     zero(ctl->zstate, FTS_MAX_FILTER_LEN);
     zero(ctl->play, FTS_MAX_OPERATORS);
-    ctl->integral = 0.0;
-    ctl->derivative = 0.0;
-    ctl->previous_measurement = 0.0;
-    ctl->started = 0;
-    zero(ctl->x, FTS_MAX_SS_ORDER);
+    reset_feedback(&ctl->fb);
     /* The rings are only read with a repetitive block: cleared then. */
     if (ctl->has_repetitive) {
         zero(ctl->rc_memory, FTS_MAX_PERIOD);
@@ -490,7 +506,7 @@ static double clamp(double v, double lo, double hi)
 
 /* The [Li21] Eq. 5 PID and its filtered-derivative form (Rust pid_step,
  * pid_filtered_step): conditional-integration anti-windup. */
-static double pid_step(fts_controller *c, double reference, double measurement,
+static double pid_step(fts_feedback *c, double reference, double measurement,
                        double feedforward)
 {
     const fts_pid_spec *p = &c->pid;
@@ -498,7 +514,7 @@ static double pid_step(fts_controller *c, double reference, double measurement,
     double previous = c->started ? c->previous_measurement : measurement;
     double derivative, candidate, unclamped, command;
     int winding_up;
-    if (c->feedback == FTS_FEEDBACK_PID_FILTERED) {
+    if (c->kind == FTS_FEEDBACK_PID_FILTERED) {
         derivative = p->derivative_pole * c->derivative + p->kd * (measurement - previous);
         c->derivative = derivative;
     } else {
@@ -519,7 +535,7 @@ static double pid_step(fts_controller *c, double reference, double measurement,
 
 /* v = C x + D e from the states before the update, then x <- A x + B e unless
  * held by the conditional update (Rust ss_step). */
-static double ss_step(fts_controller *c, double error, double feedforward)
+static double ss_step(fts_feedback *c, double error, double feedforward)
 {
     double next[FTS_MAX_SS_ORDER];
     double cx = 0.0, unclamped, command;
@@ -550,6 +566,17 @@ static double ss_step(fts_controller *c, double error, double feedforward)
         }
     }
     return command;
+}
+
+/* One clamped command u_ff + K[reference - measurement] (Rust Feedback::step);
+ * the kind is not FTS_FEEDBACK_NONE. */
+static double feedback_step(fts_feedback *f, double reference, double measurement,
+                            double feedforward)
+{
+    if (f->kind == FTS_FEEDBACK_STATE_SPACE) {
+        return ss_step(f, reference - measurement, feedforward);
+    }
+    return pid_step(f, reference, measurement, feedforward);
 }
 
 /* The reference r(k) from r(k + preview) (Rust delayed_reference): a delay
@@ -616,18 +643,10 @@ double fts_step_signals(fts_controller *ctl, double reference_ahead, double meas
     corr = repetitive + learned;
     loop_reference = rf + corr;
     uff = ctl->has_hysteresis ? hysteresis_step(ctl, loop_reference) : 0.0;
-    switch (ctl->feedback) {
-    case FTS_FEEDBACK_PID:
-    case FTS_FEEDBACK_PID_FILTERED:
-        u = pid_step(ctl, loop_reference, measurement, uff);
-        break;
-    case FTS_FEEDBACK_STATE_SPACE:
-        u = ss_step(ctl, loop_reference - measurement, uff);
-        break;
-    case FTS_FEEDBACK_NONE:
-    default:
+    if (ctl->fb.kind == FTS_FEEDBACK_NONE) {
         u = ctl->has_hysteresis ? uff : loop_reference;
-        break;
+    } else {
+        u = feedback_step(&ctl->fb, loop_reference, measurement, uff);
     }
     if (filtered != NULL) {
         *filtered = rf;
@@ -706,4 +725,75 @@ const char *fts_status_text(fts_status status)
         return "invalid value";
     }
     return "unknown status";
+}
+
+/* An axis (or the coupling) needs a feedback controller (Rust contour::controller). */
+static fts_status init_axis(fts_feedback *f, const fts_feedback_spec *spec, const char *name,
+                            const char **field)
+{
+    if (spec->kind == FTS_FEEDBACK_NONE) {
+        FTS_FAIL(FTS_ERR_INVALID, name);
+    }
+    return init_feedback(f, spec, field);
+}
+
+fts_status fts_multiaxis_init(fts_multiaxis *m, const fts_feedback_spec axes[3],
+                              const fts_feedback_spec *cross, const char **field)
+{
+    const char *unused = NULL;
+    size_t i;
+    if (field == NULL) {
+        field = &unused;
+    }
+    *field = NULL;
+    m->coupled = 0;
+    for (i = 0; i < 3; ++i) {
+        fts_status s = init_axis(&m->axes[i], &axes[i], "axes.feedback", field);
+        if (s != FTS_OK) {
+            return s;
+        }
+    }
+    if (cross != NULL) {
+        fts_status s = init_axis(&m->cross[0], cross, "cross_coupling", field);
+        if (s != FTS_OK) {
+            return s;
+        }
+        m->cross[1] = m->cross[0];
+        m->cross[2] = m->cross[0];
+        m->coupled = 1;
+    }
+    fts_multiaxis_reset(m);
+    return FTS_OK;
+}
+
+void fts_multiaxis_reset(fts_multiaxis *m)
+{
+    size_t i;
+    for (i = 0; i < 3; ++i) {
+        reset_feedback(&m->axes[i]);
+        reset_feedback(&m->cross[i]);
+    }
+}
+
+/* Rust CrossCoupledStep::step, operation for operation. */
+void fts_multiaxis_step(fts_multiaxis *m, const double reference[3], const double tangent[3],
+                        const double measurement[3], double command[3])
+{
+    double e[3], eps[3], along;
+    size_t i;
+    for (i = 0; i < 3; ++i) {
+        e[i] = reference[i] - measurement[i];
+    }
+    along = e[0] * tangent[0] + e[1] * tangent[1] + e[2] * tangent[2];
+    for (i = 0; i < 3; ++i) {
+        eps[i] = e[i] - along * tangent[i];
+    }
+    for (i = 0; i < 3; ++i) {
+        command[i] = feedback_step(&m->axes[i], reference[i], measurement[i], 0.0);
+    }
+    if (m->coupled) {
+        for (i = 0; i < 3; ++i) {
+            command[i] += feedback_step(&m->cross[i], 0.0, -eps[i], 0.0);
+        }
+    }
 }

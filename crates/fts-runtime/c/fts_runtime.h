@@ -173,6 +173,50 @@ typedef struct fts_spec {
     const fts_repetitive_spec *repetitive; /* NULL: no repetitive compensator */
 } fts_spec;
 
+/* One feedback controller with its state: the PID (gains, integrator,
+ * filtered derivative) or the state-space block (matrices and states). */
+typedef struct fts_feedback {
+    fts_feedback_kind kind;
+    fts_pid_spec pid;
+    double integral;
+    double derivative;
+    double previous_measurement;
+    int started;
+
+    size_t nx;
+    double ss_a[FTS_MAX_SS_ORDER][FTS_MAX_SS_ORDER];
+    double ss_b[FTS_MAX_SS_ORDER];
+    double ss_c[FTS_MAX_SS_ORDER];
+    double ss_d;
+    double ss_min;
+    double ss_max;
+    int conditional_update;
+    double x[FTS_MAX_SS_ORDER];
+} fts_feedback;
+
+/* One feedback controller's coefficients: pid for FTS_FEEDBACK_PID and
+ * FTS_FEEDBACK_PID_FILTERED, ss for FTS_FEEDBACK_STATE_SPACE. */
+typedef struct fts_feedback_spec {
+    fts_feedback_kind kind;
+    fts_pid_spec pid;
+    fts_ss_spec ss;
+} fts_feedback_spec;
+
+/* The cross-coupled multi-axis step (docs/contouring.md; the Rust
+ * CrossCoupledStep): three axis controllers and, when coupled, one copy per
+ * axis of the cross-coupling controller. Per sample, r the reference point,
+ * t the unit tangent of the path at r, y the measured positions:
+ *   e = r - y, eps = e - (e . t) t                    (Yeh & Hsu's estimate)
+ *   u_i = K_i[r_i, y_i] + K_cc[0, -eps_i]
+ * each controller clamped to its own limits; the coupling sees the reference
+ * 0 and the measurement -eps_i, so its error is eps_i and a PID's derivative
+ * acts on eps_i. About 15 KB with the default FTS_MAX_SS_ORDER. */
+typedef struct fts_multiaxis {
+    fts_feedback axes[3];
+    int coupled;
+    fts_feedback cross[3];
+} fts_multiaxis;
+
 /* A loaded controller with its state: the caller owns it (static storage;
  * it is about 155 KB with the default capacities, 138 KB of which are the
  * repetitive compensator's rings: see FTS_MAX_PERIOD). */
@@ -197,22 +241,7 @@ typedef struct fts_controller {
     double dz_thresholds[FTS_MAX_DEAD_ZONES];
     double dz_weights[FTS_MAX_DEAD_ZONES];
 
-    fts_feedback_kind feedback;
-    fts_pid_spec pid;
-    double integral;
-    double derivative;
-    double previous_measurement;
-    int started;
-
-    size_t nx;
-    double ss_a[FTS_MAX_SS_ORDER][FTS_MAX_SS_ORDER];
-    double ss_b[FTS_MAX_SS_ORDER];
-    double ss_c[FTS_MAX_SS_ORDER];
-    double ss_d;
-    double ss_min;
-    double ss_max;
-    int conditional_update;
-    double x[FTS_MAX_SS_ORDER];
+    fts_feedback fb; /* the feedback stage */
 
     int has_repetitive;
     size_t rc_period;
@@ -276,6 +305,22 @@ double fts_table_next(fts_table *t);
 
 /* Back to the first sample (a new run). */
 void fts_table_rewind(fts_table *t);
+
+/* Checks and loads the three axis controllers and, when cross is not NULL,
+ * the cross-coupling controller; all start at rest. An axis or coupling
+ * without a controller (FTS_FEEDBACK_NONE) is refused with *field
+ * "axes.feedback" or "cross_coupling"; other errors name the list, as
+ * fts_init does. */
+fts_status fts_multiaxis_init(fts_multiaxis *m, const fts_feedback_spec axes[3],
+                              const fts_feedback_spec *cross, const char **field);
+
+/* Back to rest: every integrator, derivative and state cleared. */
+void fts_multiaxis_reset(fts_multiaxis *m);
+
+/* One sample: command[i] for reference[i], tangent[i] (a unit vector) and
+ * measurement[i], i = x, y, z. */
+void fts_multiaxis_step(fts_multiaxis *m, const double reference[3], const double tangent[3],
+                        const double measurement[3], double command[3]);
 
 /* +infinity, for state-space limits that are absent (-fts_infinity() below). */
 double fts_infinity(void);

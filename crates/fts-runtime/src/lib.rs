@@ -380,6 +380,95 @@ enum Feedback {
     StateSpace(SsBlock),
 }
 
+impl Feedback {
+    /// Checks and loads one feedback controller, at rest.
+    fn new(spec: &FeedbackSpec<'_>) -> Result<Self, RuntimeError> {
+        Ok(match spec {
+            FeedbackSpec::None => Feedback::None,
+            FeedbackSpec::Pid(p) => {
+                check_pid([p.kp, p.ki, p.kd], p.output_min, p.output_max)?;
+                Feedback::Pid(PidBlock {
+                    spec: *p,
+                    integral: 0.0,
+                    previous_measurement: 0.0,
+                    started: false,
+                })
+            }
+            FeedbackSpec::PidFiltered(p) => {
+                check_pid([p.kp, p.ki, p.kd], p.output_min, p.output_max)?;
+                finite("pid.derivative_pole", p.derivative_pole)?;
+                if !(0.0..1.0).contains(&p.derivative_pole) {
+                    return Err(RuntimeError::Invalid {
+                        field: "pid.derivative_pole",
+                    });
+                }
+                Feedback::PidFiltered(PidFilteredBlock {
+                    spec: *p,
+                    integral: 0.0,
+                    derivative: 0.0,
+                    previous_measurement: 0.0,
+                    started: false,
+                })
+            }
+            FeedbackSpec::StateSpace(k) => Feedback::StateSpace(ss_block(k)?),
+        })
+    }
+
+    /// Back to rest: integrator, derivative and states cleared.
+    fn reset(&mut self) {
+        match self {
+            Feedback::None => {}
+            Feedback::Pid(p) => {
+                p.integral = 0.0;
+                p.previous_measurement = 0.0;
+                p.started = false;
+            }
+            Feedback::PidFiltered(p) => {
+                p.integral = 0.0;
+                p.derivative = 0.0;
+                p.previous_measurement = 0.0;
+                p.started = false;
+            }
+            Feedback::StateSpace(k) => k.x = [0.0; MAX_SS_ORDER],
+        }
+    }
+
+    /// The command limits `(min, max)` (infinite when absent).
+    fn limits(&self) -> (f64, f64) {
+        match self {
+            Feedback::None => (f64::NEG_INFINITY, f64::INFINITY),
+            Feedback::Pid(p) => (p.spec.output_min, p.spec.output_max),
+            Feedback::PidFiltered(p) => (p.spec.output_min, p.spec.output_max),
+            Feedback::StateSpace(k) => (k.output_min, k.output_max),
+        }
+    }
+
+    /// One clamped command `u_ff + K[reference - measurement]` (the PIDs'
+    /// derivative on the measurement); `None` without a controller.
+    #[inline]
+    fn step(&mut self, reference: f64, measurement: f64, feedforward: f64) -> Option<f64> {
+        Some(match self {
+            Feedback::None => return None,
+            Feedback::PidFiltered(p) => pid_filtered_step(p, reference, measurement, feedforward),
+            Feedback::Pid(p) => {
+                let mut previous = p.started.then_some(p.previous_measurement);
+                let command = pid_step(
+                    &p.spec,
+                    &mut p.integral,
+                    &mut previous,
+                    reference,
+                    measurement,
+                    feedforward,
+                );
+                p.previous_measurement = measurement;
+                p.started = true;
+                command
+            }
+            Feedback::StateSpace(k) => ss_step(k, reference - measurement, feedforward),
+        })
+    }
+}
+
 /// A loaded controller with its state.
 #[derive(Debug, Clone)]
 pub struct RuntimeController {
@@ -530,35 +619,7 @@ impl RuntimeController {
                 })
             }
         };
-        let feedback = match &spec.feedback {
-            FeedbackSpec::None => Feedback::None,
-            FeedbackSpec::Pid(p) => {
-                check_pid([p.kp, p.ki, p.kd], p.output_min, p.output_max)?;
-                Feedback::Pid(PidBlock {
-                    spec: *p,
-                    integral: 0.0,
-                    previous_measurement: 0.0,
-                    started: false,
-                })
-            }
-            FeedbackSpec::PidFiltered(p) => {
-                check_pid([p.kp, p.ki, p.kd], p.output_min, p.output_max)?;
-                finite("pid.derivative_pole", p.derivative_pole)?;
-                if !(0.0..1.0).contains(&p.derivative_pole) {
-                    return Err(RuntimeError::Invalid {
-                        field: "pid.derivative_pole",
-                    });
-                }
-                Feedback::PidFiltered(PidFilteredBlock {
-                    spec: *p,
-                    integral: 0.0,
-                    derivative: 0.0,
-                    previous_measurement: 0.0,
-                    started: false,
-                })
-            }
-            FeedbackSpec::StateSpace(k) => Feedback::StateSpace(ss_block(k)?),
-        };
+        let feedback = Feedback::new(&spec.feedback)?;
         let preview = spec.zpetc.map_or(0, |z| z.preview);
         let repetitive = match &spec.repetitive {
             None => None,
@@ -585,21 +646,7 @@ impl RuntimeController {
         if let Some(h) = &mut self.hysteresis {
             h.play = [0.0; MAX_OPERATORS];
         }
-        match &mut self.feedback {
-            Feedback::None => {}
-            Feedback::Pid(p) => {
-                p.integral = 0.0;
-                p.previous_measurement = 0.0;
-                p.started = false;
-            }
-            Feedback::PidFiltered(p) => {
-                p.integral = 0.0;
-                p.derivative = 0.0;
-                p.previous_measurement = 0.0;
-                p.started = false;
-            }
-            Feedback::StateSpace(k) => k.x = [0.0; MAX_SS_ORDER],
-        }
+        self.feedback.reset();
         if let Some(r) = &mut self.repetitive {
             r.reset();
         }
@@ -607,12 +654,7 @@ impl RuntimeController {
 
     /// The command limits `(min, max)` of the feedback stage (infinite when absent).
     pub fn limits(&self) -> (f64, f64) {
-        match &self.feedback {
-            Feedback::None => (f64::NEG_INFINITY, f64::INFINITY),
-            Feedback::Pid(p) => (p.spec.output_min, p.spec.output_max),
-            Feedback::PidFiltered(p) => (p.spec.output_min, p.spec.output_max),
-            Feedback::StateSpace(k) => (k.output_min, k.output_max),
-        }
+        self.feedback.limits()
     }
 
     /// One command. `reference_ahead` is `r(k + preview())`; `measurement`
@@ -661,31 +703,10 @@ impl RuntimeController {
             Some(h) => hysteresis_step(h, loop_reference),
             None => 0.0,
         };
-        let command = match &mut self.feedback {
-            Feedback::None if self.hysteresis.is_some() => feedforward,
-            Feedback::None => loop_reference,
-            Feedback::PidFiltered(p) => {
-                pid_filtered_step(p, loop_reference, measurement, feedforward)
-            }
-            Feedback::Pid(p) => {
-                let mut previous = if p.started {
-                    Some(p.previous_measurement)
-                } else {
-                    None
-                };
-                let command = pid_step(
-                    &p.spec,
-                    &mut p.integral,
-                    &mut previous,
-                    loop_reference,
-                    measurement,
-                    feedforward,
-                );
-                p.previous_measurement = measurement;
-                p.started = true;
-                command
-            }
-            Feedback::StateSpace(k) => ss_step(k, loop_reference - measurement, feedforward),
+        let command = match self.feedback.step(loop_reference, measurement, feedforward) {
+            Some(command) => command,
+            None if self.hysteresis.is_some() => feedforward,
+            None => loop_reference,
         };
         StepSignals {
             filtered,

@@ -14,7 +14,7 @@ use crate::runtime::{PidSpec, PlayForm, SsAntiWindup};
 use std::collections::HashMap;
 use std::fmt::Write;
 
-fn c_array(out: &mut String, name: &str, values: &[f64]) {
+pub(super) fn c_array(out: &mut String, name: &str, values: &[f64]) {
     c_array_in_lines(out, name, values, None);
 }
 
@@ -57,7 +57,7 @@ fn c_array_in_lines(out: &mut String, name: &str, values: &[f64], per_line: Opti
 
 /// Shortest round-trip decimal in C syntax (always with an exponent, so the
 /// literal is a double).
-fn c_double(v: f64) -> String {
+pub(super) fn c_double(v: f64) -> String {
     format!("{v:e}")
 }
 
@@ -116,7 +116,7 @@ fn write_preamble(out: &mut String, file: &ControllerFile) {
     let _ = writeln!(out, "#define FTS_PREVIEW {}", file.preview());
 }
 
-fn write_defines(out: &mut String, defines: &[(&str, f64)]) {
+pub(super) fn write_defines(out: &mut String, defines: &[(&str, f64)]) {
     for (name, v) in defines {
         let _ = writeln!(out, "#define {name} {}", c_double(*v));
     }

@@ -619,3 +619,30 @@ impl StateSpaceDoc {
         Ok((c, d))
     }
 }
+
+/// A feedback stage alone as a tagged block (`pid` or `state_space`), as
+/// the multi-axis file writes its axis and coupling controllers.
+pub(super) fn feedback_block(feedback: &Feedback, ts: f64) -> Block<'static> {
+    match feedback {
+        Feedback::None => Block::NoFeedback(NoFeedbackDoc {}),
+        Feedback::Pid(p) => Block::Pid(PidDoc::li21(p)),
+        Feedback::ParallelPid(p) => Block::Pid(PidDoc::parallel(p, ts)),
+        Feedback::StateSpace(k) => Block::StateSpace(StateSpaceDoc::new(k, ts)),
+    }
+}
+
+/// Reads one `pid` or `state_space` block at `at` (the file's `ts`),
+/// checked as the single-axis file checks it.
+pub(super) fn read_feedback(block: Value, at: At<'_>, ts: f64) -> Result<Feedback, InputError> {
+    let (kind, rest) = split_type(block, at)?;
+    match kind.as_str() {
+        "pid" => from_value::<PidDoc>(rest, at)?.feedback(ts, at),
+        "state_space" => Ok(Feedback::StateSpace(
+            from_value::<StateSpaceDoc>(rest, at)?.block(ts, at)?,
+        )),
+        other => Err(at.err(
+            "type",
+            format!("expected \"pid\" or \"state_space\", found {other:?}"),
+        )),
+    }
+}
