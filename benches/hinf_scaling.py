@@ -8,7 +8,7 @@ left by 1 + sqrt(n) (seed 20261125 + n).
     python3 benches/hinf_scaling.py time DIR FTS [RUNS_FTS RUNS_SB10AD]
     python3 benches/hinf_scaling.py reference DIR   # tests/data/hinf_scaling/sb10ad.json
 
-`time` runs, order by order, on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
+`time` runs, order by order (8 to 160), on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
 --ncon 1` and the `slycot` command above side by side as whole processes
 under `/usr/bin/time -v` (wall time and peak resident memory; each run's
 wall and CPU (user + system) time also go to stderr: on a loaded machine
@@ -29,7 +29,7 @@ import sys
 
 import numpy as np
 
-ORDERS = [8, 16, 32, 48, 64, 100]
+ORDERS = [8, 16, 32, 48, 64, 100, 128, 160]
 SB10AD_LIMIT_S = 300  # one SB10AD run is stopped after this long
 
 
@@ -89,8 +89,8 @@ ONE_THREAD = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL
 
 
 def timed(argv, limit=None):
-    """One whole-process run under /usr/bin/time -v: (wall s, MiB, stdout);
-    None past `limit` seconds."""
+    """One whole-process run under /usr/bin/time -v: (wall s, MiB, stdout,
+    CPU s = user + system); None past `limit` seconds."""
     try:
         res = subprocess.run(["/usr/bin/time", "-v"] + argv, capture_output=True, text=True,
                              timeout=limit, env=ONE_THREAD)
@@ -103,38 +103,46 @@ def timed(argv, limit=None):
     cpu = sum(float(x) for x in re.findall(r"(?:User|System) time \(seconds\): ([\d.]+)", res.stderr))
     print(f"#   {argv[1]} {argv[-1] if 'slycot' in argv else argv[3]}: wall {seconds:.2f} s, "
           f"cpu {cpu:.2f} s", file=sys.stderr, flush=True)
-    return seconds, rss / 1024, res.stdout
+    return seconds, rss / 1024, res.stdout, cpu
 
 
 def median_run(argv, runs, limit=None):
+    """(median wall s, peak MiB, last stdout, median CPU s), or None."""
     out = [timed(argv, limit) for _ in range(runs)]
     if None in out:
         return None
-    return statistics.median(t for t, _, _ in out), max(m for _, m, _ in out), out[-1][2]
+    return (statistics.median(r[0] for r in out), max(r[1] for r in out), out[-1][2],
+            statistics.median(r[3] for r in out))
 
 
 def time(folder, fts, runs_fts="5", runs_sb10ad="3"):
-    print("| order | fts s | fts gamma | SB10AD s | SB10AD gamma | SB10AD / fts "
-          "| fts step (n^3 step) | fts MiB | SB10AD MiB |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    """The table of docs/benchmarks.md: per order, fts and SB10AD side by
+    side (wall and CPU medians), fts's search iterations, and fts's step
+    from the previous order against n^3, in CPU time (steadier than wall
+    time on a shared machine)."""
+    print("| order | fts wall s | fts CPU s | fts levels | fts gamma | SB10AD wall s | SB10AD CPU s "
+          "| SB10AD gamma | SB10AD / fts (CPU) | fts CPU step (n^3 step) | fts MiB | SB10AD MiB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     last = None
     for n in ORDERS:
         path = f"{folder}/P{n}.json"
-        t_f, m_f, out_f = median_run([fts, "hinf", "--generalized", path, "--nmeas", "1",
-                                      "--ncon", "1", "--json"], int(runs_fts))
+        t_f, m_f, out_f, c_f = median_run([fts, "hinf", "--generalized", path, "--nmeas", "1",
+                                           "--ncon", "1", "--json"], int(runs_fts))
         runs = int(runs_sb10ad) if n < 64 else 1
         sb10ad = median_run(["python3", __file__, "slycot", path], runs, SB10AD_LIMIT_S)
-        g_f = json.loads(out_f)["gamma"]
-        step = "" if last is None else f"{t_f / last[1]:.2f} ({(n / last[0]) ** 3:.2f})"
+        report = json.loads(out_f)
+        g_f, levels = report["gamma"], report["bisection"]["iterations"]
+        step = "" if last is None else f"{c_f / last[1]:.2f} ({(n / last[0]) ** 3:.2f})"
         if sb10ad is None:
-            sb = f"> {SB10AD_LIMIT_S} (stopped) | | > {SB10AD_LIMIT_S / t_f:.0f}"
+            sb = f"> {SB10AD_LIMIT_S} (stopped) | | | > {SB10AD_LIMIT_S / c_f:.0f}"
             m_s = ""
         else:
-            t_s, m_s, out_s = sb10ad
-            sb = f"{t_s:.2f} | {float(out_s.split()[1]):.6f} | {t_s / t_f:.1f}"
+            t_s, m_s, out_s, c_s = sb10ad
+            sb = f"{t_s:.2f} | {c_s:.2f} | {float(out_s.split()[1]):.6f} | {c_s / c_f:.1f}"
             m_s = f"{m_s:.0f}"
-        print(f"| {n} | {t_f:.3f} | {g_f:.6f} | {sb} | {step} | {m_f:.1f} | {m_s} |", flush=True)
-        last = (n, t_f)
+        print(f"| {n} | {t_f:.3f} | {c_f:.3f} | {levels} | {g_f:.6f} | {sb} | {step} | {m_f:.1f} "
+              f"| {m_s} |", flush=True)
+        last = (n, c_f)
 
 
 if __name__ == "__main__":
