@@ -7,6 +7,7 @@ left by 1 + sqrt(n) (seed 20261125 + n).
     python3 benches/hinf_scaling.py slycot DIR/P<n>.json   # SB10AD via python-control
     python3 benches/hinf_scaling.py time DIR FTS [RUNS_FTS RUNS_SB10AD]
     python3 benches/hinf_scaling.py reference DIR   # tests/data/hinf_scaling/sb10ad.json
+    python3 benches/hinf_scaling.py filter DIR/P<n>.json GAMMA...  # Y Hamiltonian's axis gap
 
 `time` runs, order by order (8 to 160), on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
 --ncon 1` and the `slycot` command above side by side as whole processes
@@ -82,6 +83,29 @@ def reference(folder):
         json.dump(out, f, indent=1)
 
 
+def filter_hamiltonian(path, *gammas):
+    """The Hamiltonian of the Y (filter) Riccati equation of Thm 17.1 at each
+    level (numpy, independently of fts): `min |Re lambda|` and how many
+    eigenvalues have negative real part (n of 2n when the stabilising
+    solution can exist). Eigenvalues on the imaginary axis at a level mean
+    that no controller achieves it."""
+    with open(path) as f:
+        doc = json.load(f)
+    a, b, c, d = (np.array(doc[k], dtype=float) for k in "abcd")
+    b1, c2 = b[:, :2], c[2:]
+    dd1 = d[:, :2]  # [D11; D21]
+    cc = np.vstack([c[:2], c2])
+    for g in map(float, gammas):
+        rt = dd1 @ dd1.T - np.diag([g * g, g * g, 0.0])
+        ri = np.linalg.inv(rt)
+        at = a.T - cc.T @ ri @ dd1 @ b1.T
+        gg = cc.T @ ri @ cc
+        q = b1 @ b1.T - b1 @ dd1.T @ ri @ dd1 @ b1.T
+        ev = np.linalg.eigvals(np.block([[at, -gg], [-q, -at.T]]))
+        print(f"gamma {g}: min |Re lambda| {np.min(np.abs(ev.real)):.3e}, "
+              f"{np.sum(ev.real < 0)} of {len(ev)} with Re < 0")
+
+
 # fts runs on one thread (faer without rayon); OpenBLAS under python-control
 # is held to one too: its spinning worker threads made SB10AD 40 times slower
 # on a shared two-core machine.
@@ -146,4 +170,5 @@ def time(folder, fts, runs_fts="5", runs_sb10ad="3"):
 
 
 if __name__ == "__main__":
-    {"write": write, "slycot": slycot, "time": time, "reference": reference}[sys.argv[1]](*sys.argv[2:])
+    {"write": write, "slycot": slycot, "time": time, "reference": reference,
+     "filter": filter_hamiltonian}[sys.argv[1]](*sys.argv[2:])
