@@ -8,6 +8,7 @@ left by 1 + sqrt(n) (seed 20261125 + n).
     python3 benches/hinf_scaling.py time DIR FTS [RUNS_FTS RUNS_SB10AD]
     python3 benches/hinf_scaling.py reference DIR   # tests/data/hinf_scaling/sb10ad.json
     python3 benches/hinf_scaling.py filter DIR/P<n>.json GAMMA...  # Y Hamiltonian's axis gap
+    python3 benches/hinf_scaling.py achieved DIR/P<n>.json  # SB10AD's claim and what its K achieves
 
 `time` runs, order by order (8 to 160), on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
 --ncon 1` and the `slycot` command above side by side as whole processes
@@ -81,6 +82,18 @@ def reference(folder):
                                   "sb10ad_closed_loop_stable": bool(max(cl.poles().real) < 0)}
     with open(f"{folder}/sb10ad.json", "w") as f:
         json.dump(out, f, indent=1)
+
+
+def achieved(path):
+    """SB10AD's claimed gamma, its closed loop's slowest pole and the H-inf
+    norm its controller achieves (python-control `linfnorm`)."""
+    import control
+    with open(path) as f:
+        doc = json.load(f)
+    p = control.ss(*(np.array(doc[k], dtype=float) for k in "abcd"))
+    k, cl, gam, rcond = control.hinfsyn(p, 1, 1)
+    print(f"claim {gam:.9f}, max Re(pole) {max(cl.poles().real):.6f}, "
+          f"achieved {control.linfnorm(cl)[0]:.9f}, rcond {list(rcond)}")
 
 
 def filter_hamiltonian(path, *gammas):
@@ -171,4 +184,4 @@ def time(folder, fts, runs_fts="5", runs_sb10ad="3"):
 
 if __name__ == "__main__":
     {"write": write, "slycot": slycot, "time": time, "reference": reference,
-     "filter": filter_hamiltonian}[sys.argv[1]](*sys.argv[2:])
+     "filter": filter_hamiltonian, "achieved": achieved}[sys.argv[1]](*sys.argv[2:])
