@@ -174,7 +174,7 @@ struct RiccatiPair {
     ys: RiccatiSolution,
     /// `ln(gamma^2 / rho(X Y))`: positive when the coupling condition
     /// `rho(XY) < gamma^2` holds, smooth in gamma while X and Y exist (so
-    /// the bisection can interpolate it); infinite when `X Y = 0`.
+    /// the search can extrapolate it); infinite when `X Y = 0`.
     coupling: f64,
 }
 
