@@ -24,8 +24,9 @@ with fixed seeds, and each command timed as a whole process per size.
   Gaussian coefficients (zeros near the unit circle, some outside), delay 1.
 
 `time` runs each command R times per size (default 3) with
-hyperfine and appends `command n median_s min_s max_s exit` lines to
-DIR/times.tsv. Exit codes 1 (a result the command flags, e.g. an unstable
+hyperfine and appends `command n median_s min_s max_s exit cpu_s` lines to
+DIR/times.tsv (cpu_s: mean user + system time of the runs; on a shared
+machine the CPU time of these one-thread processes is the steadier figure). Exit codes 1 (a result the command flags, e.g. an unstable
 closed loop) are kept: the time is still the command's. `summary` prints,
 per command, the largest ratio of a size's median to a neighbour's (n - 1 or
 n + 1) and where it occurs. `recheck` re-times sizes N - 1, N, N + 1 of one
@@ -121,7 +122,8 @@ def hyperfine(argv, runs):
                         "--export-json", out.name, "--style", "none", " ".join(argv)],
                        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         res = json.load(open(out.name))["results"][0]
-    return res["median"], res["min"], res["max"], max(res["exit_codes"])
+    return (res["median"], res["min"], res["max"], max(res["exit_codes"]),
+            res["user"] + res["system"])
 
 
 def time(folder, fts, *rest):
@@ -140,27 +142,39 @@ def time(folder, fts, *rest):
         for name in only:
             for n in range(nmin, nmax + 1):
                 argv = [fts] + COMMANDS[name](folder, n)
-                med, lo, hi, code = hyperfine(argv, runs)
-                log.write(f"{name}\t{n}\t{med:.5f}\t{lo:.5f}\t{hi:.5f}\t{code}\n")
+                med, lo, hi, code, cpu = hyperfine(argv, runs)
+                log.write(f"{name}\t{n}\t{med:.5f}\t{lo:.5f}\t{hi:.5f}\t{code}\t{cpu:.5f}\n")
                 log.flush()
+
+
+def worst_neighbour(by_n):
+    """Largest ratio of a size's value to a neighbour's (n - 1 or n + 1)."""
+    worst = (0.0, None)
+    for n, t in by_n.items():
+        for m in (n - 1, n + 1):
+            if m in by_n and by_n[m] > 0:
+                worst = max(worst, (t / by_n[m], (n, m)))
+    return worst
 
 
 def summary(folder):
     rows = {}
     for line in open(f"{folder}/times.tsv"):
-        name, n, med, _, _, code = line.split("\t")
-        rows.setdefault(name, {})[int(n)] = (float(med), int(code))  # last run of a size wins
+        fields = line.rstrip("\n").split("\t")
+        name, n, med, code = fields[0], int(fields[1]), float(fields[2]), int(fields[5])
+        cpu = float(fields[6]) if len(fields) > 6 else None
+        rows.setdefault(name, {})[n] = (med, code, cpu)  # last run of a size wins
     for name, by_n in rows.items():
-        worst = (0.0, None)
-        for n, (t, _) in by_n.items():
-            for m in (n - 1, n + 1):
-                if m in by_n:
-                    worst = max(worst, (t / by_n[m][0], (n, m)))
         ns = sorted(by_n)
-        codes = sorted({c for _, c in by_n.values()})
-        print(f"{name}: n {ns[0]}..{ns[-1]}, median {by_n[ns[0]][0]:.3f} s at {ns[0]}, "
-              f"{by_n[ns[-1]][0]:.3f} s at {ns[-1]}; largest ratio to a neighbour "
-              f"{worst[0]:.2f} ({worst[1][0]} vs {worst[1][1]}); exit codes {codes}")
+        wall = worst_neighbour({n: v[0] for n, v in by_n.items()})
+        text = (f"{name}: n {ns[0]}..{ns[-1]}, median {by_n[ns[0]][0]:.3f} s at {ns[0]}, "
+                f"{by_n[ns[-1]][0]:.3f} s at {ns[-1]}; largest wall ratio to a neighbour "
+                f"{wall[0]:.2f} ({wall[1][0]} vs {wall[1][1]})")
+        if all(v[2] is not None for v in by_n.values()):
+            cpu = worst_neighbour({n: v[2] for n, v in by_n.items()})
+            text += f", CPU {cpu[0]:.2f} ({cpu[1][0]} vs {cpu[1][1]})"
+        codes = sorted({v[1] for v in by_n.values()})
+        print(f"{text}; exit codes {codes}")
 
 
 def recheck(folder, fts, name, n, *rest):
@@ -168,8 +182,8 @@ def recheck(folder, fts, name, n, *rest):
     n = int(n)
     with open(f"{folder}/recheck.tsv", "a") as log:
         for m in (n - 1, n, n + 1):
-            med, lo, hi, code = hyperfine([fts] + COMMANDS[name](folder, m), runs)
-            line = f"{name}\t{m}\t{med:.5f}\t{lo:.5f}\t{hi:.5f}\t{code}"
+            med, lo, hi, code, cpu = hyperfine([fts] + COMMANDS[name](folder, m), runs)
+            line = f"{name}\t{m}\t{med:.5f}\t{lo:.5f}\t{hi:.5f}\t{code}\t{cpu:.5f}"
             log.write(line + "\n")
             print(line, flush=True)
 

@@ -7,8 +7,10 @@ left by 1 + sqrt(n) (seed 20261125 + n).
     python3 benches/hinf_scaling.py slycot DIR/P<n>.json   # SB10AD via python-control
     python3 benches/hinf_scaling.py time DIR FTS [RUNS_FTS RUNS_SB10AD]
     python3 benches/hinf_scaling.py reference DIR   # tests/data/hinf_scaling/sb10ad.json
+    python3 benches/hinf_scaling.py filter DIR/P<n>.json GAMMA...  # Y Hamiltonian's axis gap
+    python3 benches/hinf_scaling.py achieved DIR/P<n>.json  # SB10AD's claim and what its K achieves
 
-`time` runs, order by order, on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
+`time` runs, order by order (8 to 160), on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
 --ncon 1` and the `slycot` command above side by side as whole processes
 under `/usr/bin/time -v` (wall time and peak resident memory; each run's
 wall and CPU (user + system) time also go to stderr: on a loaded machine
@@ -29,7 +31,7 @@ import sys
 
 import numpy as np
 
-ORDERS = [8, 16, 32, 48, 64, 100]
+ORDERS = [8, 16, 32, 48, 64, 100, 128, 160]
 SB10AD_LIMIT_S = 300  # one SB10AD run is stopped after this long
 
 
@@ -82,6 +84,41 @@ def reference(folder):
         json.dump(out, f, indent=1)
 
 
+def achieved(path):
+    """SB10AD's claimed gamma, its closed loop's slowest pole and the H-inf
+    norm its controller achieves (python-control `linfnorm`)."""
+    import control
+    with open(path) as f:
+        doc = json.load(f)
+    p = control.ss(*(np.array(doc[k], dtype=float) for k in "abcd"))
+    k, cl, gam, rcond = control.hinfsyn(p, 1, 1)
+    print(f"claim {gam:.9f}, max Re(pole) {max(cl.poles().real):.6f}, "
+          f"achieved {control.linfnorm(cl)[0]:.9f}, rcond {list(rcond)}")
+
+
+def filter_hamiltonian(path, *gammas):
+    """The Hamiltonian of the Y (filter) Riccati equation of Thm 17.1 at each
+    level (numpy, independently of fts): `min |Re lambda|` and how many
+    eigenvalues have negative real part (n of 2n when the stabilising
+    solution can exist). Eigenvalues on the imaginary axis at a level mean
+    that no controller achieves it."""
+    with open(path) as f:
+        doc = json.load(f)
+    a, b, c, d = (np.array(doc[k], dtype=float) for k in "abcd")
+    b1, c2 = b[:, :2], c[2:]
+    dd1 = d[:, :2]  # [D11; D21]
+    cc = np.vstack([c[:2], c2])
+    for g in map(float, gammas):
+        rt = dd1 @ dd1.T - np.diag([g * g, g * g, 0.0])
+        ri = np.linalg.inv(rt)
+        at = a.T - cc.T @ ri @ dd1 @ b1.T
+        gg = cc.T @ ri @ cc
+        q = b1 @ b1.T - b1 @ dd1.T @ ri @ dd1 @ b1.T
+        ev = np.linalg.eigvals(np.block([[at, -gg], [-q, -at.T]]))
+        print(f"gamma {g}: min |Re lambda| {np.min(np.abs(ev.real)):.3e}, "
+              f"{np.sum(ev.real < 0)} of {len(ev)} with Re < 0")
+
+
 # fts runs on one thread (faer without rayon); OpenBLAS under python-control
 # is held to one too: its spinning worker threads made SB10AD 40 times slower
 # on a shared two-core machine.
@@ -89,8 +126,8 @@ ONE_THREAD = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL
 
 
 def timed(argv, limit=None):
-    """One whole-process run under /usr/bin/time -v: (wall s, MiB, stdout);
-    None past `limit` seconds."""
+    """One whole-process run under /usr/bin/time -v: (wall s, MiB, stdout,
+    CPU s = user + system); None past `limit` seconds."""
     try:
         res = subprocess.run(["/usr/bin/time", "-v"] + argv, capture_output=True, text=True,
                              timeout=limit, env=ONE_THREAD)
@@ -103,39 +140,48 @@ def timed(argv, limit=None):
     cpu = sum(float(x) for x in re.findall(r"(?:User|System) time \(seconds\): ([\d.]+)", res.stderr))
     print(f"#   {argv[1]} {argv[-1] if 'slycot' in argv else argv[3]}: wall {seconds:.2f} s, "
           f"cpu {cpu:.2f} s", file=sys.stderr, flush=True)
-    return seconds, rss / 1024, res.stdout
+    return seconds, rss / 1024, res.stdout, cpu
 
 
 def median_run(argv, runs, limit=None):
+    """(median wall s, peak MiB, last stdout, median CPU s), or None."""
     out = [timed(argv, limit) for _ in range(runs)]
     if None in out:
         return None
-    return statistics.median(t for t, _, _ in out), max(m for _, m, _ in out), out[-1][2]
+    return (statistics.median(r[0] for r in out), max(r[1] for r in out), out[-1][2],
+            statistics.median(r[3] for r in out))
 
 
 def time(folder, fts, runs_fts="5", runs_sb10ad="3"):
-    print("| order | fts s | fts gamma | SB10AD s | SB10AD gamma | SB10AD / fts "
-          "| fts step (n^3 step) | fts MiB | SB10AD MiB |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    """The table of docs/benchmarks.md: per order, fts and SB10AD side by
+    side (wall and CPU medians), fts's search iterations, and fts's step
+    from the previous order against n^3, in CPU time (steadier than wall
+    time on a shared machine)."""
+    print("| order | fts wall s | fts CPU s | fts levels | fts gamma | SB10AD wall s | SB10AD CPU s "
+          "| SB10AD gamma | SB10AD / fts (CPU) | fts CPU step (n^3 step) | fts MiB | SB10AD MiB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     last = None
     for n in ORDERS:
         path = f"{folder}/P{n}.json"
-        t_f, m_f, out_f = median_run([fts, "hinf", "--generalized", path, "--nmeas", "1",
-                                      "--ncon", "1", "--json"], int(runs_fts))
+        t_f, m_f, out_f, c_f = median_run([fts, "hinf", "--generalized", path, "--nmeas", "1",
+                                           "--ncon", "1", "--json"], int(runs_fts))
         runs = int(runs_sb10ad) if n < 64 else 1
         sb10ad = median_run(["python3", __file__, "slycot", path], runs, SB10AD_LIMIT_S)
-        g_f = json.loads(out_f)["gamma"]
-        step = "" if last is None else f"{t_f / last[1]:.2f} ({(n / last[0]) ** 3:.2f})"
+        report = json.loads(out_f)
+        g_f, levels = report["gamma"], report["bisection"]["iterations"]
+        step = "" if last is None else f"{c_f / last[1]:.2f} ({(n / last[0]) ** 3:.2f})"
         if sb10ad is None:
-            sb = f"> {SB10AD_LIMIT_S} (stopped) | | > {SB10AD_LIMIT_S / t_f:.0f}"
+            sb = f"> {SB10AD_LIMIT_S} (stopped) | | | > {SB10AD_LIMIT_S / c_f:.0f}"
             m_s = ""
         else:
-            t_s, m_s, out_s = sb10ad
-            sb = f"{t_s:.2f} | {float(out_s.split()[1]):.6f} | {t_s / t_f:.1f}"
+            t_s, m_s, out_s, c_s = sb10ad
+            sb = f"{t_s:.2f} | {c_s:.2f} | {float(out_s.split()[1]):.6f} | {c_s / c_f:.1f}"
             m_s = f"{m_s:.0f}"
-        print(f"| {n} | {t_f:.3f} | {g_f:.6f} | {sb} | {step} | {m_f:.1f} | {m_s} |", flush=True)
-        last = (n, t_f)
+        print(f"| {n} | {t_f:.3f} | {c_f:.3f} | {levels} | {g_f:.6f} | {sb} | {step} | {m_f:.1f} "
+              f"| {m_s} |", flush=True)
+        last = (n, c_f)
 
 
 if __name__ == "__main__":
-    {"write": write, "slycot": slycot, "time": time, "reference": reference}[sys.argv[1]](*sys.argv[2:])
+    {"write": write, "slycot": slycot, "time": time, "reference": reference,
+     "filter": filter_hamiltonian, "achieved": achieved}[sys.argv[1]](*sys.argv[2:])

@@ -1,7 +1,7 @@
 //! H-infinity synthesis on the random generalised plants of the scaling table
 //! in docs/benchmarks.md (issue #19): orders 8, 16, 32 and 48, the plants of
 //! `benches/hinf_scaling.py` stored in `tests/data/hinf_scaling/` (the larger
-//! orders, 64 and 100, are timed as whole processes by that script beside
+//! orders, 64 to 160, are timed as whole processes by that script beside
 //! SLICOT SB10AD). Small sample sizes keep the run to about a minute.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};

@@ -6,6 +6,7 @@ pub mod balred;
 pub mod c2d;
 pub mod convert;
 pub mod filter;
+pub mod freqresp;
 pub mod lyapunov;
 pub mod margins;
 pub mod norms;

@@ -68,6 +68,13 @@ pub struct RiccatiSolution {
     /// unstabilisable/undetectable problems, where `||X||` and the
     /// non-normality of `Ac` are huge.
     pub residual_floor: f64,
+    /// CARE: the smallest `|Re lambda|` over the Hamiltonian's eigenvalues
+    /// (`None` for the DARE and for `n = 0`). It shrinks to zero, like the
+    /// square root of the distance, as a parameter of the equation (the
+    /// H-infinity level) approaches a value where a pair of eigenvalues
+    /// meets on the imaginary axis and the stabilising solution ceases to
+    /// exist: the H-infinity search extrapolates its square.
+    pub axis_gap: Option<f64>,
 }
 
 fn abs_mat(m: &Mat<f64>) -> Mat<f64> {
@@ -231,6 +238,7 @@ fn care_g_hamiltonian(
             closed_loop: Vec::new(),
             newton_steps: 0,
             residual_floor: 0.0,
+            axis_gap: None,
         });
     }
     // The Hamiltonian, if asked balanced by an exact diagonal similarity
@@ -258,9 +266,14 @@ fn care_g_hamiltonian(
     // part is at round-off level both absolutely (relative to ||H||) and
     // relative to its own modulus; the second test keeps slow but genuinely
     // stable modes of badly scaled Hamiltonians off the axis.
-    let on_axis = quasi_triangular_eigenvalues(&os.t)
+    let eigenvalues = quasi_triangular_eigenvalues(&os.t);
+    let on_axis = eigenvalues
         .iter()
         .any(|l| l.re.abs() <= 1e-12 * hn && l.re.abs() <= 1e-7 * l.norm());
+    let axis_gap = eigenvalues
+        .iter()
+        .map(|l| l.re.abs())
+        .fold(f64::INFINITY, f64::min);
     if on_axis || os.n_selected != n {
         return Err(RiccatiError::NoStabilizing(
             "the Hamiltonian matrix has eigenvalues on the imaginary axis".into(),
@@ -307,6 +320,7 @@ fn care_g_hamiltonian(
         residual_floor,
         closed_loop,
         newton_steps: steps,
+        axis_gap: Some(axis_gap),
     })
 }
 
@@ -423,6 +437,7 @@ pub fn dare(
             closed_loop: Vec::new(),
             newton_steps: 0,
             residual_floor: 0.0,
+            axis_gap: None,
         });
     }
     // Symplectic pencil lambda L - M, M = [A~, 0; -Q~, I], L = [I, G; 0, A~'] (Pappas et al. 1980).
@@ -485,6 +500,7 @@ pub fn dare(
         k: kk,
         closed_loop,
         newton_steps: steps,
+        axis_gap: None,
     })
 }
 

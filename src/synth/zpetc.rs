@@ -366,10 +366,11 @@ pub fn design(g: &DiscreteTf, params: &ZpetcParams) -> Result<Zpetc, ZpetcError>
         } else {
             // [Li21] Eq. 8: A_c B_u^* / B_u(1)^2, with b0 carried by B_u.
             let b_u = Poly::from_z_roots(&kept, b0);
-            let b_u_dc = b_u.sum();
-            if b_u_dc == 0.0
-                || (b_u_dc.abs() <= 1e-12 * b_u.coeffs().iter().map(|c| c.abs()).sum::<f64>())
-            {
+            if kept.iter().any(|&z| at_dc(g.num(), z)) {
+                return Err(ZpetcError::ZeroAtDc);
+            }
+            let b_u_dc = factored_dc(&kept, b0);
+            if b_u_dc == 0.0 {
                 return Err(ZpetcError::ZeroAtDc);
             }
             a_c.mul(&b_u.reversed()).scale(1.0 / (b_u_dc * b_u_dc))
@@ -393,6 +394,38 @@ pub fn design(g: &DiscreteTf, params: &ZpetcParams) -> Result<Zpetc, ZpetcError>
         zeros,
         params: *params,
     })
+}
+
+/// `B_u(1) = b0 prod (1 - z_i)` in factored form: with a hundred zeros near
+/// the unit circle the expanded coefficients of `B_u` are many orders above
+/// `B_u(1)`, and their sum would be cancellation noise.
+fn factored_dc(zeros: &[c64], b0: f64) -> f64 {
+    zeros
+        .iter()
+        .fold(c64::new(b0, 0.0), |p, z| p * (1.0 - z))
+        .re
+}
+
+/// Whether the computed zero `z` of the numerator `b` (ascending powers of
+/// `z^-1`) is indistinguishable from `z = 1`: closer to 1 than ten times
+/// its first-order error bound from rounding the coefficients,
+/// `eps sum |b_k| |z|^(m-k) / |p'(z)|` with `p(z) = z^m b(z^-1)`
+/// (Wilkinson; a multiple zero has `p' = 0` and an infinite bound), or
+/// than 1e-12. The zeros decide, not the sum of the expanded coefficients:
+/// with a hundred zeros near the unit circle that sum cancels to a tiny
+/// fraction of the coefficients' size although no zero is near 1.
+fn at_dc(b: &Poly, z: c64) -> bool {
+    let distance = (1.0 - z).norm();
+    // Horner on p(z) = sum b_k z^(m-k): the value, the derivative and the
+    // same sum in absolute values.
+    let (mut p, mut dp, mut size) = (c64::new(0.0, 0.0), c64::new(0.0, 0.0), 0.0);
+    for &c in b.coeffs() {
+        dp = dp * z + p;
+        p = p * z + c;
+        size = size * z.norm() + c.abs();
+    }
+    let bound = f64::EPSILON * size / dp.norm();
+    !(distance > 1e-12 && distance > 10.0 * bound)
 }
 
 /// The causal FIR part `F` of `1/B_o ~= z^(m+N) F(z^-1)` for the zeros `z_i`
@@ -501,7 +534,7 @@ impl Zpetc {
     pub fn check(&self, plant: &DiscreteTf, points: usize) -> Result<ZpetcCheck, ZpetcError> {
         let kept: Vec<c64> = self.uncancelled_zeros().map(|z| z.zero).collect();
         let b_u = Poly::from_z_roots(&kept, plant.num().coeffs()[0]);
-        let b_u_dc2 = b_u.sum().powi(2);
+        let b_u_dc2 = factored_dc(&kept, plant.num().coeffs()[0]).powi(2);
         let omegas = linspace(0.0, PI, points.max(2));
         let products: Vec<(c64, f64)> = omegas
             .iter()
@@ -653,6 +686,95 @@ mod tests {
             design(&g, &ZpetcParams::default()),
             Err(ZpetcError::ZeroAtDc)
         );
+    }
+
+    /// A deterministic stream in [0, 1) (Knuth's MMIX linear congruential
+    /// generator, top 53 bits).
+    fn uniform(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// The random order-`n` plant of the size sweep (benches/eig_sweep.py):
+    /// a Gaussian numerator of degree n - 1 (Box–Muller), so ~n zeros near
+    /// the unit circle, over `1 + a_1 z^-1 + ... + a_n z^-n` with
+    /// `sum |a_k| = 0.5` (stable by Rouché).
+    fn random_plant(n: usize, seed: u64) -> DiscreteTf {
+        let mut state = seed;
+        let num: Vec<f64> = (0..n)
+            .map(|_| {
+                let (u1, u2) = (uniform(&mut state), uniform(&mut state));
+                (-2.0 * (1.0 - u1).ln()).sqrt() * (2.0 * PI * u2).cos()
+            })
+            .collect();
+        let a: Vec<f64> = (0..n).map(|_| 2.0 * uniform(&mut state) - 1.0).collect();
+        let l1: f64 = a.iter().map(|x| x.abs()).sum();
+        let den: Vec<f64> = std::iter::once(1.0)
+            .chain(a.iter().map(|x| 0.5 * x / l1))
+            .collect();
+        DiscreteTf::new(num, den, 1, 1e-4).unwrap()
+    }
+
+    #[test]
+    fn many_zeros_near_the_unit_circle_are_no_zero_at_dc() {
+        // Order 144: ~140 uncancelled zeros, none within 1e-3 of z = 1, but
+        // the expanded B_u has coefficients near 1e17 whose sum, B_u(1), is
+        // a few hundred: the former test (|sum| <= 1e-12 sum |coeffs|)
+        // refused it as a zero at z = 1.
+        let g = random_plant(144, 1144);
+        let params = ZpetcParams::default();
+        let zeros = classify_zeros(&g, &params).unwrap();
+        let kept: Vec<c64> = zeros
+            .iter()
+            .filter(|z| {
+                matches!(
+                    z.status,
+                    ZeroStatus::OutsideRadius | ZeroStatus::PoorlyDamped
+                )
+            })
+            .map(|z| z.zero)
+            .collect();
+        assert!(kept.len() > 130, "{}", kept.len());
+        let nearest = kept
+            .iter()
+            .map(|z| (1.0 - z).norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(nearest > 1e-3, "{nearest}");
+        let b_u = Poly::from_z_roots(&kept, g.num().coeffs()[0]);
+        let size: f64 = b_u.coeffs().iter().map(|c| c.abs()).sum();
+        let dc = factored_dc(&kept, g.num().coeffs()[0]);
+        assert!(
+            dc.abs() <= 1e-12 * size,
+            "B_u(1) {dc} against {size}: not the false-refusal case"
+        );
+        let z = design(&g, &params).unwrap();
+        assert_eq!(z.uncancelled_zeros().count(), kept.len());
+    }
+
+    #[test]
+    fn a_true_zero_at_dc_is_still_refused() {
+        // The plant above times (1 - z^-1): a simple zero at exactly 1 among
+        // 144 others, computed within rounding of 1.
+        let g = random_plant(144, 1144);
+        let num = g.num().mul(&Poly::new(vec![1.0, -1.0]));
+        let g = DiscreteTf::new(num.into_coeffs(), g.den().coeffs().to_vec(), 1, 1e-4).unwrap();
+        let e = design(&g, &ZpetcParams::default()).unwrap_err();
+        assert_eq!(e, ZpetcError::ZeroAtDc);
+        assert!(e.to_string().contains("zero at z = 1"), "{e}");
+        // A double zero at 1 (computed about 1e-8 apart, an ill-conditioned
+        // pair), and a zero 1e-13 from 1.
+        for num in [vec![1.0, -2.0, 1.0], vec![1.0, -(1.0 - 1e-13)]] {
+            let g = DiscreteTf::new(num, vec![1.0, -0.5], 1, 1e-3).unwrap();
+            assert_eq!(
+                design(&g, &ZpetcParams::default()),
+                Err(ZpetcError::ZeroAtDc)
+            );
+        }
+        // 1e-6 from 1 is a zero near, not at, DC.
+        let g = DiscreteTf::new(vec![1.0, -(1.0 - 1e-6)], vec![1.0, -0.5], 1, 1e-3).unwrap();
+        assert!(design(&g, &ZpetcParams::default()).is_ok());
     }
 
     #[test]
