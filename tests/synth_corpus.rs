@@ -280,11 +280,7 @@ fn check_hinf(c: &Case, worst: &mut Worst) {
         "{}: bound {bound_err:e}",
         c.name
     );
-    assert!(
-        gamma_err <= opts.backoff,
-        "{}: gamma {gamma_err:e}",
-        c.name
-    );
+    assert!(gamma_err <= opts.backoff, "{}: gamma {gamma_err:e}", c.name);
     // The optimum is certified from below by a genuine violation, not by
     // an inaccurate Riccati solution.
     let below = c.below_fails.as_deref().unwrap_or("none");

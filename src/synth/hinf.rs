@@ -488,7 +488,11 @@ fn hinfsyn_regularised(
         regularised,
         iterations,
         // The bracket's lower end, unless the bisection stopped short of rtol.
-        infeasible_below: if hi.gamma / lo - 1.0 <= opts.rtol { lo } else { hi.gamma },
+        infeasible_below: if hi.gamma / lo - 1.0 <= opts.rtol {
+            lo
+        } else {
+            hi.gamma
+        },
         opts,
     };
     ctx.choose(hi.gamma, best)
