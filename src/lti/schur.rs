@@ -93,7 +93,7 @@ fn cplx(m: &Mat<f64>) -> Mat<c64> {
 /// diagonals. faer's complex QZ can stop short of convergence without
 /// saying so (an H-infinity norm's Hamiltonian pencil of 11 states in the
 /// unit tests: residual 7e-3); then faer's real QZ is used and its 2x2
-/// blocks are made triangular ([`triangularise_pencil_blocks`]). A form
+/// blocks are made triangular (`triangularise_pencil_blocks`). A form
 /// that fails both is an error, never silently returned.
 pub fn gen_schur(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
     let n = m.nrows();
