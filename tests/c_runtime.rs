@@ -11,6 +11,9 @@
 //! Without a C compiler the tests say so loudly on stderr and pass: CI
 //! machines always have gcc.
 
+#[path = "common/cc.rs"]
+mod cc;
+
 use fts::io::controller_file::{
     ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, ParallelPid, RepetitiveBlock,
     StateSpaceBlock, ZpetcBlock, parse_controller, to_c_files,
@@ -26,16 +29,7 @@ fn repo(p: &str) -> PathBuf {
 }
 
 fn compiler() -> Option<String> {
-    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-    match Command::new(&cc).arg("--version").output() {
-        Ok(o) if o.status.success() => Some(cc),
-        _ => {
-            eprintln!(
-                "\n*** SKIPPED: no C compiler ({cc}) found; the C runtime's bit-identity with the Rust step is NOT checked ***\n"
-            );
-            None
-        }
-    }
+    cc::compiler("the C runtime's bit-identity with the Rust step")
 }
 
 fn load(path: &str) -> ControllerFile {

@@ -14,6 +14,9 @@
 //! realisation of the Table 2 PID, a \[Li21\]-form PID, and a filtered PID
 //! as the coupling. Without a C compiler the C half says so on stderr.
 
+#[path = "common/cc.rs"]
+mod cc;
+
 use assert_cmd::Command as Fts;
 use fts::io::controller_file::{
     Feedback, MultiAxisControllerFile, ParallelPid, parse_multiaxis, to_multiaxis_c_header,
@@ -108,16 +111,7 @@ fn assert_same_bits(name: &str, got: &[[f64; 3]], want: &[LoopSample]) {
 }
 
 fn compiler() -> Option<String> {
-    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-    match Command::new(&cc).arg("--version").output() {
-        Ok(o) if o.status.success() => Some(cc),
-        _ => {
-            eprintln!(
-                "\n*** SKIPPED: no C compiler ({cc}) found; the multi-axis C step is NOT checked ***\n"
-            );
-            None
-        }
-    }
+    cc::compiler("the multi-axis C step")
 }
 
 fn write_trace(path: &Path, rec: &[LoopSample]) {

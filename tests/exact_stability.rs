@@ -66,25 +66,12 @@ fn clustered_poles_get_the_verdict_of_their_stored_coefficients() {
 
 #[test]
 fn tf_info_says_unstable_and_why() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("cluster.json");
     let den = &cases()
         .into_iter()
         .find(|c| c.root == 0.99 && c.multiplicity == 8)
         .unwrap()
         .den;
-    let doc = serde_json::json!({
-        "format": "fts.tf/1", "var": "z^-1", "ts": 1e-3, "delay": 0, "num": [1.0], "den": den
-    });
-    std::fs::write(&path, doc.to_string()).unwrap();
-    let out = Command::cargo_bin("fts")
-        .unwrap()
-        .args(["tf", "info"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{text}");
+    let text = tf_info_text(den);
     assert!(text.contains("poles (UNSTABLE, exact test)"), "{text}");
     assert!(
         text.contains("the exact test on the stored denominator says unstable"),

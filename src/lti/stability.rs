@@ -70,12 +70,7 @@ fn exact(x: f64) -> BigRational {
 /// Coefficients after leading zeros, if all are finite, the polynomial is
 /// not zero and its degree is within [`EXACT_MAX_DEGREE`].
 fn usable(descending: &[f64]) -> Option<&[f64]> {
-    if descending.iter().any(|c| !c.is_finite()) {
-        return None;
-    }
-    let start = descending.iter().position(|&c| c != 0.0)?;
-    let p = &descending[start..];
-    (p.len() - 1 <= EXACT_MAX_DEGREE).then_some(p)
+    nonzero(descending).filter(|p| p.len() - 1 <= EXACT_MAX_DEGREE)
 }
 
 /// Whether every root of `c[0] z^n + c[1] z^(n-1) + ... + c[n]` lies
