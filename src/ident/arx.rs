@@ -14,6 +14,11 @@
 //! deviations `sqrt(diag P)`: valid when `e` is white (equation-error
 //! noise). With coloured or output noise ARX is biased and the residual test
 //! says so ([`super::linear::whiteness`]).
+//!
+//! The reported loss is MATLAB's: `||e||^2` of the rows divided by all `N`
+//! samples, since MATLAB treats the regressors before row `n0` as estimated
+//! initial conditions whose prediction errors are zero (its `arx` sets
+//! `LossFcn = V (N - n0 - d) / N`, `V` the noise variance above).
 
 use super::linear::{Criteria, IdentError, PolyModel, check_excited, check_signals};
 use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
@@ -119,9 +124,15 @@ pub struct ArxEstimate {
     pub std_a: Vec<f64>,
     /// Standard deviations of `b0 .. b_{nb-1}`.
     pub std_b: Vec<f64>,
-    /// `lambda = ||e||^2 / (N - d)`.
+    /// `lambda = ||e||^2 / (rows - d)`, the unbiased noise variance of the
+    /// regression (MATLAB `NoiseVariance`; it scales the standard deviations).
     pub noise_variance: f64,
-    /// Loss and information criteria on the estimation rows.
+    /// Sum of squared residuals `||e||^2` over the regression rows.
+    pub residual_sum_squares: f64,
+    /// Loss and information criteria as MATLAB's `arx` reports them: the
+    /// regression rows' `||e||^2` over all `N` samples (the first `start`
+    /// prediction errors are those of estimated initial conditions, zero), and
+    /// `N` samples in FPE, AIC and BIC (docs/identify-linear.md).
     pub criteria: Criteria,
     /// Condition number of the regressor matrix `Phi` (`sigma_max/sigma_min`).
     pub condition_number: f64,
@@ -187,8 +198,8 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
             hint: singular_hint(u, o.nb),
         }
     })?;
-    let loss = sol.residual_norm.powi(2) / rows as f64;
-    let lambda = sol.residual_norm.powi(2) / (rows - d) as f64;
+    let sse = sol.residual_norm.powi(2);
+    let lambda = sse / (rows - d) as f64;
     let sd = std_devs(&sol.r_inv, lambda);
     let mut a = vec![1.0];
     a.extend_from_slice(&sol.theta[..na]);
@@ -202,7 +213,8 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
         std_a: sd[..na].to_vec(),
         std_b: sd[na..].to_vec(),
         noise_variance: lambda,
-        criteria: Criteria::new(loss, rows, d),
+        residual_sum_squares: sse,
+        criteria: Criteria::new(sse / n as f64, n, d),
         condition_number: sol.condition_number,
         start,
     })
@@ -279,6 +291,42 @@ mod tests {
             assert!(z.abs() < 3.5, "b{i} z = {z}");
         }
         assert!((est.noise_variance / 0.0025 - 1.0).abs() < 0.05);
+    }
+
+    /// The report as MATLAB's `arx` defines it, recomputed from the returned
+    /// model's residuals: the rows' squared errors over all `N` samples, `N`
+    /// in FPE / AIC / BIC, the noise variance over `rows - d`, and MATLAB's
+    /// own relation `LossFcn = NoiseVariance (N - n0 - d) / N`.
+    #[test]
+    fn criteria_are_matlab_arx_report() {
+        let n = 300;
+        let u: Vec<f64> = noise(n, 21).iter().map(|v| v.signum()).collect();
+        let e = noise(n, 22);
+        let (a, b) = ([1.0, -1.5, 0.7], [1.0, 0.5]);
+        let yu = filter_ab(&b, &a, 1, &u);
+        let ye = filter_ab(&[1.0], &a, 0, &e);
+        let y: Vec<f64> = yu.iter().zip(&ye).map(|(p, q)| p + q).collect();
+        let est = arx(&u, &y, &ArxParams::new(Orders::new(2, 2, 1))).unwrap();
+        assert_eq!(est.start, 2);
+        let sse: f64 = arx_residuals(&est.model, &u, &y, est.start)
+            .iter()
+            .map(|v| v * v)
+            .sum();
+        let close = |x: f64, want: f64| (x - want).abs() <= 1e-12 * want.abs();
+        let (nf, d) = (n as f64, 4.0);
+        let mse = sse / nf;
+        assert!(close(est.residual_sum_squares, sse));
+        assert!(close(est.criteria.mse, mse) && close(est.criteria.loss, mse));
+        assert_eq!((est.criteria.samples, est.criteria.params), (n, 4));
+        assert!(close(est.criteria.fpe, mse * (nf + d) / (nf - d)));
+        let aic = nf * mse.ln() + 2.0 * d + nf * ((2.0 * std::f64::consts::PI).ln() + 1.0);
+        assert!(close(est.criteria.aic, aic));
+        assert!(close(est.criteria.bic, aic - 2.0 * d + d * nf.ln()));
+        assert!(close(est.noise_variance, sse / (nf - 2.0 - d)));
+        assert!(close(
+            est.criteria.loss,
+            est.noise_variance * (nf - 2.0 - d) / nf
+        ));
     }
 
     #[test]

@@ -43,7 +43,8 @@ impl Default for StructParams {
 pub struct StructRow {
     /// `[na nb nk]`.
     pub orders: Orders,
-    /// Loss and information criteria on the estimation data.
+    /// Loss and information criteria on the estimation data's common rows
+    /// (`N` = those rows, as MATLAB's `selstruc` counts them).
     pub criteria: Criteria,
     /// Mean squared one-step prediction error on the validation data.
     pub validation_loss: Option<f64>,
@@ -115,6 +116,15 @@ impl StructSearch {
             SelectionRule::Mdl => Some(self.best_mdl),
         }
     }
+}
+
+/// Criteria of a candidate over the grid's common rows, `N = rows`: MATLAB's
+/// `selstruc` penalises the `arxstruc` losses with the number of rows they
+/// were computed on, the same for every candidate. (A single `arx` report
+/// divides by all samples instead, [`super::arx::ArxEstimate::criteria`].)
+fn common_rows_criteria(est: &super::arx::ArxEstimate, samples: usize, o: Orders) -> Criteria {
+    let rows = samples - est.start;
+    Criteria::new(est.residual_sum_squares / rows as f64, rows, o.params())
 }
 
 fn argmin(rows: &[StructRow], key: impl Fn(&StructRow) -> f64) -> Orders {
@@ -213,7 +223,7 @@ pub fn arx_struct_observed(
                         };
                         rows.push(StructRow {
                             orders: o,
-                            criteria: est.criteria,
+                            criteria: common_rows_criteria(&est, y.len(), o),
                             validation_loss,
                             validation_fit_percent,
                         });
@@ -342,5 +352,18 @@ mod tests {
         assert!(vl(Orders::new(2, 2, 3)) <= 1.01 * vl(best));
         assert_eq!(s.recommended(), best);
         assert_eq!(s.rows.len(), 80);
+        // Every candidate is scored on the grid's common rows (from the
+        // largest memory, max(na, nb + nk - 1) = 8), not on all samples as a
+        // single `arx` report is.
+        for r in &s.rows {
+            assert_eq!(r.criteria.samples, half - 8, "{}", r.orders);
+        }
+        let single = arx(
+            &u[..half],
+            &y[..half],
+            &ArxParams::new(Orders::new(2, 2, 3)),
+        )
+        .unwrap();
+        assert_eq!(single.criteria.samples, half);
     }
 }
