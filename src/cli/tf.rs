@@ -163,7 +163,12 @@ fn stability_note(g: &TransferFunction, poles: &[c64], verdict: Verdict) -> Opti
     if verdict.test == StabilityTest::ComputedRoots {
         return Some(format!(
             "too close to call on the stored denominator (a pole on or within its accuracy of the \
-             stability boundary): the verdict {} is the computed poles' and may be wrong",
+             stability boundary{}): the verdict {} is the computed poles' and may be wrong",
+            if poles.len() >= 60 {
+                ", or, at this degree, roots the certified discs cannot separate"
+            } else {
+                ""
+            },
             word(verdict.stable)
         ));
     }
