@@ -30,7 +30,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::c64;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::ComputeEigenvectors;
 use faer::linalg::gevd::{GeneralizedSchurParams, gen_hessenberg, qz_cplx, qz_real};
 use faer::{Mat, Par};
@@ -134,118 +134,155 @@ fn pencil_residual(gs: &GenSchur, m: &Mat<f64>, l: &Mat<f64>) -> f64 {
     if r.is_nan() { f64::INFINITY } else { r }
 }
 
-/// The complex QZ of the real pencil (faer's `qz_cplx`), triangular factors
-/// with what lies below their diagonals dropped.
-fn complex_qz(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
-    let n = m.nrows();
-    // Step 1: L = Q0 R (Householder QR), M <- Q0^H M.
-    let lc = cplx(l);
-    let qr = lc.qr();
-    let q0 = qr.compute_Q();
-    let mut t = Mat::from_fn(n, n, |i, j| {
-        if i <= j {
-            qr.R()[(i, j)]
-        } else {
-            c64::new(0.0, 0.0)
-        }
-    });
-    let mut s = q0.adjoint() * cplx(m);
-    let mut q = q0;
-    let mut z = Mat::<c64>::identity(n, n);
-    // Step 2: Hessenberg-triangular reduction, then QZ iterations.
-    let hparams: gen_hessenberg::GeneralizedHessenbergParams = faer::auto!(c64);
-    let sparams = unblocked_qz(faer::auto!(c64));
-    let req = StackReq::any_of(&[
-        gen_hessenberg::generalized_hessenberg_scratch::<c64>(n, hparams),
-        qz_cplx::hessenberg_to_qz_scratch::<c64>(n, Par::Seq, sparams),
-    ]);
-    let mut buf = MemBuffer::new(req);
-    let stack = MemStack::new(&mut buf);
-    gen_hessenberg::generalized_hessenberg(
-        s.as_mut(),
-        t.as_mut(),
-        Some(q.as_mut()),
-        Some(z.as_mut()),
-        Par::Seq,
-        stack,
-        hparams,
-    );
-    let mut alpha = Mat::<c64>::zeros(n, 1);
-    let mut beta = Mat::<c64>::zeros(n, 1);
-    qz_cplx::hessenberg_to_qz(
-        s.as_mut(),
-        t.as_mut(),
-        Some(q.as_mut()),
-        Some(z.as_mut()),
-        alpha.col_mut(0),
-        beta.col_mut(0),
-        ComputeEigenvectors::Yes,
-        Par::Seq,
-        sparams,
-        stack,
-    );
-    for j in 0..n {
-        for i in j + 1..n {
-            s[(i, j)] = c64::new(0.0, 0.0);
-            t[(i, j)] = c64::new(0.0, 0.0);
-        }
-    }
-    if !(s.is_all_finite() && t.is_all_finite()) {
-        return Err(SchurError::NonFinite);
-    }
-    Ok(GenSchur { s, t, q, z })
+/// A pencil on its way to generalized Schur form: `M = Q S Z^H` and
+/// `L = Q T Z^H` hold at every step, for real or complex scalars.
+struct QzFactors<T> {
+    s: Mat<T>,
+    t: Mat<T>,
+    q: Mat<T>,
+    z: Mat<T>,
 }
 
-/// The real QZ of the pencil (faer's `qz_real`: `S` quasi-triangular, `T`
-/// triangular), made complex triangular.
-fn real_qz(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
+impl<T: faer::traits::ComplexField> QzFactors<T> {
+    /// `L = Q0 R` (Householder QR): `S = Q0^H M`, `T = R`, `Q = Q0`, `Z = I`.
+    fn with_triangular_l(m: &Mat<T>, l: &Mat<T>) -> Self {
+        let n = m.nrows();
+        let qr = l.qr();
+        let q = qr.compute_Q();
+        let r = qr.R();
+        let t = Mat::from_fn(n, n, |i, j| {
+            if i <= j {
+                r[(i, j)].clone()
+            } else {
+                T::zero_impl()
+            }
+        });
+        QzFactors {
+            s: q.adjoint() * m,
+            t,
+            q,
+            z: Mat::identity(n, n),
+        }
+    }
+
+    /// Hessenberg-triangular reduction of `(S, T)` (faer's
+    /// `generalized_hessenberg`), `T` upper triangular on entry.
+    fn hessenberg(&mut self) {
+        let n = self.s.nrows();
+        let params: gen_hessenberg::GeneralizedHessenbergParams = faer::auto!(T);
+        let mut buf = MemBuffer::new(gen_hessenberg::generalized_hessenberg_scratch::<T>(
+            n, params,
+        ));
+        gen_hessenberg::generalized_hessenberg(
+            self.s.as_mut(),
+            self.t.as_mut(),
+            Some(self.q.as_mut()),
+            Some(self.z.as_mut()),
+            Par::Seq,
+            MemStack::new(&mut buf),
+            params,
+        );
+    }
+
+    fn is_all_finite(&self) -> bool {
+        self.s.is_all_finite() && self.t.is_all_finite() && self.q.is_all_finite()
+    }
+}
+
+impl QzFactors<c64> {
+    /// QZ iterations on the Hessenberg-triangular pencil (faer's
+    /// `qz_cplx`): `S` and `T` upper triangular.
+    fn complex_qz(&mut self) {
+        let n = self.s.nrows();
+        let params = unblocked_qz(faer::auto!(c64));
+        let mut buf = MemBuffer::new(qz_cplx::hessenberg_to_qz_scratch::<c64>(
+            n,
+            Par::Seq,
+            params,
+        ));
+        let mut alpha = Mat::<c64>::zeros(n, 1);
+        let mut beta = Mat::<c64>::zeros(n, 1);
+        qz_cplx::hessenberg_to_qz(
+            self.s.as_mut(),
+            self.t.as_mut(),
+            Some(self.q.as_mut()),
+            Some(self.z.as_mut()),
+            alpha.col_mut(0),
+            beta.col_mut(0),
+            ComputeEigenvectors::Yes,
+            Par::Seq,
+            params,
+            MemStack::new(&mut buf),
+        );
+    }
+}
+
+impl QzFactors<f64> {
+    /// QZ iterations on the Hessenberg-triangular pencil (faer's
+    /// `qz_real`): `S` quasi-triangular, `T` triangular.
+    fn real_qz(&mut self) {
+        let n = self.s.nrows();
+        let params = unblocked_qz(faer::auto!(f64));
+        let mut buf = MemBuffer::new(qz_real::hessenberg_to_qz_scratch::<f64>(
+            n,
+            Par::Seq,
+            params,
+        ));
+        let (mut ar, mut ai, mut be) = (Mat::zeros(n, 1), Mat::zeros(n, 1), Mat::zeros(n, 1));
+        qz_real::hessenberg_to_qz(
+            self.s.as_mut(),
+            self.t.as_mut(),
+            Some(self.q.as_mut()),
+            Some(self.z.as_mut()),
+            ar.col_mut(0),
+            ai.col_mut(0),
+            be.col_mut(0),
+            ComputeEigenvectors::Yes,
+            Par::Seq,
+            params,
+            MemStack::new(&mut buf),
+        );
+    }
+}
+
+/// The complex QZ of the real pencil, triangular factors with what lies
+/// below their diagonals dropped.
+fn complex_qz(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
+    let mut f = QzFactors::with_triangular_l(&cplx(m), &cplx(l));
+    f.hessenberg();
+    f.complex_qz();
     let n = m.nrows();
-    // L = Q0 R, M <- Q0' M, as in the complex path.
-    let qr = l.qr();
-    let q0 = qr.compute_Q();
-    let mut t = Mat::from_fn(n, n, |i, j| if i <= j { qr.R()[(i, j)] } else { 0.0 });
-    let mut s = q0.transpose() * m;
-    let mut q = q0;
-    let mut z = Mat::<f64>::identity(n, n);
-    let hparams: gen_hessenberg::GeneralizedHessenbergParams = faer::auto!(f64);
-    let sparams = unblocked_qz(faer::auto!(f64));
-    let req = StackReq::any_of(&[
-        gen_hessenberg::generalized_hessenberg_scratch::<f64>(n, hparams),
-        qz_real::hessenberg_to_qz_scratch::<f64>(n, Par::Seq, sparams),
-    ]);
-    let mut buf = MemBuffer::new(req);
-    let stack = MemStack::new(&mut buf);
-    gen_hessenberg::generalized_hessenberg(
-        s.as_mut(),
-        t.as_mut(),
-        Some(q.as_mut()),
-        Some(z.as_mut()),
-        Par::Seq,
-        stack,
-        hparams,
-    );
-    let (mut ar, mut ai, mut be) = (Mat::zeros(n, 1), Mat::zeros(n, 1), Mat::zeros(n, 1));
-    qz_real::hessenberg_to_qz(
-        s.as_mut(),
-        t.as_mut(),
-        Some(q.as_mut()),
-        Some(z.as_mut()),
-        ar.col_mut(0),
-        ai.col_mut(0),
-        be.col_mut(0),
-        ComputeEigenvectors::Yes,
-        Par::Seq,
-        sparams,
-        stack,
-    );
-    if !(s.is_all_finite() && t.is_all_finite()) {
+    for j in 0..n {
+        for i in j + 1..n {
+            f.s[(i, j)] = c64::new(0.0, 0.0);
+            f.t[(i, j)] = c64::new(0.0, 0.0);
+        }
+    }
+    if !f.is_all_finite() {
+        return Err(SchurError::NonFinite);
+    }
+    Ok(GenSchur {
+        s: f.s,
+        t: f.t,
+        q: f.q,
+        z: f.z,
+    })
+}
+
+/// The real QZ of the pencil (`S` quasi-triangular, `T` triangular), made
+/// complex triangular.
+fn real_qz(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
+    let mut f = QzFactors::with_triangular_l(m, l);
+    f.hessenberg();
+    f.real_qz();
+    if !f.is_all_finite() {
         return Err(SchurError::NonFinite);
     }
     let mut gs = GenSchur {
-        s: cplx(&s),
-        t: cplx(&t),
-        q: cplx(&q),
-        z: cplx(&z),
+        s: cplx(&f.s),
+        t: cplx(&f.t),
+        q: cplx(&f.q),
+        z: cplx(&f.z),
     };
     triangularise_pencil_blocks(&mut gs);
     Ok(gs)
@@ -950,46 +987,19 @@ pub fn real_schur(a: &Mat<f64>) -> Result<RealSchur, SchurError> {
             q: Mat::zeros(0, 0),
         });
     }
-    let mut s = a.clone();
-    let mut b = Mat::<f64>::identity(n, n);
-    let mut q = Mat::<f64>::identity(n, n);
-    let mut z = Mat::<f64>::identity(n, n);
-    let hparams: gen_hessenberg::GeneralizedHessenbergParams = faer::auto!(f64);
-    let sparams = unblocked_qz(faer::auto!(f64));
-    let req = StackReq::any_of(&[
-        gen_hessenberg::generalized_hessenberg_scratch::<f64>(n, hparams),
-        qz_real::hessenberg_to_qz_scratch::<f64>(n, Par::Seq, sparams),
-    ]);
-    let mut buf = MemBuffer::new(req);
-    let stack = MemStack::new(&mut buf);
-    gen_hessenberg::generalized_hessenberg(
-        s.as_mut(),
-        b.as_mut(),
-        Some(q.as_mut()),
-        Some(z.as_mut()),
-        Par::Seq,
-        stack,
-        hparams,
-    );
-    let mut ar = Mat::<f64>::zeros(n, 1);
-    let mut ai = Mat::<f64>::zeros(n, 1);
-    let mut be = Mat::<f64>::zeros(n, 1);
-    qz_real::hessenberg_to_qz(
-        s.as_mut(),
-        b.as_mut(),
-        Some(q.as_mut()),
-        Some(z.as_mut()),
-        ar.col_mut(0),
-        ai.col_mut(0),
-        be.col_mut(0),
-        ComputeEigenvectors::Yes,
-        Par::Seq,
-        sparams,
-        stack,
-    );
-    if !(s.is_all_finite() && q.is_all_finite()) {
+    // (A, I): T is already triangular.
+    let mut f = QzFactors {
+        s: a.clone(),
+        t: Mat::<f64>::identity(n, n),
+        q: Mat::<f64>::identity(n, n),
+        z: Mat::<f64>::identity(n, n),
+    };
+    f.hessenberg();
+    f.real_qz();
+    if !f.is_all_finite() {
         return Err(SchurError::NonFinite);
     }
+    let (s, q) = (f.s, f.q);
     // Block structure from the QZ factor; T = Q^T A Q.
     let mut t = q.transpose() * a * &q;
     let mut i = 0;
