@@ -5,7 +5,7 @@
 //! needed here.
 
 use assert_cmd::Command;
-use fts::lti::stability::schur_stable;
+use fts::lti::stability::{StabilityTest, schur_roots_inside, schur_stable, schur_verdict};
 use fts::lti::{DiscreteTf, Poly};
 use serde::Deserialize;
 
@@ -31,6 +31,62 @@ fn cases() -> Vec<Case> {
     serde_json::from_str::<Cases>(&std::fs::read_to_string(path).unwrap())
         .unwrap()
         .cases
+}
+
+#[derive(Deserialize)]
+struct HighDegreeCase {
+    seed: u64,
+    degree: usize,
+    poles: String,
+    den: Vec<f64>,
+    roots_inside: usize,
+    closest_to_circle: f64,
+}
+
+#[derive(Deserialize)]
+struct HighDegreeCases {
+    cases: Vec<HighDegreeCase>,
+}
+
+/// Degree 60 to 160 expansions of lightly damped pole sets, with the
+/// number of roots inside the circle of the stored coefficients from
+/// python-flint's rigorous root isolation (`gen_high_degree.py`): every
+/// verdict is decided, exact or certified, and agrees; the argument
+/// principle's count is the isolation's wherever it decides.
+#[test]
+fn high_degrees_get_the_verdict_of_their_stored_coefficients() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/stability/high_degree.json"
+    );
+    let cases = serde_json::from_str::<HighDegreeCases>(&std::fs::read_to_string(path).unwrap())
+        .unwrap()
+        .cases;
+    assert!(cases.len() >= 36);
+    let (mut counted, mut unstable_as_drawn) = (0, 0);
+    for c in &cases {
+        let name = format!("seed {} degree {} {}", c.seed, c.degree, c.poles);
+        let stable = c.roots_inside == c.degree;
+        let verdict = schur_verdict(&c.den).unwrap_or_else(|| {
+            panic!(
+                "{name}: undecided (closest root {:.1e} from the circle)",
+                c.closest_to_circle
+            )
+        });
+        assert_eq!(verdict.stable, stable, "{name}");
+        assert_ne!(verdict.test, StabilityTest::ComputedRoots);
+        if let Some(inside) = schur_roots_inside(&c.den) {
+            assert_eq!(inside, c.roots_inside, "{name}");
+            counted += 1;
+        }
+        unstable_as_drawn += usize::from(c.poles == "drawn" && !stable);
+    }
+    println!(
+        "{} cases decided, {counted} counted by the argument principle; {unstable_as_drawn} \
+         drawn inside the circle are unstable as stored",
+        cases.len()
+    );
+    assert!(counted >= 30 && unstable_as_drawn >= 2);
 }
 
 #[test]
