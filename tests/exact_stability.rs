@@ -5,7 +5,10 @@
 //! needed here.
 
 use assert_cmd::Command;
-use fts::lti::stability::{StabilityTest, schur_roots_inside, schur_stable, schur_verdict};
+use fts::lti::stability::{
+    StabilityTest, hurwitz_roots_left, hurwitz_verdict, schur_roots_inside, schur_stable,
+    schur_verdict,
+};
 use fts::lti::{DiscreteTf, Poly};
 use serde::Deserialize;
 
@@ -44,8 +47,27 @@ struct HighDegreeCase {
 }
 
 #[derive(Deserialize)]
+struct ContinuousCase {
+    seed: u64,
+    degree: usize,
+    poles: String,
+    den: Vec<f64>,
+    roots_left: usize,
+    closest_to_axis: f64,
+}
+
+#[derive(Deserialize)]
 struct HighDegreeCases {
     cases: Vec<HighDegreeCase>,
+    continuous_cases: Vec<ContinuousCase>,
+}
+
+fn high_degree_cases() -> HighDegreeCases {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/stability/high_degree.json"
+    );
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// Degree 60 to 160 expansions of lightly damped pole sets, with the
@@ -55,13 +77,7 @@ struct HighDegreeCases {
 /// principle's count is the isolation's wherever it decides.
 #[test]
 fn high_degrees_get_the_verdict_of_their_stored_coefficients() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/stability/high_degree.json"
-    );
-    let cases = serde_json::from_str::<HighDegreeCases>(&std::fs::read_to_string(path).unwrap())
-        .unwrap()
-        .cases;
+    let cases = high_degree_cases().cases;
     assert!(cases.len() >= 36);
     let (mut counted, mut unstable_as_drawn) = (0, 0);
     for c in &cases {
@@ -87,6 +103,37 @@ fn high_degrees_get_the_verdict_of_their_stored_coefficients() {
         cases.len()
     );
     assert!(counted >= 30 && unstable_as_drawn >= 2);
+}
+
+/// Degree 20 to 80 continuous expansions of lightly damped pairs over two
+/// decades, one pair moved right in half of them, with python-flint's count
+/// of roots in the left half plane: every Hurwitz verdict is decided and
+/// agrees, and the axis walk's count is the isolation's wherever it decides.
+#[test]
+fn continuous_high_degrees_get_the_verdict_of_their_stored_coefficients() {
+    let cases = high_degree_cases().continuous_cases;
+    assert!(cases.len() >= 24);
+    let mut counted = 0;
+    for c in &cases {
+        let name = format!("seed {} degree {} {}", c.seed, c.degree, c.poles);
+        let stable = c.roots_left == c.degree;
+        let verdict = hurwitz_verdict(&c.den).unwrap_or_else(|| {
+            panic!(
+                "{name}: undecided (closest root {:.1e} from the axis)",
+                c.closest_to_axis
+            )
+        });
+        assert_eq!(verdict.stable, stable, "{name}");
+        if let Some(left) = hurwitz_roots_left(&c.den) {
+            assert_eq!(left, c.roots_left, "{name}");
+            counted += 1;
+        }
+    }
+    println!(
+        "{} continuous cases decided, {counted} counted on the axis",
+        cases.len()
+    );
+    assert_eq!(counted, cases.len());
 }
 
 #[test]

@@ -440,6 +440,19 @@ pub fn schur_roots_inside(descending: &[f64]) -> Option<usize> {
     winding::roots_inside(p).map(|inside| inside + (descending.len() - 1 - end))
 }
 
+/// How many roots of the stored polynomial (descending) lie in the open
+/// left half plane, certified by the argument principle on the imaginary
+/// axis (see [`hurwitz_verdict`]'s third test). `None` when a root is on
+/// the axis (a trailing zero among them) or too close to it for the walk's
+/// rounding bounds, a coefficient is not finite, or all are zero.
+pub fn hurwitz_roots_left(descending: &[f64]) -> Option<usize> {
+    let p = nonzero(descending)?;
+    if p.last() == Some(&0.0) {
+        return None;
+    }
+    winding::roots_left(p)
+}
+
 /// Schur stability by the argument principle ([`winding`]): the roots
 /// inside the circle are counted from `p` on the circle, certified, without
 /// isolating them, which is what decides high degrees where the inclusion
@@ -449,8 +462,9 @@ fn schur_by_winding(descending: &[f64]) -> Option<bool> {
     winding::roots_inside(p).map(|inside| inside == p.len() - 1)
 }
 
-/// Hurwitz stability certified by [`inclusion_discs`], as for
-/// [`schur_certified`].
+/// Hurwitz stability certified by [`inclusion_discs`], or where they
+/// overlap the axis by the argument principle ([`hurwitz_roots_left`]), as
+/// for [`schur_certified`].
 pub fn hurwitz_certified(descending: &[f64]) -> Option<bool> {
     // A trailing zero is a root exactly at 0, on the axis.
     if nonzero(descending)?.last() == Some(&0.0) {
@@ -461,6 +475,10 @@ pub fn hurwitz_certified(descending: &[f64]) -> Option<bool> {
         |z, r| z.re + r * (1.0 + 4.0 * UNIT_ROUNDOFF) < 0.0,
         |z, r| z.re - r * (1.0 + 4.0 * UNIT_ROUNDOFF) >= 0.0,
     )
+    .or_else(|| {
+        let p = nonzero(descending)?;
+        hurwitz_roots_left(p).map(|left| left == p.len() - 1)
+    })
 }
 
 #[cfg(test)]

@@ -14,6 +14,14 @@ floats. Each case records how many roots lie strictly inside the unit
 circle and the distance of the closest root to it (a ball's midpoint; the
 generator stops if a ball straddles |z| = 1).
 
+Continuous cases (`continuous_cases`): for seeds 1-3 and degrees 20 to
+80, lightly damped pairs s^2 + 2 zeta w s + w^2 with w log-uniform in
+[0.1, 10] rad/s and zeta in [1e-3, 0.1], expanded by numpy, and the same
+with one pair's damping negated (a pair in the right half plane); each
+records how many roots of the stored coefficients lie in the open left half
+plane (python-flint, as above; the generator stops if a ball's real part
+straddles 0) and the least |Re| of a root.
+
 Run once: python3 gen_high_degree.py > high_degree.json (numpy, python-flint).
 """
 import json
@@ -55,6 +63,34 @@ def roots_inside(den):
     return inside, closest
 
 
+def roots_left(den):
+    p = flint.fmpq_poly([flint.fmpq(*Fraction(x).as_integer_ratio()) for x in reversed(den)])
+    left, closest = 0, math.inf
+    for root, mult in p.complex_roots():
+        re = root.real
+        if re < 0:
+            left += mult
+        elif not re > 0:
+            raise SystemExit(f"a root's real part straddles 0: {re}")
+        closest = min(closest, abs(float(re.mid())))
+    return left, closest
+
+
+continuous = []
+for seed in [1, 2, 3]:
+    draw = lcg(100 + seed)
+    for n in [20, 40, 60, 80]:
+        pairs = [(10 ** (2 * draw() - 1), 10 ** (2 * draw() - 3)) for _ in range(n // 2)]
+        for name, flip in [("drawn", False), ("one_pair_right", True)]:
+            c = np.array([1.0])
+            for i, (w, zeta) in enumerate(pairs):
+                z = -zeta if flip and i == 0 else zeta
+                c = np.convolve(c, [1.0, 2.0 * z * w, w * w])
+            den = [float(x) for x in c]
+            left, closest = roots_left(den)
+            continuous.append({"seed": seed, "degree": n, "poles": name, "den": den,
+                               "roots_left": left, "closest_to_axis": closest})
+
 cases = []
 for seed in [1, 2, 3]:
     draw = lcg(seed)
@@ -66,4 +102,5 @@ for seed in [1, 2, 3]:
             cases.append({"seed": seed, "degree": len(den) - 1, "poles": name, "den": den,
                           "roots_inside": inside, "closest_to_circle": closest})
 print(json.dumps({"generator": "gen_high_degree.py", "numpy": np.__version__,
-                  "python_flint": flint.__version__, "cases": cases}, indent=1))
+                  "python_flint": flint.__version__, "cases": cases,
+                  "continuous_cases": continuous}, indent=1))
