@@ -163,12 +163,7 @@ fn stability_note(g: &TransferFunction, poles: &[c64], verdict: Verdict) -> Opti
     if verdict.test == StabilityTest::ComputedRoots {
         return Some(format!(
             "too close to call on the stored denominator (a pole on or within its accuracy of the \
-             stability boundary{}): the verdict {} is the computed poles' and may be wrong",
-            if matches!(g, TransferFunction::Continuous(_)) && poles.len() >= 60 {
-                ", or, at this degree, roots the certified discs cannot separate"
-            } else {
-                ""
-            },
+             stability boundary): the verdict {} is the computed poles' and may be wrong",
             word(verdict.stable)
         ));
     }
