@@ -15,7 +15,7 @@ circle and the distance of the closest root to it (a ball's midpoint; the
 generator stops if a ball straddles |z| = 1).
 
 Continuous cases (`continuous_cases`): for seeds 1-3 and degrees 20 to
-80, lightly damped pairs s^2 + 2 zeta w s + w^2 with w log-uniform in
+120, lightly damped pairs s^2 + 2 zeta w s + w^2 with w log-uniform in
 [0.1, 10] rad/s and zeta in [1e-3, 0.1], expanded by numpy, and the same
 with one pair's damping negated (a pair in the right half plane); each
 records how many roots of the stored coefficients lie in the open left half
@@ -79,7 +79,7 @@ def roots_left(den):
 continuous = []
 for seed in [1, 2, 3]:
     draw = lcg(100 + seed)
-    for n in [20, 40, 60, 80]:
+    for n in [20, 40, 60, 80, 100, 120]:
         pairs = [(10 ** (2 * draw() - 1), 10 ** (2 * draw() - 3)) for _ in range(n // 2)]
         for name, flip in [("drawn", False), ("one_pair_right", True)]:
             c = np.array([1.0])
