@@ -47,7 +47,7 @@ const CAUCHY_RADII: [(f64, f64); 5] =
 const MIN_ARC: f64 = 1e-9;
 /// Arcs walked before giving up (a degree-160 polynomial with poles at
 /// moduli 0.7-0.99 takes about 4,000).
-pub const MAX_STEPS: usize = 40_000;
+pub const MAX_STEPS: usize = 20_000;
 /// Added to every arc on the circle: covers the rounding of `cos`, `sin`
 /// and of the angle's sum (each well below 1e-15 near `2 pi`).
 const CIRCLE_SLACK: f64 = 1e-14;
