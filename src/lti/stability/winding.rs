@@ -1,9 +1,10 @@
-//! Schur stability certified by the argument principle on the unit circle.
+//! Stability certified by the argument principle, on the unit circle
+//! (discrete) and on the imaginary axis (continuous, [`roots_left`]).
 //!
 //! The number of roots of `p` inside the unit circle is the winding number
 //! of `p(e^{j theta})`, `theta` from 0 to `2 pi`, about 0, provided `p` has
 //! no root on the circle. The walk proves both with rigorous rounding
-//! bounds, in `f64`:
+//! bounds, in `f64` or, where that is too coarse, double-double:
 //!
 //! * at a point `z` near the circle it computes the Taylor coefficients
 //!   `c_m` of `p` about `z` (`m <= K`, repeated synthetic division) with
@@ -324,7 +325,9 @@ impl<'a> Walk<'a> {
             .iter()
             .map(|&(ratio, least)| (ratio * r).max(least * scale))
             .map(|radius| {
-                let x = modulus + radius;
+                // The sum may round down; the Horner bound below does not
+                // cover that.
+                let x = (modulus + radius) * (1.0 + 2.0 * UNIT_ROUNDOFF);
                 let m = self.p.iter().fold(0.0, |m, &a| m * x + a.abs()) * inflate;
                 let q = r / radius;
                 m * q.powi(e.c.len() as i32) / (1.0 - q)
