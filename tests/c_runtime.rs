@@ -411,40 +411,19 @@ fn c_files_compile_warning_free_as_c99_and_cpp() {
             std::fs::write(sub.join(name), text).unwrap();
         }
         let mut tried = 0;
-        for (cc, lang) in [
-            ("gcc", "c"),
-            ("clang", "c"),
-            ("g++", "c++"),
-            ("clang++", "c++"),
-        ] {
-            if Command::new(cc).arg("--version").output().is_err() {
-                eprintln!("note: {cc} not installed; not checked");
+        for dialect in cc::DIALECTS {
+            if !cc::installed(dialect.0) {
                 continue;
             }
             tried += 1;
-            let std = if lang == "c" {
-                "-std=c99"
-            } else {
-                "-std=c++11"
-            };
             // fts_runtime.c is the same for every controller: once is enough.
             let runtime = (i == 0).then(|| sub.join("fts_runtime.c"));
             for source in std::iter::once(repo("examples/c/fts_loop.c")).chain(runtime) {
-                let out = Command::new(cc)
-                    .args(["-x", lang, std, "-O2", "-ffp-contract=off"])
-                    .args(["-Wall", "-Wextra", "-pedantic", "-Werror", "-c"])
-                    .arg("-I")
-                    .arg(&sub)
-                    .arg(&source)
-                    .arg("-o")
-                    .arg(sub.join("out.o"))
-                    .output()
-                    .unwrap();
-                assert!(
-                    out.status.success(),
-                    "{cc} -x {lang} {}:\n{}",
-                    source.display(),
-                    String::from_utf8_lossy(&out.stderr)
+                cc::assert_compiles_warning_free(
+                    dialect,
+                    &["-O2", "-ffp-contract=off"],
+                    &sub,
+                    &source,
                 );
             }
         }

@@ -267,44 +267,15 @@ fn the_multiaxis_files_compile_warning_free_as_c99_and_cpp() {
     ] {
         std::fs::write(dir.path().join(name), text).unwrap();
     }
-    for (cc, lang, std) in [
-        ("gcc", "c", "-std=c99"),
-        ("clang", "c", "-std=c99"),
-        ("g++", "c++", "-std=c++11"),
-        ("clang++", "c++", "-std=c++11"),
-    ] {
-        if Command::new(cc).arg("--version").output().is_err() {
-            eprintln!("note: {cc} not installed; not checked");
+    for dialect in cc::DIALECTS {
+        if !cc::installed(dialect.0) {
             continue;
         }
         for source in [
             repo("examples/c/fts_multiaxis_loop.c"),
             dir.path().join("fts_runtime.c"),
         ] {
-            let out = Command::new(cc)
-                .args([
-                    "-x",
-                    lang,
-                    std,
-                    "-Wall",
-                    "-Wextra",
-                    "-pedantic",
-                    "-Werror",
-                    "-c",
-                ])
-                .arg("-I")
-                .arg(dir.path())
-                .arg(&source)
-                .arg("-o")
-                .arg(dir.path().join("out.o"))
-                .output()
-                .unwrap();
-            assert!(
-                out.status.success(),
-                "{cc} -x {lang} {}:\n{}",
-                source.display(),
-                String::from_utf8_lossy(&out.stderr)
-            );
+            cc::assert_compiles_warning_free(dialect, &[], dir.path(), &source);
         }
     }
 }

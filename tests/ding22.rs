@@ -5,9 +5,19 @@ use assert_cmd::Command;
 use faer::Mat;
 use fts::lti::norms::h2_norm;
 use fts::lti::ss::eigvals;
+use fts::synth::budget::ErrorBudget;
 use fts::synth::ding22::*;
 use predicates::prelude::*;
 use serde_json::Value;
+
+/// The error budget of `ev` on a log grid to 100 kHz, whose RMS (the grid
+/// CAS) approximates the exact RMS to 1 % (trapezoid; the tail above and
+/// the 0-1 mHz segment are tiny).
+fn grid_budget_near_exact(ev: &Evaluation) -> ErrorBudget {
+    let b = budget(ev, 1e5, 3000).unwrap();
+    assert!((b.rms / ev.rms - 1.0).abs() < 1e-2, "{} {}", b.rms, ev.rms);
+    b
+}
 
 #[test]
 fn dc_compliance_is_one_over_k2_for_any_parameters() {
@@ -88,15 +98,7 @@ fn h2_design_is_stable_with_small_residuals_and_the_budget_adds_up() {
     let sum: f64 = d.optimal.rms_per_source.iter().map(|r| r * r).sum();
     let total = h2_norm(&d.optimal.error_loop).unwrap();
     assert!((sum / (total * total) - 1.0).abs() < 1e-6, "{sum} {total}");
-    // The grid CAS approximates the exact RMS: 1% (trapezoid on a log grid
-    // to 100 kHz; the tail above and the 0-1 mHz segment are tiny).
-    let b = budget(&d.optimal, 1e5, 3000).unwrap();
-    assert!(
-        (b.rms / d.optimal.rms - 1.0).abs() < 1e-2,
-        "{} {}",
-        b.rms,
-        d.optimal.rms
-    );
+    let b = grid_budget_near_exact(&d.optimal);
     for (g, e) in b.rms_per_source.iter().zip(&d.optimal.rms_per_source) {
         assert!((g / e - 1.0).abs() < 2e-2, "{g} {e}");
     }
@@ -353,13 +355,7 @@ fn w1_in_mm_with_the_sensor_on_the_moving_body_is_evaluated() {
         .sqrt();
     assert!(err < 1e-13 * fts::lti::ss::fro(&at), "{err}");
     assert!((0..n).all(|i| r[(i, i)].re < 0.0));
-    let b = budget(&d.optimal, 1e5, 3000).unwrap();
-    assert!(
-        (b.rms / d.optimal.rms - 1.0).abs() < 1e-2,
-        "{} {}",
-        b.rms,
-        d.optimal.rms
-    );
+    grid_budget_near_exact(&d.optimal);
     let sum: f64 = d.optimal.rms_per_source.iter().map(|r| r * r).sum();
     assert!((sum.sqrt() / d.optimal.rms - 1.0).abs() < 1e-6);
     // The figures docs/robust.md quotes for this reading (H2: 231 nm at 569 Hz).

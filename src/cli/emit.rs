@@ -349,22 +349,12 @@ fn output_dir(args: &EmitArgs) -> anyhow::Result<&Path> {
 /// `--format c`: the three C files into the -o directory (created if
 /// missing), each written atomically.
 fn write_c_runtime(args: &EmitArgs, file: &ControllerFile) -> anyhow::Result<()> {
-    let Some(dir) = &args.output else {
-        return Err(bad(
-            "-o/--out: --format c writes three files; give the directory to write them into",
-        ));
-    };
-    if args.c_header.is_some() {
+    // A missing -o is output_dir's error first; nothing is created before
+    // the --c-header check.
+    if args.output.is_some() && args.c_header.is_some() {
         return Err(bad("--c-header goes with --format json"));
     }
-    if dir.exists() && !dir.is_dir() {
-        return Err(bad(format!(
-            "-o/--out: {} is a file; --format c writes into a directory",
-            dir.display()
-        )));
-    }
-    std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow::anyhow!("{}: cannot create the directory: {e}", dir.display()))?;
+    let dir = output_dir(args)?;
     for (name, text) in to_c_files(file) {
         write_atomic(&dir.join(name), text.as_bytes())?;
     }

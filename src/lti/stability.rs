@@ -426,7 +426,13 @@ pub fn schur_certified(descending: &[f64]) -> Option<bool> {
         |z, r| (z.norm() + r) * slack < 1.0,
         |z, r| (z.norm() - r) / slack >= 1.0,
     )
-    .or_else(|| schur_by_winding(descending))
+    .or_else(|| {
+        // The argument principle counts the roots inside without isolating
+        // them: it decides high degrees where the inclusion discs of
+        // near-coincident roots overlap the circle.
+        let p = nonzero(descending)?;
+        schur_roots_inside(p).map(|inside| inside == p.len() - 1)
+    })
 }
 
 /// How many roots of the stored polynomial (descending) lie strictly inside
@@ -451,15 +457,6 @@ pub fn hurwitz_roots_left(descending: &[f64]) -> Option<usize> {
         return None;
     }
     winding::roots_left(p)
-}
-
-/// Schur stability by the argument principle ([`winding`]): the roots
-/// inside the circle are counted from `p` on the circle, certified, without
-/// isolating them, which is what decides high degrees where the inclusion
-/// discs of near-coincident roots overlap the circle.
-fn schur_by_winding(descending: &[f64]) -> Option<bool> {
-    let p = nonzero(descending)?;
-    winding::roots_inside(p).map(|inside| inside == p.len() - 1)
 }
 
 /// Hurwitz stability certified by [`inclusion_discs`], or where they

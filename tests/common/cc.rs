@@ -17,3 +17,49 @@ pub fn compiler(not_checked: &str) -> Option<String> {
         }
     }
 }
+
+/// The compilers and dialects the generated C must build with warning-free:
+/// `(compiler, -x language, -std)`.
+pub const DIALECTS: [(&str, &str, &str); 4] = [
+    ("gcc", "c", "-std=c99"),
+    ("clang", "c", "-std=c99"),
+    ("g++", "c++", "-std=c++11"),
+    ("clang++", "c++", "-std=c++11"),
+];
+
+/// Whether `cc` runs; a note on stderr when it does not.
+pub fn installed(cc: &str) -> bool {
+    let found = Command::new(cc).arg("--version").output().is_ok();
+    if !found {
+        eprintln!("note: {cc} not installed; not checked");
+    }
+    found
+}
+
+/// Compiles `source` with `cc -x lang std extra -Wall -Wextra -pedantic
+/// -Werror -c -I include` into `include/out.o`, failing with the
+/// compiler's messages on any warning.
+pub fn assert_compiles_warning_free(
+    (cc, lang, std): (&str, &str, &str),
+    extra: &[&str],
+    include: &std::path::Path,
+    source: &std::path::Path,
+) {
+    let out = Command::new(cc)
+        .args(["-x", lang, std])
+        .args(extra)
+        .args(["-Wall", "-Wextra", "-pedantic", "-Werror", "-c"])
+        .arg("-I")
+        .arg(include)
+        .arg(source)
+        .arg("-o")
+        .arg(include.join("out.o"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{cc} -x {lang} {}:\n{}",
+        source.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
