@@ -1,4 +1,5 @@
-//! The bad-input campaign as a table (`tests/data/bad_input/cases.toml`):
+//! The bad-input campaigns as tables (`tests/data/bad_input/cases.toml`, and
+//! `cases-*.toml` for the commands added since):
 //! every case runs the `fts` binary in a fresh folder holding the valid
 //! files of `tests/data/bad_input/base/` plus the case's own files, and
 //! checks the contract of docs/formats.md "Exit codes":
@@ -24,6 +25,7 @@ use std::time::{Duration, Instant};
 const TIMEOUT: Duration = Duration::from_secs(30);
 const MEMORY_LIMIT: u64 = 4 << 30;
 const MIN_CASES: usize = 200;
+const MIN_NEW_CASES: usize = 500;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -224,13 +226,49 @@ fn run_case(index: usize, case: &Case, base: &BTreeMap<String, Vec<u8>>) -> Resu
     }
 }
 
+/// The first campaign: the commands of the first release.
 #[test]
 fn every_bad_input_is_refused_on_one_line_naming_the_culprit() {
-    let text = std::fs::read_to_string(data_dir().join("cases.toml")).expect("cases.toml");
-    let table: Table = toml::from_str(&text).expect("cases.toml parses");
+    run_tables(&[data_dir().join("cases.toml")], MIN_CASES);
+}
+
+/// The second campaign: the commands added since (learning, responses,
+/// conversions, reductions, contouring, mechanisms, continuous-time
+/// identification, virtual records), one table per area in
+/// `tests/data/bad_input/cases-*.toml`.
+#[test]
+fn every_bad_input_to_the_newer_commands_is_refused_the_same_way() {
+    let mut tables: Vec<PathBuf> = std::fs::read_dir(data_dir())
+        .expect("bad_input folder")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("cases-") && n.ends_with(".toml"))
+        })
+        .collect();
+    tables.sort();
+    run_tables(&tables, MIN_NEW_CASES);
+}
+
+/// Runs every case of `tables` (only those whose file name contains
+/// `FTS_BAD_INPUT_TABLE`, when set, and then without the count check).
+fn run_tables(tables: &[PathBuf], min_cases: usize) {
+    let filter = std::env::var("FTS_BAD_INPUT_TABLE").ok();
+    let mut cases = Vec::new();
+    for path in tables {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
+            continue;
+        }
+        let text = std::fs::read_to_string(path).expect("case table");
+        let table: Table =
+            toml::from_str(&text).unwrap_or_else(|e| panic!("{name} does not parse: {e}"));
+        cases.extend(table.case.into_iter().map(|c| (name.clone(), c)));
+    }
     let base = base_files();
-    let n = table.case.len();
-    assert!(n >= MIN_CASES, "only {n} cases");
+    let n = cases.len();
+    assert!(filter.is_some() || n >= min_cases, "only {n} cases");
     let next = Mutex::new(0usize);
     let failures = Mutex::new(Vec::new());
     let started = Instant::now();
@@ -245,9 +283,9 @@ fn every_bad_input_is_refused_on_one_line_naming_the_culprit() {
                         *g += 1;
                         i
                     };
-                    let Some(case) = table.case.get(i) else { break };
+                    let Some((table, case)) = cases.get(i) else { break };
                     if let Err(e) = run_case(i, case, &base) {
-                        failures.lock().unwrap().push((i, e));
+                        failures.lock().unwrap().push((i, format!("{table}: {e}")));
                     }
                 }
             });
