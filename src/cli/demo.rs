@@ -388,6 +388,7 @@ fn learning_json(
         "rho": d.rho,
         "rho_at_hz": d.rho_at_hz,
         "tolerated_model_error": d.tolerated_model_error,
+        "prediction": learning.prediction,
         "references": learning.references.iter().map(|r| json!({
             "reference": r.reference,
             "max_abs_error": r.trials.iter().map(|m| m.max_abs_error).collect::<Vec<_>>(),
@@ -564,6 +565,13 @@ fn print_learning(
         d.rho,
         d.rho_at_hz,
         100.0 * d.tolerated_model_error
+    );
+    let p = &learning.prediction;
+    say!(
+        "   prediction with the learning model's error measured on its own sweep record: max |Q| (|1 - a L G| + a |L G| delta) = {:.3} at {:.0} Hz (< 1); verdict: each trial's error watched (stops past {}x the best)",
+        p.rho,
+        p.at_hz,
+        learning.divergence_factor
     );
     say!("   max error per trial, % of the amplitude (trial 0 without learning):");
     for r in &learning.references {

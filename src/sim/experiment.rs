@@ -228,6 +228,9 @@ pub struct LearningParams {
     pub ilc: IlcParams,
     /// Trials after the first. Default 10.
     pub trials: usize,
+    /// A trial whose max error exceeds the best earlier trial's by this
+    /// factor stops the experiment (measured divergence). Default 2.
+    pub divergence_factor: f64,
 }
 
 impl Default for LearningParams {
@@ -242,6 +245,7 @@ impl Default for LearningParams {
                 ..IlcParams::default()
             },
             trials: 10,
+            divergence_factor: 2.0,
         }
     }
 }
@@ -266,6 +270,11 @@ pub struct LearningModel {
 pub struct LearningResult {
     /// The law and its convergence check on the learning model.
     pub design: IlcDesign,
+    /// The condition with the learning model's measured error (Eq. 3 of
+    /// [`crate::synth::ilc::robust`]): the prediction the trials test.
+    pub prediction: crate::synth::ilc::robust::RobustCheck,
+    /// The measured divergence factor the trials were watched with.
+    pub divergence_factor: f64,
     /// Per reference of the tracking table.
     pub references: Vec<LearnedReference>,
 }
@@ -714,9 +723,10 @@ fn learn_references(
 ) -> Result<LearningResult, ExperimentError> {
     observer(Progress::Step("iterative learning control"));
     let design = ilc::design(&lm.model.tf, &lp.ilc).map_err(|e| step_err("ILC")(e.to_string()))?;
+    let prediction = predict(lm, &design)?;
     let mut learned = Vec::with_capacity(references.len());
     for (i, reference) in references.iter().enumerate() {
-        let mut rows = Vec::with_capacity(lp.trials + 1);
+        let mut rows: Vec<TrackingMetrics> = Vec::with_capacity(lp.trials + 1);
         let (feedforward, _) = design.run_trials(
             lp.trials,
             reference.ramp_end,
@@ -725,6 +735,13 @@ fn learn_references(
                 let run = 1000 * (i as u64 + 1) + trial as u64;
                 let (trace, metrics) = track(params, run, &file, reference)?;
                 rows.push(metrics);
+                let errors: Vec<f64> = rows.iter().map(|m| m.max_abs_error).collect();
+                if let Some(d) = ilc::last_diverged(&errors, lp.divergence_factor) {
+                    return Err(step_err("ILC")(format!(
+                        "the learning diverges on {}: trial {} has max error {:.4} um, {:.1} times trial {}'s (divergence factor {})",
+                        reference.label, d.trial, errors[d.trial], d.ratio, d.best_trial, lp.divergence_factor
+                    )));
+                }
                 Ok::<_, ExperimentError>(trace)
             },
             closed_loop::Trace::error,
@@ -741,6 +758,39 @@ fn learn_references(
     }
     Ok(LearningResult {
         design,
+        prediction,
+        divergence_factor: lp.divergence_factor,
         references: learned,
     })
+}
+
+/// The law's convergence condition with the learning model's error
+/// measured on its own identification record ([`ilc::robust`], Eq. 3):
+/// a law predicted to diverge is refused.
+fn predict(
+    lm: &LearningModel,
+    design: &ilc::IlcDesign,
+) -> Result<ilc::robust::RobustCheck, ExperimentError> {
+    let source = format!(
+        "the learning model's own {} um 0-{:.0} Hz sweep record",
+        lm.sweep_amplitude, lm.sweep_f1
+    );
+    let error = ilc::robust::ModelError::measure(&lm.model.tf, &lm.sweep.0, &lm.sweep.1, source)
+        .map_err(|e| step_err("ILC")(e.to_string()))?;
+    let check = ilc::robust::robust_check(design, &lm.model.tf, &error);
+    if !check.converges() {
+        return Err(step_err("ILC")(format!(
+            "the model check fails: max |Q| (|1 - a L G| + a |L G| delta) = {:.4} >= 1 at {:.1} Hz (model error {:.1} %, {} on {})",
+            check.rho,
+            check.at_hz,
+            100.0 * check.delta_at_peak,
+            if check.measured_at_peak {
+                "measured"
+            } else {
+                "assumed"
+            },
+            error.source
+        )));
+    }
+    Ok(check)
 }

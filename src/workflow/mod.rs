@@ -18,6 +18,7 @@ pub mod experiment;
 pub mod identify;
 pub mod identify_ct;
 mod identify_hysteresis;
+pub mod ilc;
 pub mod learning;
 pub mod mechanism;
 pub mod response;

@@ -22,6 +22,8 @@
 //! `|Q| (|1 - a L G| + a |L G| delta) < 1`; the largest such `delta` at each
 //! frequency is the robustness margin reported (Eq. 3).
 
+pub mod robust;
+
 use super::repetitive::{q_response, windowed_sinc};
 use super::zpetc::{self, StableInversion, Zpetc, ZpetcParams};
 use crate::lti::DiscreteTf;
@@ -148,6 +150,14 @@ pub fn design_unchecked(g: &DiscreteTf, params: &IlcParams) -> Result<IlcDesign,
     }
     let learning =
         zpetc::design(g, &params.inversion).map_err(|e| IlcError::Inversion(e.to_string()))?;
+    Ok(design_with_inversion(learning, g, params))
+}
+
+/// [`design_unchecked`] with the inversion `L` of `g` already made (the
+/// settings' ranges checked by the caller): only `Q` and the gain change,
+/// as when candidate laws are compared on one model.
+pub fn design_with_inversion(learning: Zpetc, g: &DiscreteTf, params: &IlcParams) -> IlcDesign {
+    let ts = g.ts();
     let q = windowed_sinc(params.q_cutoff_hz * ts, params.q_half_length);
     let points = params.points.max(16);
     let mut rho_curve = Vec::with_capacity(points);
@@ -171,7 +181,7 @@ pub fn design_unchecked(g: &DiscreteTf, params: &IlcParams) -> Result<IlcDesign,
             }
         }
     }
-    Ok(IlcDesign {
+    IlcDesign {
         learning,
         q,
         gain: params.gain,
@@ -182,7 +192,7 @@ pub fn design_unchecked(g: &DiscreteTf, params: &IlcParams) -> Result<IlcDesign,
         tolerated_model_error: tolerated,
         tolerated_at_hz: tolerated_at,
         rho_curve,
-    })
+    }
 }
 
 /// The zero-phase FIR `q` on a whole signal, zero beyond its ends.
@@ -249,6 +259,33 @@ impl IlcDesign {
         }
         Ok((learned, outcome))
     }
+}
+
+/// The measured verdict's trigger: a trial whose max error exceeds the
+/// best earlier trial's by `factor` (or is not finite).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Divergence {
+    /// The trial that grew.
+    pub trial: usize,
+    /// The best trial before it.
+    pub best_trial: usize,
+    /// Its error over the best one's.
+    pub ratio: f64,
+}
+
+/// Whether the last of `max_errors` (trial 0 first) diverged from the best
+/// before it by more than `factor`.
+pub fn last_diverged(max_errors: &[f64], factor: f64) -> Option<Divergence> {
+    let (&last, before) = max_errors.split_last()?;
+    let (best_trial, &best) = before
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))?;
+    (!last.is_finite() || last > factor * best).then_some(Divergence {
+        trial: before.len(),
+        best_trial,
+        ratio: last / best,
+    })
 }
 
 #[cfg(test)]
@@ -338,6 +375,20 @@ mod tests {
             Err(IlcError::Diverges { rho, .. }) => assert!((rho - 1.5).abs() < 0.01, "{rho}"),
             other => panic!("{other:?}"),
         }
+    }
+
+    /// The trigger fires on growth past the best earlier trial (not past
+    /// the previous one), and on a non-finite error.
+    #[test]
+    fn divergence_is_growth_past_the_best_trial() {
+        assert_eq!(last_diverged(&[1.0], 2.0), None);
+        assert_eq!(last_diverged(&[1.0, 0.1, 0.19], 2.0), None);
+        let d = last_diverged(&[1.0, 0.1, 0.15, 0.21], 2.0).unwrap();
+        assert_eq!((d.trial, d.best_trial), (3, 1));
+        assert!((d.ratio - 2.1).abs() < 1e-12);
+        // Larger than trial 0 is not needed: 2x the best suffices.
+        assert!(last_diverged(&[1.0, 0.01, 0.03], 2.0).is_some());
+        assert!(last_diverged(&[1.0, f64::NAN], 2.0).is_some());
     }
 
     #[test]
