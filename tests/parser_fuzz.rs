@@ -222,6 +222,52 @@ fn controller_json_never_panics() {
 }
 
 #[test]
+fn multiaxis_controller_json_never_panics() {
+    fuzz(
+        "multiaxis",
+        &["examples/contour-hinf/controller-3axis.json"],
+        |b| {
+            let _ = controller_file::parse_multiaxis(&text(b), "k3.json");
+        },
+    );
+}
+
+#[test]
+fn repetitive_json_never_panics() {
+    fuzz("repetitive", &["tests/data/fuzz/repetitive.json"], |b| {
+        if let Ok(file) = fts::workflow::learning::RepetitiveFile::parse(&text(b), "rc.json") {
+            let _ = file.block_at(1e-4, "rc.json");
+        }
+    });
+}
+
+/// The one-line specifications options take: disturbances
+/// (`spindle:1@100,0.5`) and Ding22's sweep (`k2=1e5:1e6:5`).
+#[test]
+fn option_specs_never_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeds = dir.path().join("specs");
+    std::fs::create_dir(&seeds).unwrap();
+    let specs = [
+        "spindle:1@100,0.5,0.25",
+        "sines:0.5@37,0.1@300",
+        "k2=1e5:1e6:5,c2=100:300:3",
+    ];
+    let mut paths = Vec::new();
+    for (i, s) in specs.iter().enumerate() {
+        let p = seeds.join(format!("{i}.txt"));
+        std::fs::write(&p, s).unwrap();
+        paths.push(p.to_string_lossy().into_owned());
+    }
+    let refs: Vec<&str> = paths.iter().map(String::as_str).collect();
+    fuzz("option specs", &refs, |b| {
+        let spec = text(b);
+        let _ = fts::sim::disturbance::Disturbance::parse(&spec);
+        let _ = fts::workflow::ding22::parse_sweep(&spec);
+    });
+}
+
+#[test]
 fn c_header_never_panics() {
     fuzz(
         "c-header",
