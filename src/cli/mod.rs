@@ -220,10 +220,12 @@ const OUTPUT_OPTIONS: [&str; 8] = [
     "--augmented",
 ];
 
-/// Two result options naming one file are refused before any work, so the
-/// first is not written when the second is then refused.
+/// Two result options naming one file, or a result option naming a file
+/// another argument names (an input), are refused before any work, so
+/// nothing is computed, printed or written for a run that cannot finish.
 fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
-    let mut seen: Vec<(&str, std::path::PathBuf)> = Vec::new();
+    let mut seen: Vec<(&str, std::path::PathBuf, String)> = Vec::new();
+    let mut others: Vec<std::path::PathBuf> = Vec::new();
     let mut iter = args.iter().skip(1).filter_map(|a| a.to_str()).peekable();
     while let Some(arg) = iter.next() {
         if arg == "--" {
@@ -234,20 +236,29 @@ fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
             _ => (arg, None),
         };
         let Some(option) = OUTPUT_OPTIONS.iter().find(|o| **o == name) else {
+            let path = std::path::Path::new(value.as_deref().unwrap_or(arg));
+            if path.is_file() {
+                others.push(common::output_identity(path));
+            }
             continue;
         };
         let Some(value) = value.or_else(|| iter.next().map(str::to_owned)) else {
             continue;
         };
         let id = common::output_identity(std::path::Path::new(&value));
-        if let Some((first, _)) = seen.iter().find(|(_, p)| *p == id) {
+        if let Some((first, _, _)) = seen.iter().find(|(_, p, _)| *p == id) {
             return Err(format!(
                 "{value}: two results of this run would be written to the same file ({first} and {option}); name another file"
             ));
         }
-        seen.push((option, id));
+        seen.push((option, id, value));
     }
-    Ok(())
+    match seen.iter().find(|(_, id, _)| others.contains(id)) {
+        Some((option, _, value)) => Err(format!(
+            "{value}: {option} names a file this run reads; refusing to write a result onto an input, name another file"
+        )),
+        None => Ok(()),
+    }
 }
 
 /// A clap usage error on one line: its message and tips, without the usage

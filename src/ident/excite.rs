@@ -129,7 +129,11 @@ pub fn triangle(p: &TriangleParams) -> Result<Vec<f64>, ExciteError> {
         format!("must be a positive frequency in Hz, got {}", p.freq_hz),
     )?;
     check(p.cycles >= 1, "cycles", "at least one period per amplitude")?;
-    check(p.offset.is_finite(), "offset", "must be finite")?;
+    check(
+        p.offset.is_finite(),
+        "offset",
+        format!("must be finite, got {}", p.offset),
+    )?;
     let per_period = samples(1.0 / p.freq_hz, p.ts)?;
     check(
         per_period >= 4,
@@ -187,7 +191,11 @@ pub struct SineParams {
 /// The sine.
 pub fn sine(p: &SineParams) -> Result<Vec<f64>, ExciteError> {
     check_ts(p.ts)?;
-    check(p.amplitude.is_finite(), "amplitude", "must be finite")?;
+    check(
+        p.amplitude.is_finite(),
+        "amplitude",
+        format!("must be finite, got {}", p.amplitude),
+    )?;
     let nyquist = 0.5 / p.ts;
     check(
         p.freq_hz.is_finite() && p.freq_hz >= 0.0 && p.freq_hz <= nyquist,
@@ -325,7 +333,11 @@ pub fn multisine(p: &MultisineParams) -> Result<(Vec<f64>, Vec<f64>), ExciteErro
         "amplitude",
         "must be positive",
     )?;
-    check(p.offset.is_finite(), "offset", "must be finite")?;
+    check(
+        p.offset.is_finite(),
+        "offset",
+        format!("must be finite, got {}", p.offset),
+    )?;
     let nyquist = 0.5 / p.ts;
     let df = 1.0 / p.period;
     let mut lines: Vec<u64> = Vec::new();

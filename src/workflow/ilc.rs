@@ -206,6 +206,7 @@ impl Ilc {
             )
         })?;
         same_rate(&model, &prepared)?;
+        below_nyquist(self.q_cutoff, &model)?;
         note("measuring the loop's response for the model check (validation sweep)...");
         let error = validation_error(simulate, &prepared, &model)?;
         let band = reference_band_hz(&prepared.reference, model.ts());
@@ -414,6 +415,18 @@ fn model_check_failure(check: &RobustCheck, error: &ModelError) -> String {
         },
         error.source
     )
+}
+
+/// A cutoff beyond the Nyquist frequency is refused before any work.
+fn below_nyquist(cutoff: Option<f64>, model: &DiscreteTf) -> Result<(), StepError> {
+    let nyquist = 0.5 / model.ts();
+    match cutoff {
+        Some(c) if c > nyquist => Err(StepError::setting(
+            "q_cutoff",
+            format!("{c} Hz is beyond the Nyquist frequency {nyquist} Hz"),
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// A model at another sample time than the loop's is refused.
