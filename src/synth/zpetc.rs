@@ -1015,3 +1015,123 @@ mod tests {
         ));
     }
 }
+
+/// The self-check's verdict (docs/formats.md "Exit codes"): each criterion
+/// fails on a filter built to break it alone, against the plant `G_c = 1`
+/// (so the product is the filter itself).
+#[cfg(test)]
+mod self_check_tests {
+    use super::*;
+
+    fn unit_plant() -> DiscreteTf {
+        DiscreteTf::new(vec![1.0], vec![1.0], 0, 1e-4).unwrap()
+    }
+
+    fn filter(num: Vec<f64>, den: Vec<f64>) -> Zpetc {
+        Zpetc {
+            num: Poly::new(num),
+            den: Poly::new(den),
+            preview: 0,
+            series_terms: 0,
+            ts: 1e-4,
+            zeros: Vec::new(),
+            params: ZpetcParams::default(),
+        }
+    }
+
+    fn failures(z: &Zpetc) -> Vec<CheckFailure> {
+        z.check(&unit_plant(), 2001).unwrap().failures()
+    }
+
+    #[test]
+    fn a_good_filter_passes() {
+        assert_eq!(failures(&filter(vec![1.0], vec![1.0])), vec![]);
+    }
+
+    #[test]
+    fn a_dc_gain_off_by_2e_6_fails_and_1e_7_passes() {
+        assert_eq!(
+            failures(&filter(vec![1.0 + 2e-6], vec![1.0])),
+            vec![CheckFailure::DcGain(1.0 + 2e-6)]
+        );
+        assert_eq!(failures(&filter(vec![1.0 + 1e-7], vec![1.0])), vec![]);
+    }
+
+    #[test]
+    fn an_unstable_filter_fails_though_its_response_is_one() {
+        // (1 - 1.25 z^-1)/(1 - 1.25 z^-1): G_z = 1 on the circle, DC
+        // exactly 1, but the running filter diverges.
+        let z = filter(vec![1.0, -1.25], vec![1.0, -1.25]);
+        assert_eq!(failures(&z), vec![CheckFailure::Unstable]);
+    }
+
+    #[test]
+    fn coefficients_too_large_for_their_gain_fail() {
+        // (1 - z^-1/2)^21 over itself: exact dyadic coefficients whose
+        // partial sums are exact, so the DC gain is exactly 1, but
+        // sum |c_k| / |sum c_k| = 1.5^21 / 0.5^21 = 3^21 each:
+        // 2 eps 3^21 = 4.6e-6 > 1e-6.
+        let p = Poly::from_z_roots(&[c64::new(0.5, 0.0); 21], 1.0);
+        let z = filter(p.coeffs().to_vec(), p.coeffs().to_vec());
+        let check = z.check(&unit_plant(), 2001).unwrap();
+        let expected = 2.0 * f64::EPSILON * 3f64.powi(21);
+        assert!((check.rounding_bound / expected - 1.0).abs() < 1e-12);
+        assert_eq!(check.dc_gain, 1.0);
+        assert_eq!(
+            check.failures(),
+            vec![CheckFailure::Rounding(check.rounding_bound)]
+        );
+        // 3^19: 2 eps 3^19 = 5.1e-7 passes.
+        let p = Poly::from_z_roots(&[c64::new(0.5, 0.0); 19], 1.0);
+        assert_eq!(
+            failures(&filter(p.coeffs().to_vec(), p.coeffs().to_vec())),
+            vec![]
+        );
+    }
+
+    #[test]
+    fn a_kept_zero_near_one_fails_on_gain() {
+        // A kept zero at 0.99 (|z| >= rho): |G_z G_c| = |1 - 0.99 e^{-jw}|^2
+        // / 0.01^2, (1.99/0.01)^2 = 39601 at Nyquist; at 0.98 it is
+        // (1.98/0.02)^2 = 9801, within the limit.
+        for (zero, gain) in [(0.99, 39601.0), (0.98, 9801.0)] {
+            let g = DiscreteTf::new(vec![1.0, -zero], vec![1.0, -0.5], 1, 1e-4).unwrap();
+            let z = design(&g, &ZpetcParams::default()).unwrap();
+            let check = z.check(&g, 2001).unwrap();
+            assert!((check.max_gain / gain - 1.0).abs() < 1e-9, "{check:?}");
+            assert!((check.max_gain_hz - 5000.0).abs() < 1e-9);
+            let expected = if gain > MAX_PRODUCT_GAIN {
+                vec![CheckFailure::Gain(check.max_gain, check.max_gain_hz)]
+            } else {
+                vec![]
+            };
+            assert_eq!(check.failures(), expected);
+        }
+    }
+
+    #[test]
+    fn a_pair_at_one_fails_several_ways() {
+        // The fitted PID-only loop of issue #27: zero 1 - 1e-7 and pole
+        // 1 - 2e-7 in (0.3 + 0.1 z^-1)/(1 - 0.6 z^-1). The kept zero
+        // makes B_u(1)^2 = 9e-16: coefficients near 1e15.
+        let (zero, pole) = (1.0 - 1e-7, 1.0 - 2e-7);
+        let g = DiscreteTf::new(
+            vec![0.3, 0.1 - 0.3 * zero, -0.1 * zero],
+            vec![1.0, -pole - 0.6, 0.6 * pole],
+            1,
+            1e-4,
+        )
+        .unwrap();
+        let z = design(&g, &ZpetcParams::default()).unwrap();
+        let f = z.check(&g, 2001).unwrap().failures();
+        assert!(
+            f.iter().any(|f| matches!(f, CheckFailure::Rounding(_))),
+            "{f:?}"
+        );
+        assert!(
+            f.iter()
+                .any(|f| matches!(f, CheckFailure::Gain(g, _) if *g > 1e14)),
+            "{f:?}"
+        );
+    }
+}
