@@ -90,7 +90,9 @@ pub fn trap_poles(g: &DiscreteTf) -> Result<Vec<TrapPole>, RootsError> {
         }
         let w = p.arg().abs();
         let gain = g.response_at_omega(w).norm();
-        if !(gain < TRAP_GAIN_RATIO * median_gain) {
+        // A NaN gain counts as a trap.
+        let ordinary = gain < TRAP_GAIN_RATIO * median_gain;
+        if !ordinary {
             out.push(TrapPole {
                 pole: p,
                 freq_hz: w / (2.0 * PI * g.ts()),

@@ -285,16 +285,17 @@ impl ZpetcCheck {
     pub fn failures(&self) -> Vec<CheckFailure> {
         let mut out = Vec::new();
         // NaN fails every test.
-        if !((self.dc_gain - 1.0).abs() <= DC_GAIN_TOLERANCE) {
+        let within = |x: f64, limit: f64| x <= limit;
+        if !within((self.dc_gain - 1.0).abs(), DC_GAIN_TOLERANCE) {
             out.push(CheckFailure::DcGain(self.dc_gain));
         }
         if !self.filter_stable {
             out.push(CheckFailure::Unstable);
         }
-        if !(self.rounding_bound <= ROUNDING_LIMIT) {
+        if !within(self.rounding_bound, ROUNDING_LIMIT) {
             out.push(CheckFailure::Rounding(self.rounding_bound));
         }
-        if !(self.max_gain <= MAX_PRODUCT_GAIN) {
+        if !within(self.max_gain, MAX_PRODUCT_GAIN) {
             out.push(CheckFailure::Gain(self.max_gain, self.max_gain_hz));
         }
         out

@@ -337,13 +337,13 @@ impl Minreal {
                 .iter()
                 .map(|q| (q, (p - q).norm()))
                 .min_by(|a, b| a.1.total_cmp(&b.1));
-            let far = nearest.is_none_or(|(_, d)| !(d <= MINREAL_POLE_DRIFT * (1.0 + p.norm())));
-            if far {
-                let near = nearest.map_or("none".into(), |(q, d)| {
+            let near = nearest.is_some_and(|(_, d)| d <= MINREAL_POLE_DRIFT * (1.0 + p.norm()));
+            if !near {
+                let nearest = nearest.map_or("none".into(), |(q, d)| {
                     format!("nearest {} at {d:.3e}", fmt_complex(*q))
                 });
                 return fail(format!(
-                    "its pole {} is not a pole of the model ({near})",
+                    "its pole {} is not a pole of the model ({nearest})",
                     fmt_complex(*p)
                 ));
             }
