@@ -8,7 +8,7 @@ use crate::io::controller_file::{Provenance, sha256_hex, to_c_header};
 use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_string};
 use crate::io::timeseries::{time_column, write_csv};
 use crate::io::{plot, tf_json, zpetc_json};
-use crate::lti::{Bode, TransferFunction, logspace};
+use crate::lti::{Bode, TransferFunction, logspace, model_check};
 use crate::sim::experiment::{self, ExperimentParams, LEARNED_STAGES, Progress, build_controller};
 use crate::synth::composite::Stages;
 use clap::Args;
@@ -51,6 +51,11 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let result = run_experiment(&params)?;
     let elapsed = start.elapsed().as_secs_f64();
+    // The ZPETC passed its self-check in the experiment, before any file.
+    let check = result
+        .models
+        .zpetc
+        .check(&result.models.closed_loop.tf, 2001)?;
     // Every file is made before the first is written.
     let mut files = model_files(&params, &result.models)?;
     files.push(("tracking.csv", table_csv(&result).into_bytes()));
@@ -60,10 +65,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     for (name, bytes) in &files {
         write(&args.out, name, bytes)?;
     }
-    let check = result
-        .models
-        .zpetc
-        .check(&result.models.closed_loop.tf, 2001)?;
     if args.json {
         return print_json(&json_summary(&result, &check, elapsed, &args.out));
     }
@@ -344,6 +345,7 @@ fn json_summary(
             "simulation_fit_percent": cl.arx_fit.simulation_percent,
             "oe_simulation_fit_percent": cl.oe_fit.as_ref().map(|f| f.simulation_percent),
             "reason": cl.reason,
+            "trap_poles": model_check::trap_poles(&cl.tf).unwrap_or_default().iter().map(|t| json!({"pole": [t.pole.re, t.pole.im], "freq_hz": t.freq_hz, "gain": t.gain, "median_gain": t.median_gain})).collect::<Vec<_>>(),
             "removed_pole_zero_pairs": cl.removed_pairs.iter().map(|(z, p)| json!({"zero": [z.re, z.im], "pole": [p.re, p.im]})).collect::<Vec<_>>(),
         },
         "zpetc": {
@@ -432,6 +434,21 @@ fn print_models(
             .unwrap_or_default()
     );
     say!("   {}", cl.reason);
+    for trap in model_check::trap_poles(&cl.tf).unwrap_or_default() {
+        let wide = m.learning.as_ref().map_or(String::new(), |l| {
+            format!(" must use learning-model.json (swept to {} Hz)", l.sweep_f1)
+        });
+        say!(
+            "   note: closed-loop.json holds only to {} Hz: its {trap}, where the sweep had no content; the ZPETC inverts it exactly (a notch of the filter), but a design that needs the loop beyond {} Hz (fts repetitive){}",
+            params.sweep_f1,
+            params.sweep_f1,
+            if wide.is_empty() {
+                " needs a wider sweep"
+            } else {
+                &wide
+            }
+        );
+    }
     if !cl.removed_pairs.is_empty() {
         say!(
             "   near pole-zero cancellations removed before the ZPETC (minreal): {}",

@@ -3,7 +3,7 @@
 use super::common::{complex_pairs, fmt_complex, print_report, read_input, write_atomic};
 use crate::io::tf_json;
 use crate::lti::stability::{StabilityTest, Verdict};
-use crate::lti::{Bode, TransferFunction, c64, linspace, logspace};
+use crate::lti::{Bode, TransferFunction, c64, linspace, logspace, model_check};
 use clap::{Args, Subcommand};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -80,6 +80,10 @@ struct TfInfo {
     #[serde(skip_serializing_if = "Option::is_none")]
     stability_note: Option<String>,
     response: Vec<ResponseAt>,
+    /// Model checks that failed (docs/formats.md "Model checks"): near
+    /// pole-zero cancellations on the unit circle and trap poles.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    warnings: Vec<String>,
     /// The summary's first line: source, kind, sample time and delay, sizes.
     #[serde(skip)]
     heading: String,
@@ -141,6 +145,10 @@ impl TfInfo {
             freq.to_vec()
         };
         Ok(Self {
+            warnings: match g {
+                TransferFunction::Discrete(d) => model_check::warnings(d),
+                TransferFunction::Continuous(_) => Vec::new(),
+            },
             model: tf_json::tf_to_value(g),
             stability_note: stability_note(g, &poles, verdict),
             stability_test: verdict.test,
@@ -223,6 +231,9 @@ impl std::fmt::Display for TfInfo {
             writeln!(f, "  {:<26} {plane} = {:.6}", fmt_complex(*z), z.norm())?;
         }
         writeln!(f, "DC gain: {:.6}", self.dc_gain)?;
+        for w in &self.warnings {
+            writeln!(f, "warning: {w}")?;
+        }
         writeln!(f, "frequency response:")?;
         writeln!(
             f,

@@ -9,6 +9,7 @@ pub mod filter;
 pub mod freqresp;
 pub mod lyapunov;
 pub mod margins;
+pub mod model_check;
 pub mod norms;
 pub mod poly;
 pub mod response;

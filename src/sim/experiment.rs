@@ -518,6 +518,18 @@ pub fn identify_models(
     observer(Progress::Step("ZPETC design"));
     let zpetc = zpetc::design(&closed_loop.tf, &params.zpetc)
         .map_err(|e| step_err("ZPETC")(e.to_string()))?;
+    // Its self-check decides before anything uses it (docs/formats.md
+    // "Self-checks").
+    let failures: Vec<String> = zpetc
+        .check(&closed_loop.tf, 2001)
+        .map_err(|e| step_err("ZPETC self-check")(e.to_string()))?
+        .failures()
+        .iter()
+        .map(|f| f.to_string())
+        .collect();
+    if !failures.is_empty() {
+        return Err(step_err("ZPETC self-check")(failures.join("; ")));
+    }
     let learning = match &params.learning {
         Some(lp) => Some(learning_model(params, lp, &inverse, observer)?),
         None => None,

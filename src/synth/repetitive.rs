@@ -174,7 +174,7 @@ pub enum RepetitiveError {
     UnstableLoop,
     /// Eq. (1) fails: the compensator would destabilise the loop.
     #[error(
-        "the stability condition fails: max |Q (1 - k_r z^m T)| = {rho:.4} >= 1 at {at_hz:.1} Hz (lead {lead}, gain {gain}); lower the gain or Q's cutoff, or change the lead"
+        "the stability condition fails: max |Q (1 - k_r z^m T)| = {rho:.4} >= 1 at {at_hz:.1} Hz (lead {lead}, gain {gain})"
     )]
     ConditionFails {
         /// `rho`, Eq. (1).

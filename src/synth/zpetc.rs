@@ -29,6 +29,7 @@
 
 use crate::lti::{DiscreteTf, Poly, RootsError, TdfFilter, c64, linspace};
 use std::f64::consts::PI;
+use std::fmt;
 
 /// Settings of the zero classification.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -216,6 +217,89 @@ pub struct ZpetcCheck {
     pub max_magnitude_error: f64,
     /// Whether the causal filter is stable (all poles inside the unit circle).
     pub filter_stable: bool,
+    /// Largest `|G_z G_c|` on the grid, and where (Hz): ZPETC's own
+    /// magnitude `|B_u(e^jw)|^2 / B_u(1)^2`, about 1 unless a kept zero sits
+    /// near `z = 1`.
+    pub max_gain: f64,
+    /// Where `max_gain` is reached, Hz.
+    pub max_gain_hz: f64,
+    /// Relative rounding error bound of the filter's DC gain as stored,
+    /// `eps (sum |num_k| / |num(1)| + sum |den_k| / |den(1)|)`: the
+    /// coefficients' size against the value they sum to (the condition
+    /// number of evaluating a polynomial at `z = 1`, Higham 2002 §5.1).
+    pub rounding_bound: f64,
+}
+
+/// `|G_z(1) G_c(1) - 1|` above this fails the self-check.
+pub const DC_GAIN_TOLERANCE: f64 = 1e-6;
+
+/// [`ZpetcCheck::rounding_bound`] above this fails the self-check: the
+/// filter's coefficients are so much larger than its gain that double
+/// precision cannot carry it (a kept zero within 1e-7 of `z = 1` gives
+/// coefficients near 1e15 and a bound near 0.2).
+pub const ROUNDING_LIMIT: f64 = 1e-6;
+
+/// [`ZpetcCheck::max_gain`] above this (80 dB) fails the self-check: the
+/// feedforward would amplify some frequency ten thousand times more than
+/// DC, so any noise or model error there swamps the tracking (a kept real
+/// zero at `0.99` gives `(1.99/0.01)^2 = 39601`).
+pub const MAX_PRODUCT_GAIN: f64 = 1e4;
+
+/// One way a designed filter fails its self-check.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CheckFailure {
+    /// `G_z(1) G_c(1)` is not 1.
+    DcGain(f64),
+    /// The causal filter has a pole on or outside the unit circle.
+    Unstable,
+    /// The coefficients are too large for double precision.
+    Rounding(f64),
+    /// `|G_z G_c|` reaches this at this frequency (Hz).
+    Gain(f64, f64),
+}
+
+impl fmt::Display for CheckFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            CheckFailure::DcGain(dc) => write!(
+                f,
+                "DC gain of G_z G_c = {dc:.9}, not 1 (tolerance {DC_GAIN_TOLERANCE:e})"
+            ),
+            CheckFailure::Unstable => write!(f, "the filter is unstable"),
+            CheckFailure::Rounding(b) => write!(
+                f,
+                "the filter's coefficients carry a relative rounding error up to {b:.1e} at DC (limit {ROUNDING_LIMIT:e})"
+            ),
+            CheckFailure::Gain(g, hz) => write!(
+                f,
+                "|G_z G_c| reaches {g:.2e} at {hz:.1} Hz (limit {MAX_PRODUCT_GAIN:e})"
+            ),
+        }
+    }
+}
+
+impl ZpetcCheck {
+    /// The criteria this check fails (none for a usable filter): unit DC
+    /// gain within [`DC_GAIN_TOLERANCE`], a stable filter, coefficients
+    /// within [`ROUNDING_LIMIT`] and a gain within [`MAX_PRODUCT_GAIN`].
+    pub fn failures(&self) -> Vec<CheckFailure> {
+        let mut out = Vec::new();
+        // NaN fails every test.
+        let within = |x: f64, limit: f64| x <= limit;
+        if !within((self.dc_gain - 1.0).abs(), DC_GAIN_TOLERANCE) {
+            out.push(CheckFailure::DcGain(self.dc_gain));
+        }
+        if !self.filter_stable {
+            out.push(CheckFailure::Unstable);
+        }
+        if !within(self.rounding_bound, ROUNDING_LIMIT) {
+            out.push(CheckFailure::Rounding(self.rounding_bound));
+        }
+        if !within(self.max_gain, MAX_PRODUCT_GAIN) {
+            out.push(CheckFailure::Gain(self.max_gain, self.max_gain_hz));
+        }
+        out
+    }
 }
 
 fn damping_ratio(z: c64) -> f64 {
@@ -482,6 +566,13 @@ fn series_inverse(zeros: &[c64], si: &StableInversion) -> Result<Poly, ZpetcErro
     Ok(Poly::new(f))
 }
 
+/// `sum |c_k| / |sum c_k|`: how much larger the coefficients are than the
+/// polynomial's value at `z = 1` (infinite when that value is 0).
+fn dc_condition(c: &[f64]) -> f64 {
+    let size: f64 = c.iter().map(|v| v.abs()).sum();
+    size / c.iter().sum::<f64>().abs()
+}
+
 impl Zpetc {
     /// Zeros cancelled by the filter.
     pub fn cancelled_zeros(&self) -> impl Iterator<Item = &ClassifiedZero> {
@@ -544,7 +635,17 @@ impl Zpetc {
                 (p, expected)
             })
             .collect();
-        let scale = products.iter().fold(0.0f64, |m, (p, _)| m.max(p.norm()));
+        let (peak_at, scale) =
+            products
+                .iter()
+                .enumerate()
+                .fold((0, 0.0f64), |(i, m), (k, (p, _))| {
+                    if p.norm() > m || p.norm().is_nan() {
+                        (k, p.norm())
+                    } else {
+                        (i, m)
+                    }
+                });
         let mut max_phase_error_rad = 0.0f64;
         let mut max_magnitude_error = 0.0f64;
         for (p, expected) in &products {
@@ -562,6 +663,10 @@ impl Zpetc {
             dc_gain: dc.re,
             max_magnitude_error,
             filter_stable,
+            max_gain: scale,
+            max_gain_hz: omegas[peak_at] / (2.0 * PI * self.ts),
+            rounding_bound: f64::EPSILON
+                * (dc_condition(self.num.coeffs()) + dc_condition(self.den.coeffs())),
         })
     }
 }
@@ -909,5 +1014,125 @@ mod tests {
             design(&g, &p),
             Err(ZpetcError::SeriesTooLong { .. })
         ));
+    }
+}
+
+/// The self-check's verdict (docs/formats.md "Exit codes"): each criterion
+/// fails on a filter built to break it alone, against the plant `G_c = 1`
+/// (so the product is the filter itself).
+#[cfg(test)]
+mod self_check_tests {
+    use super::*;
+
+    fn unit_plant() -> DiscreteTf {
+        DiscreteTf::new(vec![1.0], vec![1.0], 0, 1e-4).unwrap()
+    }
+
+    fn filter(num: Vec<f64>, den: Vec<f64>) -> Zpetc {
+        Zpetc {
+            num: Poly::new(num),
+            den: Poly::new(den),
+            preview: 0,
+            series_terms: 0,
+            ts: 1e-4,
+            zeros: Vec::new(),
+            params: ZpetcParams::default(),
+        }
+    }
+
+    fn failures(z: &Zpetc) -> Vec<CheckFailure> {
+        z.check(&unit_plant(), 2001).unwrap().failures()
+    }
+
+    #[test]
+    fn a_good_filter_passes() {
+        assert_eq!(failures(&filter(vec![1.0], vec![1.0])), vec![]);
+    }
+
+    #[test]
+    fn a_dc_gain_off_by_2e_6_fails_and_1e_7_passes() {
+        assert_eq!(
+            failures(&filter(vec![1.0 + 2e-6], vec![1.0])),
+            vec![CheckFailure::DcGain(1.0 + 2e-6)]
+        );
+        assert_eq!(failures(&filter(vec![1.0 + 1e-7], vec![1.0])), vec![]);
+    }
+
+    #[test]
+    fn an_unstable_filter_fails_though_its_response_is_one() {
+        // (1 - 1.25 z^-1)/(1 - 1.25 z^-1): G_z = 1 on the circle, DC
+        // exactly 1, but the running filter diverges.
+        let z = filter(vec![1.0, -1.25], vec![1.0, -1.25]);
+        assert_eq!(failures(&z), vec![CheckFailure::Unstable]);
+    }
+
+    #[test]
+    fn coefficients_too_large_for_their_gain_fail() {
+        // (1 - z^-1/2)^21 over itself: exact dyadic coefficients whose
+        // partial sums are exact, so the DC gain is exactly 1, but
+        // sum |c_k| / |sum c_k| = 1.5^21 / 0.5^21 = 3^21 each:
+        // 2 eps 3^21 = 4.6e-6 > 1e-6.
+        let p = Poly::from_z_roots(&[c64::new(0.5, 0.0); 21], 1.0);
+        let z = filter(p.coeffs().to_vec(), p.coeffs().to_vec());
+        let check = z.check(&unit_plant(), 2001).unwrap();
+        let expected = 2.0 * f64::EPSILON * 3f64.powi(21);
+        assert!((check.rounding_bound / expected - 1.0).abs() < 1e-12);
+        assert_eq!(check.dc_gain, 1.0);
+        assert_eq!(
+            check.failures(),
+            vec![CheckFailure::Rounding(check.rounding_bound)]
+        );
+        // 3^19: 2 eps 3^19 = 5.1e-7 passes.
+        let p = Poly::from_z_roots(&[c64::new(0.5, 0.0); 19], 1.0);
+        assert_eq!(
+            failures(&filter(p.coeffs().to_vec(), p.coeffs().to_vec())),
+            vec![]
+        );
+    }
+
+    #[test]
+    fn a_kept_zero_near_one_fails_on_gain() {
+        // A kept zero at 0.99 (|z| >= rho): |G_z G_c| = |1 - 0.99 e^{-jw}|^2
+        // / 0.01^2, (1.99/0.01)^2 = 39601 at Nyquist; at 0.98 it is
+        // (1.98/0.02)^2 = 9801, within the limit.
+        for (zero, gain) in [(0.99, 39601.0), (0.98, 9801.0)] {
+            let g = DiscreteTf::new(vec![1.0, -zero], vec![1.0, -0.5], 1, 1e-4).unwrap();
+            let z = design(&g, &ZpetcParams::default()).unwrap();
+            let check = z.check(&g, 2001).unwrap();
+            assert!((check.max_gain / gain - 1.0).abs() < 1e-9, "{check:?}");
+            assert!((check.max_gain_hz - 5000.0).abs() < 1e-9);
+            let expected = if gain > MAX_PRODUCT_GAIN {
+                vec![CheckFailure::Gain(check.max_gain, check.max_gain_hz)]
+            } else {
+                vec![]
+            };
+            assert_eq!(check.failures(), expected);
+        }
+    }
+
+    #[test]
+    fn a_pair_at_one_fails_several_ways() {
+        // The fitted PID-only loop of issue #27: zero 1 - 1e-7 and pole
+        // 1 - 2e-7 in (0.3 + 0.1 z^-1)/(1 - 0.6 z^-1). The kept zero
+        // makes B_u(1)^2 = 9e-16: coefficients near 1e15.
+        let (zero, pole) = (1.0 - 1e-7, 1.0 - 2e-7);
+        let g = DiscreteTf::new(
+            vec![0.3, 0.1 - 0.3 * zero, -0.1 * zero],
+            vec![1.0, -pole - 0.6, 0.6 * pole],
+            1,
+            1e-4,
+        )
+        .unwrap();
+        let z = design(&g, &ZpetcParams::default()).unwrap();
+        let f = z.check(&g, 2001).unwrap().failures();
+        assert!(
+            f.iter().any(|f| matches!(f, CheckFailure::Rounding(_))),
+            "{f:?}"
+        );
+        assert!(
+            f.iter()
+                .any(|f| matches!(f, CheckFailure::Gain(g, _) if *g > 1e14)),
+            "{f:?}"
+        );
     }
 }

@@ -17,7 +17,7 @@ use crate::lti::ss::StateSpace;
 use crate::runtime::{MAX_SS_ORDER, PidSpec, SsAntiWindup};
 use crate::sim::experiment::{DEFAULT_PID, build_controller};
 use crate::synth::composite::{FeedbackKind, Stages};
-use crate::synth::zpetc::{self, Zpetc, ZpetcParams};
+use crate::synth::zpetc::Zpetc;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -333,8 +333,10 @@ pub fn closed_loop_zpetc(model: &TransferFunction, source: &str) -> Result<Zpetc
             "{source} field 'var': the closed-loop model must be discrete"
         )));
     };
-    zpetc::design(g, &ZpetcParams::default())
-        .map_err(|e| StepError::input(format!("{source}: {e}")))
+    // The design and its self-check (docs/formats.md "Self-checks").
+    super::zpetc::DesignZpetc::default()
+        .design(g, source)
+        .map(|r| r.filter)
 }
 
 /// Without any feedback setting: the three ways to say which feedback.

@@ -304,12 +304,58 @@ impl Minreal {
             LoopSystem::Ss(_) => None,
         };
         let poles = system.poles().map_err(ss_err(source))?;
+        self.check(&sys, &poles, source)?;
         Ok(MinrealReport {
             order_before: sys.nx(),
             system,
             tf,
             poles,
         })
+    }
+}
+
+/// A pole of a minimal realisation may sit this far (times `1 + |p|`)
+/// from a pole of the model: removing states moves no other pole, so
+/// anything farther is a state that was reachable and observable.
+pub const MINREAL_POLE_DRIFT: f64 = 1e-2;
+
+impl Minreal {
+    /// The self-check (docs/responses.md §3): every pole of the result is
+    /// a pole of the model within [`MINREAL_POLE_DRIFT`], and a stable
+    /// model stays stable. A failure is a computation failure: the
+    /// tolerance removed more than uncontrollable or unobservable states.
+    fn check(&self, sys: &StateSpace, poles: &[c64], source: &str) -> Result<(), StepError> {
+        let before = sys.poles().map_err(ss_err(source))?;
+        let fail = |what: String| {
+            Err(StepError::computation(format!(
+                "{source}: the minimal realisation fails its self-check: {what}; `tol` = {:e} removed states that are reachable and observable: use a smaller `tol`",
+                self.tol
+            )))
+        };
+        for p in poles {
+            let nearest = before
+                .iter()
+                .map(|q| (q, (p - q).norm()))
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let near = nearest.is_some_and(|(_, d)| d <= MINREAL_POLE_DRIFT * (1.0 + p.norm()));
+            if !near {
+                let nearest = nearest.map_or("none".into(), |(q, d)| {
+                    format!("nearest {} at {d:.3e}", fmt_complex(*q))
+                });
+                return fail(format!(
+                    "its pole {} is not a pole of the model ({nearest})",
+                    fmt_complex(*p)
+                ));
+            }
+        }
+        let stable = |ps: &[c64]| match sys.ts {
+            Some(_) => ps.iter().all(|p| p.norm() < 1.0),
+            None => ps.iter().all(|p| p.re < 0.0),
+        };
+        if stable(&before) && !stable(poles) {
+            return fail("the model is stable, its minimal realisation is not".into());
+        }
+        Ok(())
     }
 }
 

@@ -1088,6 +1088,10 @@ pub struct LinearReport {
     pub dc_gain: f64,
     /// What the residual tests say about the noise model.
     pub notes: Vec<&'static str>,
+    /// Failed model checks (docs/formats.md "Model checks"), printed as
+    /// warnings beside the model written.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// Method-specific figures.
     #[serde(flatten)]
     pub details: MethodDetails,
@@ -1177,6 +1181,7 @@ impl LinearReport {
             zeros: tf.zeros().unwrap_or_default(),
             dc_gain: tf.dc_gain(),
             notes,
+            warnings: crate::lti::model_check::warnings(&tf),
             details: e.details,
             refinement: None,
             tf,
@@ -1327,7 +1332,11 @@ impl fmt::Display for LinearReport {
                 .collect::<Vec<_>>()
                 .join(", ")
         )?;
-        writeln!(f, "  DC gain {:.6}", self.dc_gain)
+        writeln!(f, "  DC gain {:.6}", self.dc_gain)?;
+        for w in &self.warnings {
+            writeln!(f, "  warning: {w}")?;
+        }
+        Ok(())
     }
 }
 

@@ -144,7 +144,10 @@ impl DesignRepetitive {
             ..RepetitiveParams::new(self.period_samples(ts))
         };
         let design = repetitive::design(model, &params).map_err(|e| match e {
-            RepetitiveError::Setting(m) => StepError::setting("period", m),
+            RepetitiveError::Setting(m) => StepError::setting(setting_named(&m), m),
+            e @ RepetitiveError::ConditionFails { .. } => {
+                StepError::computation(format!("{e}; {}", self.remedy(model, &params)))
+            }
             other => StepError::computation(other.to_string()),
         })?;
         let block = RepetitiveBlock {
@@ -155,6 +158,80 @@ impl DesignRepetitive {
             gain: design.gain,
         };
         Ok(RepetitiveReport { design, block })
+    }
+}
+
+/// The setting a library message starts with (`q: ...`, `lead: ...`),
+/// else `period`.
+fn setting_named(message: &str) -> &'static str {
+    ["gain", "q", "lead"]
+        .into_iter()
+        .find(|f| message.starts_with(&format!("{f}:")))
+        .unwrap_or("period")
+}
+
+/// Divisors of the gain and of Q's cutoff tried by the remedy.
+const REMEDY_STEPS: [f64; 6] = [2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
+
+impl DesignRepetitive {
+    /// What meets Eq. (1) when the design fails it, found by designing:
+    /// the largest lower gain, the highest lower Q cutoff, the lead scan in
+    /// place of a fixed lead; and any trap pole of the model (an
+    /// (almost) undamped resonance, docs/formats.md "Model checks"), which
+    /// no setting here can mend.
+    fn remedy(&self, model: &DiscreteTf, params: &RepetitiveParams) -> String {
+        let passes = |p: RepetitiveParams| repetitive::design(model, &p).ok().map(|d| d.rho);
+        let mut found = Vec::new();
+        if let Some((k, rho)) = REMEDY_STEPS.iter().find_map(|d| {
+            let k = params.gain / d;
+            passes(RepetitiveParams {
+                gain: k,
+                ..params.clone()
+            })
+            .map(|r| (k, r))
+        }) {
+            found.push(format!("`gain` {k} (rho {rho:.3})"));
+        }
+        if let Some(QFilter::LowPass {
+            cutoff_hz,
+            half_length,
+        }) = params.q
+            && let Some((c, rho)) = REMEDY_STEPS.iter().find_map(|d| {
+                let q = QFilter::LowPass {
+                    cutoff_hz: cutoff_hz / d,
+                    half_length,
+                };
+                passes(RepetitiveParams {
+                    q: Some(q),
+                    ..params.clone()
+                })
+                .map(|r| (cutoff_hz / d, r))
+            })
+        {
+            found.push(format!("`q_cutoff` {c} Hz (rho {rho:.3})"));
+        }
+        if params.lead.is_some()
+            && let Some(rho) = passes(RepetitiveParams {
+                lead: None,
+                ..params.clone()
+            })
+        {
+            found.push(format!("the lead scan, without `lead` (rho {rho:.3})"));
+        }
+        let mut advice = if found.is_empty() {
+            format!(
+                "neither a gain nor a Q cutoff down to 1/{} of the given meets it",
+                REMEDY_STEPS[REMEDY_STEPS.len() - 1]
+            )
+        } else {
+            format!("each of these meets it: {}", found.join(", "))
+        };
+        for trap in crate::lti::model_check::trap_poles(model).unwrap_or_default() {
+            advice.push_str(&format!(
+                "; the model's {trap}: an (almost) undamped resonance that no identification data showed, which no setting here mends: design on a loop model identified from data reaching where Q passes (fts demo writes learning-model.json, swept to 4500 Hz)"
+            ));
+        }
+        advice
     }
 }
 

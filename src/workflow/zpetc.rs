@@ -1,13 +1,16 @@
 //! The ZPETC feedforward of a discrete closed-loop model: what
 //! `fts zpetc --tf closed_loop.json` and a `kind = "zpetc"` manifest step do.
 
+use super::convert::Minreal;
 use super::{StepError, Validate, complex_pairs, fmt_complex};
 use crate::io::zpetc_json::zpetc_to_value;
 use crate::lti::TransferFunction;
 use crate::lti::c64;
+use crate::lti::margins::LoopSystem;
+use crate::lti::model_check;
 use crate::lti::tf::DiscreteTf;
 use crate::synth::zpetc::{
-    self, StableInversion, ZeroStatus, Zpetc, ZpetcCheck, ZpetcError, ZpetcParams,
+    self, CheckFailure, StableInversion, ZeroStatus, Zpetc, ZpetcCheck, ZpetcError, ZpetcParams,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -130,8 +133,102 @@ impl DesignZpetc {
         }
     }
 
-    /// Designs the filter of `plant` (named `source` in messages).
+    /// Designs the filter of `plant` (named `source` in messages) and
+    /// refuses it, as a computation failure, when it fails its self-check
+    /// ([`ZpetcCheck::failures`]; docs/formats.md "Exit codes"). The
+    /// message names every near pole-zero cancellation on the unit circle
+    /// of the model with the `fts minreal` command that removes it, found
+    /// by running that command's step and this design on its result.
     pub fn design(&self, plant: &DiscreteTf, source: &str) -> Result<ZpetcReport, StepError> {
+        let report = self.design_unchecked(plant, source)?;
+        let failures = report.check.failures();
+        if failures.is_empty() {
+            return Ok(report);
+        }
+        Err(StepError::computation(
+            self.failure_message(plant, &report, &failures, source),
+        ))
+    }
+
+    /// What failed, why, and what removes the cause.
+    fn failure_message(
+        &self,
+        plant: &DiscreteTf,
+        report: &ZpetcReport,
+        failures: &[CheckFailure],
+        source: &str,
+    ) -> String {
+        let what: Vec<String> = failures.iter().map(|f| f.to_string()).collect();
+        let mut message = format!(
+            "{source}: the ZPETC fails its self-check: {}",
+            what.join("; ")
+        );
+        let pairs = model_check::unit_circle_pairs(&report.plant).unwrap_or_default();
+        if !pairs.is_empty() {
+            let named: Vec<String> = pairs.iter().map(|p| p.to_string()).collect();
+            message.push_str(&format!(
+                "; the model has a near pole-zero cancellation on the unit circle: {}",
+                named.join(", ")
+            ));
+            message.push_str(&match self.minreal_remedy(plant, source) {
+                Some((tol, out)) => format!(
+                    "; remove it first: fts minreal {} --tol {tol:e} -o {}, then design on {}",
+                    shell_word(source),
+                    shell_word(&out),
+                    shell_word(&out)
+                ),
+                None => format!(
+                    "; fts minreal removes it at no tolerance up to {:e} without failing a check: re-identify the loop (lower orders)",
+                    MINREAL_LADDER[MINREAL_LADDER.len() - 1]
+                ),
+            });
+        } else if let Some(z) = self.cancellable_kept_zero(report) {
+            message.push_str(&format!(
+                "; the kept zero {} (|z| = {:.6}) sits near z = 1: cancel it with `rho` above {:.6}",
+                fmt_complex(z),
+                z.norm(),
+                z.norm()
+            ));
+        }
+        message
+    }
+
+    /// The smallest tolerance of [`MINREAL_LADDER`] at which `fts minreal`
+    /// (the [`Minreal`] step) removes the unit-circle pairs of `plant` and
+    /// this design on its result passes its self-check, with the file the
+    /// command would write.
+    fn minreal_remedy(&self, plant: &DiscreteTf, source: &str) -> Option<(f64, String)> {
+        let model = LoopSystem::Tf(TransferFunction::Discrete(plant.clone()));
+        MINREAL_LADDER.iter().find_map(|&tol| {
+            let reduced = Minreal { tol }.run(&model, source).ok()?;
+            let Some(TransferFunction::Discrete(g)) = reduced.tf else {
+                return None;
+            };
+            if !model_check::unit_circle_pairs(&g).ok()?.is_empty() {
+                return None;
+            }
+            let r = self.design_unchecked(&g, source).ok()?;
+            r.check
+                .failures()
+                .is_empty()
+                .then(|| (tol, minreal_output(source)))
+        })
+    }
+
+    /// A kept zero near `z = 1` that raising `rho` would cancel.
+    fn cancellable_kept_zero(&self, report: &ZpetcReport) -> Option<c64> {
+        report
+            .filter
+            .uncancelled_zeros()
+            .filter(|z| {
+                z.zero.re > 0.0 && z.magnitude < zpetc::MAX_CANCELLED_MAGNITUDE && z.damping > 0.9
+            })
+            .map(|z| z.zero)
+            .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+    }
+
+    /// The design without the verdict on its self-check.
+    fn design_unchecked(&self, plant: &DiscreteTf, source: &str) -> Result<ZpetcReport, StepError> {
         self.validate()?;
         let (plant, removed_pairs) = match self.minreal {
             Some(tol) => {
@@ -166,6 +263,37 @@ impl DesignZpetc {
     }
 }
 
+/// The `fts minreal --tol` values tried for the remedy, smallest first.
+const MINREAL_LADDER: [f64; 6] = [1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3];
+
+/// The file `fts minreal` is told to write: `CL.json` -> `CL-minreal.json`.
+fn minreal_output(source: &str) -> String {
+    let path = std::path::Path::new(source);
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "model".into(), |s| s.to_string_lossy().to_string());
+    let ext = path
+        .extension()
+        .map_or_else(|| "json".into(), |s| s.to_string_lossy().to_string());
+    path.with_file_name(format!("{stem}-minreal.{ext}"))
+        .display()
+        .to_string()
+}
+
+/// `word` as one shell word: quoted when it holds anything but plain path
+/// characters.
+fn shell_word(word: &str) -> String {
+    if !word.is_empty()
+        && word
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./+=,:@%".contains(c))
+    {
+        word.to_owned()
+    } else {
+        format!("'{}'", word.replace('\'', "'\\''"))
+    }
+}
+
 /// One zero in the JSON report.
 #[derive(Serialize)]
 struct ZeroEntry {
@@ -194,6 +322,9 @@ struct CheckDoc {
     dc_gain: f64,
     max_magnitude_error: f64,
     filter_stable: bool,
+    max_gain: f64,
+    max_gain_hz: f64,
+    rounding_bound: f64,
 }
 
 impl Serialize for ZpetcReport {
@@ -207,6 +338,9 @@ impl Serialize for ZpetcReport {
                 dc_gain: c.dc_gain,
                 max_magnitude_error: c.max_magnitude_error,
                 filter_stable: c.filter_stable,
+                max_gain: c.max_gain,
+                max_gain_hz: c.max_gain_hz,
+                rounding_bound: c.rounding_bound,
             },
             zeros: self
                 .filter
@@ -268,6 +402,16 @@ impl fmt::Display for ZpetcReport {
             } else {
                 "UNSTABLE"
             }
+        )?;
+        writeln!(
+            f,
+            "  max |G_z G_c| = {:.6} at {:.1} Hz, coefficient rounding bound {:.1e} (limits: DC within {:e} of 1, gain {:e}, rounding {:e})",
+            c.max_gain,
+            c.max_gain_hz,
+            c.rounding_bound,
+            zpetc::DC_GAIN_TOLERANCE,
+            zpetc::MAX_PRODUCT_GAIN,
+            zpetc::ROUNDING_LIMIT
         )
     }
 }
