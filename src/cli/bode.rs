@@ -35,7 +35,7 @@ pub struct BodeArgs {
     #[arg(short = 'o', long = "out", value_name = "RESPONSE.csv")]
     out: Option<PathBuf>,
     /// Draw magnitude, phase and coherence to this SVG.
-    #[arg(long, value_name = "BODE.svg")]
+    #[arg(long, value_name = "BODE.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Upper frequency of the printed table and the plot in Hz (default Nyquist).
     #[arg(long, value_name = "HZ", value_parser = super::common::parse_positive)]

@@ -2,6 +2,7 @@
 //! stdout, and the mapping from errors to exit codes.
 
 use crate::io::InputError;
+use crate::io::plot::PlotFormat;
 use anyhow::Context;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -37,10 +38,27 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
 
 /// The error and its causes on one line.
 pub fn one_line(e: &anyhow::Error) -> String {
-    e.chain()
+    let line = e
+        .chain()
         .map(|c| c.to_string().replace('\n', " "))
         .collect::<Vec<_>>()
-        .join(": ")
+        .join(": ");
+    printable(&line)
+}
+
+/// `text` with every control character (a binary file's bytes quoted in a
+/// message, a stray carriage return) written as an escape such as `\u{0}`:
+/// a message is one line of text whatever it quotes.
+pub fn printable(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// The files this run has read and written: a result is never written onto
@@ -132,6 +150,35 @@ pub fn open_input(path: &Path) -> anyhow::Result<std::io::BufReader<std::fs::Fil
     }
     note_input(path);
     Ok(std::io::BufReader::with_capacity(1 << 16, file))
+}
+
+/// The value parser of every `--plot`-like option: the file's extension
+/// must name a format fts draws ([`PlotFormat::from_path`]), checked before
+/// any work, so the message names the option and the extensions accepted.
+pub fn plot_path(text: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(text);
+    PlotFormat::from_path(&path)?;
+    Ok(path)
+}
+
+/// [`plot_path`] for the plots drawn in SVG only.
+pub fn svg_plot_path(text: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(text);
+    match PlotFormat::from_path(&path) {
+        Ok(PlotFormat::Svg) => Ok(path),
+        _ => Err("this plot is written as SVG only: give a .svg file".into()),
+    }
+}
+
+/// Renders a plot in the format `path`'s extension names and writes it
+/// atomically: the one way every `--plot` file is written.
+pub fn write_plot(
+    path: &Path,
+    draw: impl FnOnce(PlotFormat) -> anyhow::Result<Vec<u8>>,
+) -> anyhow::Result<()> {
+    let format =
+        PlotFormat::from_path(path).map_err(|m| bad(format!("{}: {m}", path.display())))?;
+    write_atomic(path, &draw(format)?)
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,

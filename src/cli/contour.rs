@@ -2,7 +2,7 @@
 //! paths as `t,x,y,z` tables, and the three-axis loop with cross-coupled
 //! control of the contour error.
 
-use super::common::{bad, choice, print_report, read_input, step_error, write_atomic};
+use super::common::{bad, choice, print_report, read_input, step_error, write_atomic, write_plot};
 use crate::io::controller_file::{CONTROLLER_FORMAT, Feedback, parse_controller, parse_multiaxis};
 use crate::io::ss_json::parse_system;
 use crate::sim::contour::AxisController;
@@ -67,7 +67,7 @@ pub struct TrajectoryArgs {
     #[arg(short = 'o', long = "out", value_name = "TRAJ.csv")]
     output: Option<PathBuf>,
     /// Write an SVG of the path's projections and speed here.
-    #[arg(long, value_name = "FILE.svg")]
+    #[arg(long, value_name = "FILE.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -86,7 +86,7 @@ pub fn run_trajectory(args: TrajectoryArgs) -> anyhow::Result<()> {
         write_atomic(path, report.csv().as_bytes())?;
     }
     if let Some(path) = &args.plot {
-        write_atomic(path, report.svg()?.as_bytes())?;
+        write_plot(path, |f| Ok(report.plot(f)?))?;
     }
     print_report(&report, args.json)
 }
@@ -187,7 +187,7 @@ pub struct ContourArgs {
     #[arg(long, value_name = "TRACE.csv")]
     csv: Option<PathBuf>,
     /// Write an SVG of the path, the axis errors and the contour error here.
-    #[arg(long, value_name = "FILE.svg")]
+    #[arg(long, value_name = "FILE.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -327,7 +327,7 @@ pub fn run_contour(args: ContourArgs) -> anyhow::Result<()> {
         write_atomic(path, report.trace_csv().as_bytes())?;
     }
     if let Some(path) = &args.plot {
-        write_atomic(path, report.svg()?.as_bytes())?;
+        write_plot(path, |f| Ok(report.plot(f)?))?;
     }
     print_report(&report, args.json)
 }

@@ -2,7 +2,7 @@
 //! FTS: H2 design, PID baseline tuned for the same cost, error budget
 //! (printed, `--csv`, `--plot`), and `--sweep k2=LO:HI:N,c2=LO:HI:N`.
 
-use super::common::{choice, name, print_report, step_error, write_atomic};
+use super::common::{choice, name, print_report, step_error, write_atomic, write_plot};
 use crate::io::ss_json;
 use crate::workflow::ding22::SensorChoice;
 use crate::workflow::{Ding22Report, Ding22Study, Validate};
@@ -61,7 +61,7 @@ pub struct Ding22Args {
     #[arg(short = 'o', long = "out", value_name = "K.json")]
     output: Option<PathBuf>,
     /// Write an SVG of the cumulative amplitude spectra (per source and total).
-    #[arg(long, value_name = "budget.svg")]
+    #[arg(long, value_name = "budget.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Write freq_hz, psd_*, cas_* of the optimal design to this CSV.
     #[arg(long, value_name = "OUT.csv")]
@@ -129,7 +129,7 @@ pub fn run(args: Ding22Args) -> anyhow::Result<()> {
         write_atomic(path, report.budget_csv().as_bytes())?;
     }
     if let Some(path) = &args.plot {
-        write_atomic(path, report.budget_svg()?.as_bytes())?;
+        write_plot(path, |f| Ok(report.budget_plot(f)?))?;
     }
     print_report(&report, args.json)
 }

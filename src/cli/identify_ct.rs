@@ -9,7 +9,7 @@
 use super::common::{bad, choice, name, print_report, read_input, step_error, write_atomic};
 use super::identify_linear::DataArgs;
 use crate::ident::ct::FreqData;
-use crate::io::plot::bode_svg;
+use crate::io::plot::{PlotFormat, bode};
 use crate::io::tf_json;
 use crate::lti::Bode;
 use crate::lti::c64;
@@ -83,7 +83,7 @@ pub struct CtOut {
     #[arg(long)]
     pub json: bool,
     /// Draw the model's Bode plot over the frequency response it was fitted or compared to.
-    #[arg(long, value_name = "BODE.svg")]
+    #[arg(long, value_name = "BODE.svg|png", value_parser = super::common::plot_path)]
     pub plot: Option<PathBuf>,
 }
 
@@ -132,12 +132,21 @@ pub fn run_frd(a: CtFrdArgs) -> anyhow::Result<()> {
 }
 
 fn finish(r: &CtReport, out: &CtOut) -> anyhow::Result<()> {
+    // The plot is drawn before anything is written: a record it cannot be
+    // drawn from fails the run with no file written.
+    let plot = match &out.plot {
+        Some(path) => {
+            let format = PlotFormat::from_path(path).map_err(|m| bad(format!("--plot: {m}")))?;
+            Some((path, bode_plot(r, format)?))
+        }
+        None => None,
+    };
     if let Some(path) = &out.out {
         let tf = r.transfer_function().map_err(step_error)?;
         write_atomic(path, tf_json::tf_to_string(&tf).as_bytes())?;
     }
-    if let Some(path) = &out.plot {
-        write_atomic(path, bode_plot(r)?.as_bytes())?;
+    if let Some((path, image)) = &plot {
+        write_atomic(path, image)?;
     }
     print_report(r, out.json)?;
     if !out.json {
@@ -153,7 +162,7 @@ fn finish(r: &CtReport, out: &CtOut) -> anyhow::Result<()> {
 }
 
 /// Measured response and model on the data's frequencies.
-fn bode_plot(r: &CtReport) -> anyhow::Result<String> {
+fn bode_plot(r: &CtReport, format: PlotFormat) -> anyhow::Result<Vec<u8>> {
     let data = &r.freq_data;
     if data.freq_hz.len() < 2 {
         return Err(bad(format!(
@@ -172,13 +181,60 @@ fn bode_plot(r: &CtReport) -> anyhow::Result<String> {
         r.method.to_uppercase(),
         r.source
     );
-    bode_svg(&title, &[("measured", &measured), ("model", &model)])
-        .map_err(|e| bad(format!("--plot: {e}")))
+    bode(
+        &title,
+        &[("measured", &measured), ("model", &model)],
+        format,
+    )
+    .map_err(|e| bad(format!("--plot: {e}")))
 }
 
 /// Reads `freq_hz`, `re`, `im` columns (by header name); rows with an
 /// empty or NaN value (no input power) are skipped, a bad number is an error
 /// naming its line.
+/// One row of a frequency-response table (docs/formats.md, `identify
+/// ct-frd`): `None` for a row to skip, the DC row `fts bode -o` writes
+/// (0 Hz) and a bin without an estimate (an empty or NaN `re` or `im`);
+/// a frequency that is missing, not a number, negative or infinite, and an
+/// infinite response, are errors naming the field.
+fn response_row(
+    rec: &csv::StringRecord,
+    [cf, cr, ci]: [usize; 3],
+    err: &dyn Fn(&str, String) -> anyhow::Error,
+) -> anyhow::Result<Option<(f64, c64)>> {
+    let num = |c: usize, name: &str| -> anyhow::Result<f64> {
+        let field = rec.get(c).unwrap_or("");
+        if field.is_empty() {
+            return Ok(f64::NAN);
+        }
+        field
+            .parse::<f64>()
+            .map_err(|_| err(name, format!("not a number: {field:?}")))
+    };
+    let (f, re, im) = (num(cf, "freq_hz")?, num(cr, "re")?, num(ci, "im")?);
+    if !(f.is_finite() && f >= 0.0) {
+        let given = rec.get(cf).unwrap_or("");
+        let given = if given.is_empty() {
+            "an empty cell"
+        } else {
+            given
+        };
+        return Err(err(
+            "freq_hz",
+            format!("expected a frequency >= 0 Hz, got {given}"),
+        ));
+    }
+    for (name, v) in [("re", re), ("im", im)] {
+        if v.is_infinite() {
+            return Err(err(name, format!("expected a finite response, got {v}")));
+        }
+    }
+    if f == 0.0 || re.is_nan() || im.is_nan() {
+        return Ok(None);
+    }
+    Ok(Some((f, c64::new(re, im))))
+}
+
 fn read_response(path: &Path) -> anyhow::Result<FreqData> {
     let text = read_input(path)?;
     let src = path.display();
@@ -201,29 +257,19 @@ fn read_response(path: &Path) -> anyhow::Result<FreqData> {
         freq_hz: Vec::new(),
         response: Vec::new(),
     };
-    for (i, rec) in rdr.records().enumerate() {
-        let line = i + 2;
-        let rec = rec.map_err(|e| bad(format!("{src}: line {line}: {e}")))?;
-        let num = |c: usize, name: &str| -> anyhow::Result<f64> {
-            let field = rec.get(c).unwrap_or("");
-            if field.is_empty() {
-                return Ok(f64::NAN);
-            }
-            field.parse::<f64>().map_err(|_| {
-                bad(format!(
-                    "{src}: line {line}: {name} '{field}' is not a number"
-                ))
-            })
-        };
-        let (f, re, im) = (num(cf, "freq_hz")?, num(cr, "re")?, num(ci, "im")?);
-        if f > 0.0 && re.is_finite() && im.is_finite() {
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| bad(format!("{src}: {e}")))?;
+        let line = rec.position().map_or(0, |p| p.line());
+        if let Some((f, h)) = response_row(&rec, [cf, cr, ci], &|field, m| {
+            bad(format!("{src} line {line}, field '{field}': {m}"))
+        })? {
             data.freq_hz.push(f);
-            data.response.push(c64::new(re, im));
+            data.response.push(h);
         }
     }
     if data.freq_hz.is_empty() {
         return Err(bad(format!(
-            "{src}: no row with a positive frequency and a finite response"
+            "{src}: no row with a positive frequency and a response (rows at 0 Hz or with an empty or NaN re/im are skipped)"
         )));
     }
     Ok(data)

@@ -7,10 +7,10 @@
 //! renders the report.
 
 use super::columns::IoColumnArgs;
-use super::common::{choice, name, print_report, step_error, write_atomic};
+use super::common::{choice, name, print_report, step_error, write_atomic, write_plot};
 use crate::ident::hysteresis::gd::GdState;
 use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_string};
-use crate::io::plot::{Series, stacked_charts_svg};
+use crate::io::plot::{PlotFormat, Series, stacked_charts};
 use crate::workflow::Validate;
 use crate::workflow::identify::{
     HysteresisInputs, HysteresisMethod, HysteresisModelKind, IdentifyHysteresis, PlayOperatorChoice,
@@ -82,7 +82,7 @@ pub struct HysteresisArgs {
     #[arg(long)]
     json: bool,
     /// Draw the measured and model loops and the error over time (SVG).
-    #[arg(long, value_name = "LOOP.svg")]
+    #[arg(long, value_name = "LOOP.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
 }
 
@@ -150,7 +150,7 @@ pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.plot {
         let (u, y) = (&report.model_input, &report.model_output);
         let y_model = report.file.model.simulate(u);
-        write_atomic(path, loop_plot(&report.file, u, y, &y_model)?.as_bytes())?;
+        write_plot(path, |f| loop_plot(&report.file, u, y, &y_model, f))?;
     }
     print_report(&report, args.json)?;
     if !args.json {
@@ -169,7 +169,13 @@ fn decimate(x: &[f64]) -> Vec<f64> {
     x.iter().step_by(step).copied().collect()
 }
 
-fn loop_plot(file: &ModelFile, u: &[f64], y: &[f64], y_model: &[f64]) -> anyhow::Result<String> {
+fn loop_plot(
+    file: &ModelFile,
+    u: &[f64],
+    y: &[f64],
+    y_model: &[f64],
+    format: PlotFormat,
+) -> anyhow::Result<Vec<u8>> {
     let (ud, yd, md) = (decimate(u), decimate(y), decimate(y_model));
     let err: Vec<f64> = y_model.iter().zip(y).map(|(a, b)| a - b).collect();
     let ed = decimate(&err);
@@ -190,36 +196,39 @@ fn loop_plot(file: &ModelFile, u: &[f64], y: &[f64], y_model: &[f64]) -> anyhow:
         file.mapping()
     );
     let err_label = format!("model - measured, {}", file.output.unit);
-    let svg = stacked_charts_svg(&[
-        (
-            title.as_str(),
-            xl.as_str(),
-            yl.as_str(),
-            vec![
-                Series {
-                    label: "measured",
-                    x: &ud,
-                    y: &yd,
-                },
-                Series {
-                    label: "model",
-                    x: &ud,
-                    y: &md,
-                },
-            ],
-        ),
-        (
-            "error over time",
-            "sample",
-            err_label.as_str(),
-            vec![Series {
-                label: "error",
-                x: &k,
-                y: &ed,
-            }],
-        ),
-    ])?;
-    Ok(svg)
+    let image = stacked_charts(
+        &[
+            (
+                title.as_str(),
+                xl.as_str(),
+                yl.as_str(),
+                vec![
+                    Series {
+                        label: "measured",
+                        x: &ud,
+                        y: &yd,
+                    },
+                    Series {
+                        label: "model",
+                        x: &ud,
+                        y: &md,
+                    },
+                ],
+            ),
+            (
+                "error over time",
+                "sample",
+                err_label.as_str(),
+                vec![Series {
+                    label: "error",
+                    x: &k,
+                    y: &ed,
+                }],
+            ),
+        ],
+        format,
+    )?;
+    Ok(image)
 }
 
 /// `--operators`, `--dead-zone-operators`: from 1 to the most a model file holds.

@@ -9,10 +9,10 @@
 //! result file is `-o/--out FILE`.
 
 use super::columns::ColumnArgs;
-use super::common::{bad, choice, name, print_report, step_error, write_atomic};
+use super::common::{bad, choice, name, print_report, step_error, write_atomic, write_plot};
 use crate::ident::data::Detrend;
 use crate::ident::freq::{FreqError, FreqResponse, WelchParams, welch};
-use crate::io::plot::{Series, stacked_charts_svg};
+use crate::io::plot::{PlotFormat, Series, stacked_charts};
 use crate::io::tf_json;
 use crate::lti::Bode;
 use crate::workflow::identify::{
@@ -96,13 +96,13 @@ pub struct OutArgs {
     #[arg(long)]
     pub json: bool,
     /// Draw the model's Bode plot against the empirical (Welch) estimate with coherence.
-    #[arg(long, value_name = "BODE.svg")]
+    #[arg(long, value_name = "BODE.svg|png", value_parser = super::common::plot_path)]
     pub plot: Option<PathBuf>,
     /// Upper frequency of the plot in Hz (default Nyquist).
     #[arg(long, value_name = "HZ", value_parser = super::common::parse_positive)]
     pub plot_fmax: Option<f64>,
     /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
-    #[arg(long, value_name = "COMPARE.svg")]
+    #[arg(long, value_name = "COMPARE.svg|png", value_parser = super::common::plot_path)]
     pub plot_compare: Option<PathBuf>,
 }
 
@@ -367,11 +367,10 @@ fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
             .map_err(|e| bad(format!("{}: --plot: {e}", p.source)))?;
         let fmax = out.plot_fmax.unwrap_or(0.5 / p.ts).min(0.5 / p.ts);
         let title = format!("{} {} of {}", r.method.to_uppercase(), r.orders, p.source);
-        let svg = bode_plot_svg(&title, Some(&r.tf), &emp, fmax)?;
-        write_atomic(path, svg.as_bytes())?;
+        write_plot(path, |f| bode_plot(&title, Some(&r.tf), &emp, fmax, f))?;
     }
     if let Some(path) = &out.plot_compare {
-        write_atomic(path, compare_plot_svg(r)?.as_bytes())?;
+        write_plot(path, |f| compare_plot(r, f))?;
     }
     print_report(r, out.json)?;
     if !out.json {
@@ -384,7 +383,7 @@ fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
 
 /// Measured vs simulated output and the error (MATLAB `compare`), on the
 /// validation record when there is one.
-fn compare_plot_svg(r: &LinearReport) -> anyhow::Result<String> {
+fn compare_plot(r: &LinearReport, format: PlotFormat) -> anyhow::Result<Vec<u8>> {
     let p = &r.prepared;
     let rec = p.val.as_ref().unwrap_or(&p.est);
     let sim = r.model.simulate_fit_ic(&rec.u, &rec.y);
@@ -400,35 +399,38 @@ fn compare_plot_svg(r: &LinearReport) -> anyhow::Result<String> {
         r.orders,
         rec.label
     );
-    Ok(stacked_charts_svg(&[
-        (
-            title.as_str(),
-            "time (s)",
-            "output (record units)",
-            vec![
-                Series {
-                    label: "measured",
+    Ok(stacked_charts(
+        &[
+            (
+                title.as_str(),
+                "time (s)",
+                "output (record units)",
+                vec![
+                    Series {
+                        label: "measured",
+                        x: &t,
+                        y: &rec.y,
+                    },
+                    Series {
+                        label: "simulated (initial state fitted)",
+                        x: &t,
+                        y: &sim,
+                    },
+                ],
+            ),
+            (
+                "",
+                "time (s)",
+                "measured - simulated (record units)",
+                vec![Series {
+                    label: "simulation error",
                     x: &t,
-                    y: &rec.y,
-                },
-                Series {
-                    label: "simulated (initial state fitted)",
-                    x: &t,
-                    y: &sim,
-                },
-            ],
-        ),
-        (
-            "",
-            "time (s)",
-            "measured - simulated (record units)",
-            vec![Series {
-                label: "simulation error",
-                x: &t,
-                y: &err,
-            }],
-        ),
-    ])?)
+                    y: &err,
+                }],
+            ),
+        ],
+        format,
+    )?)
 }
 
 fn welch_for_plot(u: &[f64], y: &[f64], ts: f64) -> Result<FreqResponse, FreqError> {
@@ -500,13 +502,14 @@ impl EmpiricalCurves {
 
 /// Model vs empirical Bode (magnitude, phase) and coherence, stacked, on a
 /// logarithmic frequency axis; points of low coherence drawn faint.
-fn bode_plot_svg(
+fn bode_plot(
     title: &str,
     model: Option<&crate::lti::DiscreteTf>,
     emp: &FreqResponse,
     fmax: f64,
-) -> anyhow::Result<String> {
-    use crate::io::plot::{Panel, Style, panels_svg};
+    format: PlotFormat,
+) -> anyhow::Result<Vec<u8>> {
+    use crate::io::plot::{Panel, Style, render};
     let e = EmpiricalCurves::new(emp, fmax);
     let lowest = e
         .freq
@@ -582,7 +585,7 @@ fn bode_plot_svg(
             )
         });
     }
-    Ok(panels_svg(&panels)?)
+    Ok(render(&panels, format)?)
 }
 
 /// Used by `fts bode`: the empirical response of a prepared record.
@@ -592,6 +595,5 @@ pub fn empirical_plot(
     emp: &FreqResponse,
     fmax: f64,
 ) -> anyhow::Result<()> {
-    let svg = bode_plot_svg(title, None, emp, fmax)?;
-    write_atomic(path, svg.as_bytes())
+    write_plot(path, |f| bode_plot(title, None, emp, fmax, f))
 }

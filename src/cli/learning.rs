@@ -115,7 +115,7 @@ pub struct IlcArgs {
     #[arg(short = 'o', long = "out", value_name = "CTRL.json")]
     output: Option<PathBuf>,
     /// Plot the error per trial and the last trial's error to this SVG.
-    #[arg(long, value_name = "ILC.svg")]
+    #[arg(long, value_name = "ILC.svg", value_parser = super::common::svg_plot_path)]
     plot: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]

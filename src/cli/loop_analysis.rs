@@ -3,7 +3,7 @@
 //! [--plot FILE.svg] [--json]`: margins, sensitivity peaks, bandwidth and
 //! closed-loop poles of the negative-feedback loop `L = G K`.
 
-use super::common::{bad, print_json, read_input, write_atomic};
+use super::common::{bad, print_json, read_input};
 use crate::io::{plot, ss_json, tf_json};
 use crate::lti::margins::{LoopError, LoopParams, LoopSystem, analyze_loop};
 use crate::lti::ss::SsError;
@@ -58,7 +58,7 @@ pub struct LoopArgs {
     #[arg(long, value_name = "HZ")]
     fmax: Option<f64>,
     /// Write a Bode plot of L, S and T and a Nyquist plot of L (SVG) here.
-    #[arg(long, value_name = "FILE.svg")]
+    #[arg(long, value_name = "FILE.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Print the report as one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -218,8 +218,8 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
             &mags,
         );
         let nyquist = nyquist_points(&grid, l);
-        let svg = plot::panels_svg(&[mag, phase, nyquist.panel()])?;
-        write_atomic(path, svg.as_bytes())?;
+        let panels = [mag, phase, nyquist.panel()];
+        super::common::write_plot(path, |f| Ok(plot::render(&panels, f)?))?;
     }
     if args.json {
         let mut v = serde_json::to_value(&report)?;

@@ -3,8 +3,8 @@
 //! ([`crate::workflow::mechanism`]); this file turns flags into them,
 //! renders the reports and draws the workspace.
 
-use super::common::{bad, print_report, step_error, write_atomic};
-use crate::io::plot::{Panel, Series, Style, panels_svg};
+use super::common::{bad, print_report, step_error, write_plot};
+use crate::io::plot::{Panel, PlotFormat, Series, Style, render};
 use crate::workflow::Validate;
 use crate::workflow::mechanism::{
     Bridge, FlexureLoss, Hinge, Lever, Puu3Report, Puu3Study, TANG17_AMPLIFICATION,
@@ -182,7 +182,7 @@ pub struct Puu3Args {
     #[arg(long, default_value_t = Puu3Study::default().seed)]
     seed: u64,
     /// Draw the reachable poses (x-y and x-z projections) as SVG.
-    #[arg(long, value_name = "WORKSPACE.svg")]
+    #[arg(long, value_name = "WORKSPACE.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -247,7 +247,7 @@ fn run_puu3(a: Puu3Args) -> anyhow::Result<()> {
     step.validate().map_err(step_error)?;
     let report = step.run().map_err(step_error)?;
     if let Some(path) = &a.plot {
-        write_atomic(path, workspace_svg(&report)?.as_bytes())?;
+        write_plot(path, |f| workspace_plot(&report, f))?;
     }
     print_report(&report, a.json)?;
     if let (false, Some(path)) = (a.json, &a.plot) {
@@ -257,7 +257,7 @@ fn run_puu3(a: Puu3Args) -> anyhow::Result<()> {
 }
 
 /// The reachable poses seen from above (x-y) and from the side (x-z).
-fn workspace_svg(r: &Puu3Report) -> anyhow::Result<String> {
+fn workspace_plot(r: &Puu3Report, format: PlotFormat) -> anyhow::Result<Vec<u8>> {
     let col = |i: usize| -> Vec<f64> { r.points.iter().map(|p| p[i]).collect() };
     let (x, y, z) = (col(0), col(1), col(2));
     let title = format!(
@@ -292,5 +292,5 @@ fn workspace_svg(r: &Puu3Report) -> anyhow::Result<String> {
         )],
         ..Panel::default()
     };
-    panels_svg(&[top, side]).map_err(|e| bad(format!("--plot: {e}")))
+    render(&[top, side], format).map_err(|e| bad(format!("--plot: {e}")))
 }

@@ -36,7 +36,7 @@ pub struct ResponseArgs {
     #[arg(long, value_name = "OUT.csv")]
     csv: Option<PathBuf>,
     /// Plot the response (SVG) here.
-    #[arg(long, value_name = "OUT.svg")]
+    #[arg(long, value_name = "OUT.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -171,11 +171,13 @@ fn write_plot(path: &Path, report: &ResponseReport, source: &str) -> anyhow::Res
     } else {
         source.to_string()
     };
-    let svg = plot::line_chart_svg(
-        &format!("{what} response, {of}"),
-        "time (s)",
-        "output (units of the system's output)",
-        &series,
-    )?;
-    write_atomic(path, svg.as_bytes())
+    super::common::write_plot(path, |format| {
+        Ok(plot::line_chart(
+            &format!("{what} response, {of}"),
+            "time (s)",
+            "output (units of the system's output)",
+            &series,
+            format,
+        )?)
+    })
 }

@@ -10,7 +10,7 @@ use super::common::{
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::RepetitiveBlock;
 use crate::io::controller_file::{InputHash, Provenance, parse_controller, sha256_hex};
-use crate::io::timeseries::{ColumnRef, ReadParams, read_table};
+use crate::io::timeseries::{ColumnRef, ReadParams, TimeColumn, read_table};
 use crate::io::{hysteresis_json, plot, tf_json, zpetc_json};
 use crate::lti::TransferFunction;
 use crate::lti::ss::StateSpace;
@@ -34,16 +34,16 @@ pub struct LoopArgs {
     controller: Option<String>,
     #[command(flatten)]
     ss: super::emit::SsArgs,
-    /// Lowest command of a --ss controller, V (default: the virtual FTS amplifier's; none with --plant-tf).
-    #[arg(long, allow_hyphen_values = true, requires = "ss")]
+    /// Lowest command of the feedback controller (PID or --ss), V (default: the virtual FTS amplifier's 0; a --ss controller on --plant-tf: none).
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "controller_file")]
     output_min: Option<f64>,
-    /// Highest command of a --ss controller, V (default: the virtual FTS amplifier's; none with --plant-tf).
-    #[arg(long, allow_hyphen_values = true, requires = "ss")]
+    /// Highest command of the feedback controller (PID or --ss), V (default: the virtual FTS amplifier's 10; a --ss controller on --plant-tf: none).
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "controller_file")]
     output_max: Option<f64>,
     /// Reference trajectory.
     #[arg(long, value_parser = choice::<ReferenceShape>(), default_value = name(Simulate::default().reference))]
     reference: ReferenceShape,
-    /// Reference samples from a CSV instead (column `r`, or `--reference-column`), at the controller rate.
+    /// Reference samples from a CSV instead (column `r`, or `--reference-column`); a time column (`t`, `time`, `time_ms`, ...) is read and the samples resampled to the controller rate, without one a row is one controller period.
     #[arg(long, value_name = "REF.csv", conflicts_with = "reference")]
     reference_file: Option<PathBuf>,
     /// Column of --reference-file (header name or 1-based index).
@@ -122,7 +122,7 @@ pub struct SimulateArgs {
     #[arg(short = 'o', long = "out", value_name = "TRACE.csv")]
     output: Option<PathBuf>,
     /// Plot reference, measurement and error to this SVG.
-    #[arg(long, value_name = "TRACK.svg")]
+    #[arg(long, value_name = "TRACK.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -161,8 +161,8 @@ impl LoopArgs {
         let plant = read_plant(self)?;
         Ok(SimulateInputs {
             controller: read_controller(self, plant.ts())?,
+            reference_samples: read_reference(self, plant.ts())?,
             plant,
-            reference_samples: read_reference(self)?,
         })
     }
 }
@@ -229,20 +229,37 @@ fn virtual_params(args: &LoopArgs) -> anyhow::Result<VirtualFtsParams> {
     Ok(p)
 }
 
-/// Reference samples from `--reference-file`, with their description.
-fn read_reference(args: &LoopArgs) -> anyhow::Result<Option<(Vec<f64>, String)>> {
+/// Reference samples from `--reference-file` at the loop's sample time
+/// `ts`, with their description. A time column (found by its name, as in
+/// every record: `t`, `time`, `time_ms`, ...) is read and the samples are
+/// resampled onto the loop's grid; without one, a row is one loop period.
+fn read_reference(args: &LoopArgs, ts: f64) -> anyhow::Result<Option<(Vec<f64>, String)>> {
     let Some(path) = &args.reference_file else {
         return Ok(None);
     };
     let source = path.display().to_string();
     let params = ReadParams {
         columns: vec![ColumnRef::parse(&args.reference_column)],
+        time: TimeColumn::Find,
         min_rows: 2,
         ..ReadParams::default()
     };
     let table = read_table(open_input(path)?, &source, &params)?;
+    let column = table.names.first().cloned().unwrap_or_default();
     let samples = table.columns.into_iter().next().unwrap_or_default();
-    Ok(Some((samples, format!("reference {source}"))))
+    let (Some(t), Some(timing)) = (table.time, table.timing) else {
+        let label = format!(
+            "reference {source} (column {column}, no time column: one row per {ts} s loop period)"
+        );
+        return Ok(Some((samples, label)));
+    };
+    let resampled = crate::sim::reference::resample_linear(&t, &samples, ts)
+        .map_err(|m| bad(format!("{source} column '{}': {m}", timing.column)))?;
+    let label = format!(
+        "reference {source} (column {column}, time column '{}' every {} s, resampled to the loop's {ts} s)",
+        timing.column, timing.ts
+    );
+    Ok(Some((resampled, label)))
 }
 
 fn read_zpetc(args: &LoopArgs) -> anyhow::Result<Option<Zpetc>> {
@@ -429,5 +446,5 @@ fn write_plot(path: &Path, report: &SimulateReport) -> anyhow::Result<()> {
             )
         });
     }
-    write_atomic(path, plot::panels_svg(&panels)?.as_bytes())
+    super::common::write_plot(path, |f| Ok(plot::render(&panels, f)?))
 }

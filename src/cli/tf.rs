@@ -126,9 +126,10 @@ impl TfInfo {
                 "|z|",
                 d.nyquist_hz(),
             ),
-            TransferFunction::Continuous(_) => (
+            TransferFunction::Continuous(c) => (
                 format!(
-                    "{source}: continuous, {} zeros, {} poles",
+                    "{source}: continuous, input delay {} s, {} zeros, {} poles",
+                    c.delay(),
                     zeros.len(),
                     poles.len()
                 ),

@@ -37,7 +37,7 @@ pub struct ZpetcArgs {
     #[arg(long, value_name = "TOL")]
     minreal: Option<f64>,
     /// Draw |G_c|, |G_z G_c| and their phase to this SVG file.
-    #[arg(long, value_name = "BODE.svg")]
+    #[arg(long, value_name = "BODE.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
 }
 
@@ -67,14 +67,13 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
         let grid = logspace(nyquist * 1e-4, nyquist, 1001);
         let g_c = Bode::from_fn(&grid, |f| report.with_filter_at(f).0);
         let product = Bode::from_fn(&grid, |f| report.with_filter_at(f).1);
-        let svg = plot::bode_svg(
-            &format!("ZPETC of {source}"),
-            &[
-                ("G_c (closed loop)", &g_c),
-                ("G_z G_c (with ZPETC)", &product),
-            ],
-        )?;
-        write_atomic(path, svg.as_bytes())?;
+        let curves = [
+            ("G_c (closed loop)", &g_c),
+            ("G_z G_c (with ZPETC)", &product),
+        ];
+        super::common::write_plot(path, |f| {
+            Ok(plot::bode(&format!("ZPETC of {source}"), &curves, f)?)
+        })?;
     }
     print_report(&report, args.json)?;
     if !args.json {

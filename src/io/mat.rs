@@ -254,6 +254,27 @@ impl fmt::Display for MatVariable {
     }
 }
 
+/// Why `head` (a file's first bytes) is no text table and no MAT v5/v7
+/// file, if it is binary: a MATLAB v4 file, or any file with a NUL or
+/// another control byte a text table never holds (tab, line feed, carriage
+/// return and form feed are text). The message quotes no byte of it.
+pub fn binary_reason(head: &[u8]) -> Option<String> {
+    if looks_like_v4(head) {
+        return Some(format!(
+            "a MATLAB v4 MAT-file, which fts does not read; {RESAVE_HINT}"
+        ));
+    }
+    let text = |b: u8| b >= 0x20 || matches!(b, b'\t' | b'\n' | b'\r' | 0x0c);
+    let at = head.iter().take(BINARY_SNIFF).position(|&b| !text(b))?;
+    Some(format!(
+        "binary content (byte {at} is 0x{:02x}), not a text table (CSV, DaISy .dat) or a MAT v5/v7 file",
+        head[at]
+    ))
+}
+
+/// How much of a file's start [`binary_reason`] looks at.
+const BINARY_SNIFF: usize = 4096;
+
 /// Whether `bytes` look like a MAT-file of any version: the text header of
 /// a Level 5 or v7.3 file, its binary version and endianness marker, or the
 /// HDF5 signature at byte 512 of a v7.3 file.
@@ -492,7 +513,7 @@ fn is_v73(bytes: &[u8]) -> bool {
 
 /// A MATLAB v4 file starts with a matrix header: type code MOPT
 /// (M 0..4, O 0, P 0..5, T 0..2), rows, columns, imaginary flag, name length.
-fn looks_like_v4(bytes: &[u8]) -> bool {
+pub(crate) fn looks_like_v4(bytes: &[u8]) -> bool {
     let Some(head) = bytes.get(..20) else {
         return false;
     };

@@ -1,8 +1,58 @@
-//! SVG plots rendered to a string (plotters, SVG backend: no system fonts
-//! needed). The CLI writes the string atomically.
+//! Plots rendered to bytes, SVG or PNG as the output file's extension says
+//! ([`PlotFormat::from_path`]); the CLI writes them atomically. Text is laid
+//! out (and, in a PNG, drawn) with the embedded DejaVu Sans subset of
+//! `assets/fonts`, so no system font is needed; an SVG names `sans-serif`
+//! and leaves the face to its viewer.
 
 use crate::lti::Bode;
 use plotters::prelude::*;
+use std::path::Path;
+
+/// The image formats a plot is written in, chosen by the file's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlotFormat {
+    /// `.svg`: vector, text as text.
+    Svg,
+    /// `.png`: 8-bit RGB bitmap.
+    Png,
+}
+
+/// The extensions [`PlotFormat::from_path`] accepts, for messages.
+pub const PLOT_EXTENSIONS: &str = ".svg, .png";
+
+impl PlotFormat {
+    /// The format a plot file's extension names (any case); `Err` says why
+    /// none does.
+    pub fn from_path(path: &Path) -> Result<Self, String> {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase());
+        match ext.as_deref() {
+            Some("svg") => Ok(PlotFormat::Svg),
+            Some("png") => Ok(PlotFormat::Png),
+            Some(other) => Err(format!(
+                "a plot's format is its file's extension: {PLOT_EXTENSIONS}; .{other} is not one"
+            )),
+            None => Err(format!(
+                "a plot's format is its file's extension: {PLOT_EXTENSIONS}; the name has none"
+            )),
+        }
+    }
+}
+
+/// DejaVu Sans cut to Latin, Greek and a few symbols (`assets/fonts/subset.sh`).
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-fts.ttf");
+
+/// Makes the embedded font plotters' `sans-serif` (once per process).
+fn register_font() -> Result<(), PlotError> {
+    static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(PlotError("the embedded font does not load".into()))
+    }
+}
 
 /// Rendering failed (plotters reports drawing-area errors).
 #[derive(Debug, thiserror::Error)]
@@ -345,20 +395,57 @@ fn positive_range<'a>(
     (lo, top.max(lo * 10.0))
 }
 
-/// Charts stacked vertically, 360 pixels each.
+/// Charts stacked vertically, 360 pixels each, as an SVG document.
 pub fn panels_svg(panels: &[Panel<'_>]) -> Result<String, PlotError> {
-    let mut out = String::new();
-    {
-        let height = 360 * panels.len().max(1) as u32;
-        let root =
-            SVGBackend::with_string(&mut out, (900 + LEGEND_WIDTH, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(perr)?;
-        let areas = root.split_evenly((panels.len().max(1), 1));
-        for (area, panel) in areas.iter().zip(panels) {
-            draw_panel(area, panel)?;
+    let bytes = render(panels, PlotFormat::Svg)?;
+    Ok(String::from_utf8(bytes).expect("the SVG backend writes UTF-8"))
+}
+
+/// Charts stacked vertically, 360 pixels each, in `format`.
+pub fn render(panels: &[Panel<'_>], format: PlotFormat) -> Result<Vec<u8>, PlotError> {
+    register_font()?;
+    let size = (900 + LEGEND_WIDTH, 360 * panels.len().max(1) as u32);
+    match format {
+        PlotFormat::Svg => {
+            let mut out = String::new();
+            draw_panels(
+                &SVGBackend::with_string(&mut out, size).into_drawing_area(),
+                panels,
+            )?;
+            Ok(out.into_bytes())
         }
-        root.present().map_err(perr)?;
+        PlotFormat::Png => {
+            let mut rgb = vec![0u8; 3 * size.0 as usize * size.1 as usize];
+            draw_panels(
+                &BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area(),
+                panels,
+            )?;
+            encode_png(&rgb, size)
+        }
     }
+}
+
+fn draw_panels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    panels: &[Panel<'_>],
+) -> Result<(), PlotError> {
+    root.fill(&WHITE).map_err(perr)?;
+    let areas = root.split_evenly((panels.len().max(1), 1));
+    for (area, panel) in areas.iter().zip(panels) {
+        draw_panel(area, panel)?;
+    }
+    root.present().map_err(perr)
+}
+
+/// An 8-bit RGB buffer of `size` pixels as a PNG file.
+fn encode_png(rgb: &[u8], size: (u32, u32)) -> Result<Vec<u8>, PlotError> {
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, size.0, size.1);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(perr)?;
+    writer.write_image_data(rgb).map_err(perr)?;
+    writer.finish().map_err(perr)?;
     Ok(out)
 }
 
@@ -372,28 +459,47 @@ pub fn line_chart_svg(
     panels_svg(&[Panel::lines(title, x_label, y_label, series.to_vec())])
 }
 
-/// A single x-y chart with a logarithmic x axis (points with `x <= 0` are skipped).
-pub fn line_chart_svg_log_x(
+/// A single x-y chart in `format`.
+pub fn line_chart(
     title: &str,
     x_label: &str,
     y_label: &str,
     series: &[Series<'_>],
-) -> Result<String, PlotError> {
-    panels_svg(&[Panel {
-        log_x: true,
-        ..Panel::lines(title, x_label, y_label, series.to_vec())
-    }])
+    format: PlotFormat,
+) -> Result<Vec<u8>, PlotError> {
+    render(
+        &[Panel::lines(title, x_label, y_label, series.to_vec())],
+        format,
+    )
 }
 
-/// Several charts stacked vertically, each `(title, x_label, y_label, series)`.
-pub fn stacked_charts_svg(
+/// A single x-y chart with a logarithmic x axis (points with `x <= 0` are
+/// skipped), in `format`.
+pub fn line_chart_log_x(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series<'_>],
+    format: PlotFormat,
+) -> Result<Vec<u8>, PlotError> {
+    let panel = Panel {
+        log_x: true,
+        ..Panel::lines(title, x_label, y_label, series.to_vec())
+    };
+    render(&[panel], format)
+}
+
+/// Several charts stacked vertically, each `(title, x_label, y_label,
+/// series)`, in `format`.
+pub fn stacked_charts(
     panels: &[(&str, &str, &str, Vec<Series<'_>>)],
-) -> Result<String, PlotError> {
+    format: PlotFormat,
+) -> Result<Vec<u8>, PlotError> {
     let panels: Vec<Panel<'_>> = panels
         .iter()
         .map(|(t, xl, yl, s)| Panel::lines(t, xl, yl, s.clone()))
         .collect();
-    panels_svg(&panels)
+    render(&panels, format)
 }
 
 /// The two panels of a Bode plot (magnitude in dB, phase in degrees, log
@@ -439,12 +545,22 @@ pub fn bode_panels<'a>(
 }
 
 /// A Bode plot: magnitude (dB) above phase (deg) on a logarithmic frequency
-/// axis (0 Hz is left out), one curve per entry.
+/// axis (0 Hz is left out), one curve per entry, as SVG.
 pub fn bode_svg(title: &str, curves: &[(&str, &Bode)]) -> Result<String, PlotError> {
+    let bytes = bode(title, curves, PlotFormat::Svg)?;
+    Ok(String::from_utf8(bytes).expect("the SVG backend writes UTF-8"))
+}
+
+/// [`bode_svg`] in `format`.
+pub fn bode(
+    title: &str,
+    curves: &[(&str, &Bode)],
+    format: PlotFormat,
+) -> Result<Vec<u8>, PlotError> {
     let styled: Vec<(&str, &Bode, Style)> =
         curves.iter().map(|(l, b)| (*l, *b, Style::Line)).collect();
     let mags: Vec<Vec<f64>> = curves.iter().map(|(_, b)| b.magnitude_db()).collect();
-    panels_svg(&bode_panels(title, &styled, &mags))
+    render(&bode_panels(title, &styled, &mags), format)
 }
 
 #[cfg(test)]
@@ -461,6 +577,40 @@ mod tests {
         let ((x0, x1), (y0, y1)) = equal_ranges((0.0, 1.0), (0.0, 10.0), (400, 200));
         assert_eq!((y0, y1), (0.0, 10.0));
         assert!(((x1 - x0) / 400.0 - 10.0 / 200.0).abs() < 1e-15 && x0 < 0.0 && x1 > 1.0);
+    }
+
+    #[test]
+    fn the_extension_picks_the_format_and_others_are_refused() {
+        let f = |p: &str| PlotFormat::from_path(Path::new(p));
+        assert_eq!(f("a/b.svg"), Ok(PlotFormat::Svg));
+        assert_eq!(f("B.PNG"), Ok(PlotFormat::Png));
+        for bad in ["x.pdf", "x", "x.svg.gz", "x.jpg"] {
+            let e = f(bad).unwrap_err();
+            assert!(e.contains(".svg, .png"), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn renders_png_with_text_without_system_fonts() {
+        let series = [Series {
+            label: "a",
+            x: &[0.0, 1.0],
+            y: &[1.0, 2.0],
+        }];
+        let panel = Panel::lines("title", "x", "y", series.to_vec());
+        let png = render(std::slice::from_ref(&panel), PlotFormat::Png).unwrap();
+        assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"));
+        // The same panel without any text must differ: the labels were drawn.
+        let blank = Panel::lines(
+            "",
+            "",
+            "",
+            vec![Series {
+                label: "",
+                ..series[0].clone()
+            }],
+        );
+        assert_ne!(png, render(&[blank], PlotFormat::Png).unwrap());
     }
 
     #[test]

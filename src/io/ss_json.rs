@@ -202,6 +202,16 @@ pub fn parse_system(text: &str, source: &str) -> Result<StateSpace, InputError> 
         return parse_ss(text, source);
     }
     let sys = match super::tf_json::parse_tf(text, source)? {
+        TransferFunction::Continuous(c) if c.delay() != 0.0 => {
+            return Err(InputError::new(
+                source,
+                format!(
+                    "an input delay of {} s, which no state-space model holds; this command works on one (`fts loop`, `fts tf info` and `fts convert --to tf` read the delay)",
+                    c.delay()
+                ),
+            )
+            .in_field("delay"));
+        }
         TransferFunction::Continuous(c) => StateSpace::from_continuous_tf(&c),
         TransferFunction::Discrete(d) => crate::lti::margins::discrete_tf_to_ss(&d),
     };

@@ -76,7 +76,7 @@ struct TfDoc {
     num: Vec<f64>,
     den: Vec<f64>,
     /// Any number here; checked as a whole number of samples when discrete,
-    /// as zero when continuous.
+    /// as seconds >= 0 (the input delay) when continuous.
     #[serde(default)]
     delay: Option<Number>,
 }
@@ -125,16 +125,20 @@ impl TfDoc {
             .map_err(|e| tf_err(e, at))
     }
 
+    /// `"var": "s"`: the delay is the input delay in seconds,
+    /// `G(s) = e^{-s delay} num(s)/den(s)` (docs/formats.md `fts.tf/1`).
     fn continuous(self, at: At<'_>) -> Result<TransferFunction, InputError> {
-        if let Some(n) = &self.delay
-            && n.as_f64() != Some(0.0)
-        {
-            return Err(at.err(
-                "delay",
-                "a continuous transfer function (\"var\": \"s\") has no sample delay",
-            ));
-        }
+        let delay = match &self.delay {
+            None => 0.0,
+            Some(n) => n.as_f64().filter(|d| *d >= 0.0).ok_or_else(|| {
+                at.err(
+                    "delay",
+                    "expected the input delay in seconds, a number >= 0 (\"var\": \"s\")",
+                )
+            })?,
+        };
         ContinuousTf::new(self.num, self.den)
+            .and_then(|g| g.with_delay(delay))
             .map(TransferFunction::Continuous)
             .map_err(|e| tf_err(e, at))
     }
@@ -147,6 +151,7 @@ fn tf_err(e: TfError, at: At<'_>) -> InputError {
         TfError::NonFinite { which, .. } => which,
         TfError::BadSampleTime(_) => "ts",
         TfError::ZeroNumerator => "num",
+        TfError::BadDelay(_) | TfError::Delayed(_) => "delay",
     };
     at.err(field, e.to_string())
 }
@@ -167,6 +172,13 @@ struct ContinuousDoc<'a> {
     var: &'static str,
     num: &'a [f64],
     den: &'a [f64],
+    /// Seconds; left out when 0, so files without a delay keep their bytes.
+    #[serde(skip_serializing_if = "is_zero")]
+    delay: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 /// The `fts.tf/1` document for `g` as a JSON value (keys in the documented order).
@@ -185,6 +197,7 @@ pub fn tf_to_value(g: &TransferFunction) -> Value {
             var: "s",
             num: c.num(),
             den: c.den(),
+            delay: c.delay(),
         }),
     };
     result.expect("plain numbers and strings always serialise")
@@ -368,11 +381,28 @@ mod tests {
         .unwrap_err();
         assert_eq!(e.field.as_deref(), Some("ts"));
         assert!(e.message.contains("found string \"fast\""), "{e}");
-        let e = parse_tf(
-            r#"{"format":"fts.tf/1","var":"s","num":[1],"den":[1],"delay":2}"#,
-            "p.json",
-        )
-        .unwrap_err();
-        assert_eq!(e.field.as_deref(), Some("delay"));
+        for bad in ["-2", "\"2\"", "-1e-9"] {
+            let doc =
+                format!(r#"{{"format":"fts.tf/1","var":"s","num":[1],"den":[1],"delay":{bad}}}"#);
+            let e = parse_tf(&doc, "p.json").unwrap_err();
+            assert_eq!(e.field.as_deref(), Some("delay"), "{bad}");
+        }
+    }
+
+    #[test]
+    fn a_continuous_delay_survives_the_file() {
+        // identify ct --delay 0.0001 writes it; every reader sees it.
+        let doc = r#"{"format":"fts.tf/1","var":"s","num":[2],"den":[1,3],"delay":0.0001}"#;
+        let g = parse_tf(doc, "g.json").unwrap();
+        let TransferFunction::Continuous(c) = &g else {
+            panic!("continuous")
+        };
+        assert_eq!(c.delay(), 1e-4);
+        let text = tf_to_string(&g);
+        assert!(text.contains("\"delay\": 0.0001"), "{text}");
+        assert_eq!(parse_tf(&text, "g.json").unwrap(), g);
+        // Without a delay the file keeps its old bytes: no `delay` key.
+        let plain = TransferFunction::Continuous(c.rational());
+        assert!(!tf_to_string(&plain).contains("delay"));
     }
 }

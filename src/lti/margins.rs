@@ -112,12 +112,41 @@ impl LoopSystem {
     }
 
     /// A state-space realisation (controllable canonical form for a
-    /// transfer function; a discrete one keeps its delay as states).
+    /// transfer function; a discrete one keeps its delay as states). A
+    /// continuous input delay has none: refused ([`SsError::Delayed`]).
     pub fn to_ss(&self) -> Result<StateSpace, SsError> {
         match self {
-            LoopSystem::Ss(s) => Ok(s.clone()),
             LoopSystem::Tf(TransferFunction::Continuous(c)) => StateSpace::from_continuous_tf(c),
+            _ => self.rational_ss(),
+        }
+    }
+
+    /// [`Self::to_ss`] with a continuous delay approximated by
+    /// [`StateSpace::delay_approximation`]: for the closed-loop poles only.
+    fn to_ss_delay_approximated(&self) -> Result<StateSpace, SsError> {
+        let rational = self.rational_ss()?;
+        match self.continuous_delay() {
+            0.0 => Ok(rational),
+            tau => StateSpace::delay_approximation(tau)?.series(&rational),
+        }
+    }
+
+    /// [`Self::to_ss`] without a continuous delay.
+    fn rational_ss(&self) -> Result<StateSpace, SsError> {
+        match self {
+            LoopSystem::Ss(s) => Ok(s.clone()),
+            LoopSystem::Tf(TransferFunction::Continuous(c)) => {
+                StateSpace::from_continuous_tf(&c.rational())
+            }
             LoopSystem::Tf(TransferFunction::Discrete(d)) => discrete_tf_to_ss(d),
+        }
+    }
+
+    /// The input delay of a continuous transfer function, s (0 otherwise).
+    pub fn continuous_delay(&self) -> f64 {
+        match self {
+            LoopSystem::Tf(TransferFunction::Continuous(c)) => c.delay(),
+            _ => 0.0,
         }
     }
 
@@ -518,8 +547,8 @@ pub fn analyze_loop(
     }
 
     // Closed loop and open-loop poles from state-space realisations.
-    let gs = g.to_ss()?;
-    let ks = k.to_ss()?;
+    let gs = g.to_ss_delay_approximated()?;
+    let ks = k.to_ss_delay_approximated()?;
     let l_ss = ks.series(&gs)?;
     let one = StateSpace::gain(Mat::from_fn(1, 1, |_, _| 1.0), ts);
     let cl = l_ss.feedback(&one)?;
@@ -539,9 +568,16 @@ pub fn analyze_loop(
         }
     }
 
-    // Frequency range from the poles and zeros of G and K.
-    let mut features: Vec<f64> = ol_poles.iter().map(|&p| feature_rad_s(p, ts)).collect();
-    for s in [&gs, &ks] {
+    // Frequency range from the poles and zeros of G and K (a delay's
+    // approximation left out: it is no feature of the loop).
+    let (gr, kr) = (g.rational_ss()?, k.rational_ss()?);
+    let mut features: Vec<f64> = gr
+        .poles()?
+        .into_iter()
+        .chain(kr.poles()?)
+        .map(|p| feature_rad_s(p, ts))
+        .collect();
+    for s in [&gr, &kr] {
         if s.nx() > 0
             && let Ok(z) = s.zeros()
         {
@@ -598,6 +634,14 @@ pub fn analyze_loop(
     *grid.last_mut().expect("grid") = f_hi;
     let lv: Vec<c64> = grid.iter().map(|&f| lp.l(f)).collect();
     let mut notes = Vec::new();
+    let delay = g.continuous_delay() + k.continuous_delay();
+    if delay > 0.0 {
+        notes.push(format!(
+            "the loop holds an input delay of {delay} s: margins, peaks and bandwidth use it exactly (e^(-j w tau)); the closed-loop poles and stability are those of the delay approximated by {} all-pass sections (phase error about (w tau)^3/{} rad)",
+            StateSpace::DELAY_SECTIONS,
+            12 * StateSpace::DELAY_SECTIONS * StateSpace::DELAY_SECTIONS
+        ));
+    }
 
     // Phase crossovers: Im L changes sign where Re L < 0; plus w = 0 and Nyquist.
     let mut pcs: Vec<f64> = Vec::new();

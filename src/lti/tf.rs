@@ -27,6 +27,12 @@ pub enum TfError {
     /// The numerator is identically zero.
     #[error("numerator is identically zero")]
     ZeroNumerator,
+    /// A continuous input delay is not a finite number of seconds >= 0.
+    #[error("an input delay must be a finite number of seconds >= 0, got {0}")]
+    BadDelay(f64),
+    /// An operation that would need a rational model met an input delay.
+    #[error("{0}")]
+    Delayed(String),
 }
 
 fn check_finite(which: &'static str, c: &[f64]) -> Result<(), TfError> {
@@ -260,12 +266,14 @@ impl DiscreteTf {
     }
 }
 
-/// A continuous SISO transfer function `N(s)/D(s)`, coefficients in
-/// descending powers of `s`.
+/// A continuous SISO transfer function `e^{-s delay} N(s)/D(s)`,
+/// coefficients in descending powers of `s`, the input delay in seconds
+/// (0 unless set with [`ContinuousTf::with_delay`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContinuousTf {
     num: Vec<f64>,
     den: Vec<f64>,
+    delay: f64,
 }
 
 fn strip_leading_zeros(c: Vec<f64>) -> Vec<f64> {
@@ -295,7 +303,35 @@ impl ContinuousTf {
         if num.is_empty() || num.iter().all(|&c| c == 0.0) {
             return Err(TfError::ZeroNumerator);
         }
-        Ok(Self { num, den })
+        Ok(Self {
+            num,
+            den,
+            delay: 0.0,
+        })
+    }
+
+    /// The same model behind an input delay of `seconds` (replacing any).
+    pub fn with_delay(self, seconds: f64) -> Result<Self, TfError> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(TfError::BadDelay(seconds));
+        }
+        Ok(Self {
+            delay: seconds,
+            ..self
+        })
+    }
+
+    /// Input delay, s.
+    pub fn delay(&self) -> f64 {
+        self.delay
+    }
+
+    /// `N(s)/D(s)` without the delay.
+    pub fn rational(&self) -> ContinuousTf {
+        Self {
+            delay: 0.0,
+            ..self.clone()
+        }
     }
 
     /// Numerator, descending powers of `s`.
@@ -313,10 +349,16 @@ impl ContinuousTf {
         self.num.len() <= self.den.len()
     }
 
-    /// `G(j 2 pi f)` at `f` Hz.
+    /// `G(j 2 pi f)` at `f` Hz, the delay's `e^{-j 2 pi f delay}` included.
     pub fn response_at_hz(&self, f: f64) -> c64 {
-        let s = c64::new(0.0, 2.0 * PI * f);
-        eval_descending(&self.num, s) / eval_descending(&self.den, s)
+        let w = 2.0 * PI * f;
+        let s = c64::new(0.0, w);
+        let rational = eval_descending(&self.num, s) / eval_descending(&self.den, s);
+        if self.delay == 0.0 {
+            rational
+        } else {
+            rational * c64::from_polar(1.0, -w * self.delay)
+        }
     }
 
     /// `N(0)/D(0)`; infinite for an integrator.
@@ -359,20 +401,28 @@ impl ContinuousTf {
         })
     }
 
-    /// `self * other`.
+    /// `self * other` (the delays add).
     pub fn series(&self, other: &ContinuousTf) -> ContinuousTf {
         ContinuousTf {
             num: convolve(&self.num, &other.num),
             den: convolve(&self.den, &other.den),
+            delay: self.delay + other.delay,
         }
     }
 
-    /// Negative feedback `G / (1 + G H)` = `NG DH / (DG DH + NG NH)`.
-    pub fn feedback(&self, h: &ContinuousTf) -> ContinuousTf {
-        ContinuousTf {
+    /// Negative feedback `G / (1 + G H)` = `NG DH / (DG DH + NG NH)`; a loop
+    /// with a delay has no rational closed loop and is refused.
+    pub fn feedback(&self, h: &ContinuousTf) -> Result<ContinuousTf, TfError> {
+        if self.delay != 0.0 || h.delay != 0.0 {
+            return Err(TfError::Delayed(
+                "a loop with an input delay has no rational closed loop".into(),
+            ));
+        }
+        Ok(ContinuousTf {
             num: convolve(&self.num, &h.den),
             den: add_descending(&convolve(&self.den, &h.den), &convolve(&self.num, &h.num)),
-        }
+            delay: 0.0,
+        })
     }
 }
 
@@ -603,10 +653,29 @@ mod tests {
         assert!(g.is_stable().unwrap());
         // 1/(s+1) in unity feedback: 1/(s+2).
         let one = ContinuousTf::new(vec![1.0], vec![1.0]).unwrap();
-        let t = g.feedback(&one);
+        let t = g.feedback(&one).unwrap();
         assert_eq!(t.num(), &[1.0]);
         assert_eq!(t.den(), &[1.0, 2.0]);
         assert_eq!(g.series(&g).den(), &[1.0, 2.0, 1.0]);
+    }
+
+    #[test]
+    fn a_continuous_delay_turns_the_phase_and_nothing_else() {
+        // e^{-s 1e-3}/(s+1) at 100 Hz: the rational phase minus 360 f tau
+        // = 36 degrees; same magnitude, poles, zeros and DC gain.
+        let g = ContinuousTf::new(vec![1.0], vec![1.0, 1.0]).unwrap();
+        let d = g.clone().with_delay(1e-3).unwrap();
+        let (a, b) = (g.response_at_hz(100.0), d.response_at_hz(100.0));
+        assert!((a.norm() - b.norm()).abs() < 1e-15);
+        let turn = (a.arg() - b.arg()).to_degrees().rem_euclid(360.0);
+        assert!((turn - 36.0).abs() < 1e-9, "{turn}");
+        assert_eq!(
+            (d.dc_gain(), d.poles().unwrap()),
+            (g.dc_gain(), g.poles().unwrap())
+        );
+        assert_eq!(d.series(&d).delay(), 2e-3);
+        assert!(d.feedback(&g).is_err());
+        assert!(g.clone().with_delay(-1.0).is_err() && g.with_delay(f64::NAN).is_err());
     }
     #[test]
     fn minreal_removes_near_cancellations_only() {

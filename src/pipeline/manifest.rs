@@ -816,7 +816,51 @@ fn multiaxis(f: &mut Fields<'_>) -> Result<Action, InputError> {
             "missing: a multiaxis step writes `out` (fts.multiaxis-controller/1 JSON), `header` (C header) or both",
         ));
     }
+    multiaxis_contradictions(f)?;
     Ok(Action::MultiAxis(f.typed()?))
+}
+
+/// A controller file and the gains it replaces, or a coupling controller
+/// with `coupled = false`, given together: one of them would be ignored
+/// silently, so the step is refused naming both.
+fn multiaxis_contradictions(f: &Fields<'_>) -> Result<(), InputError> {
+    let given = |key: &str| f.inputs.iter().find(|r| r.field == key).map(|r| r.line);
+    for (file, gains) in [
+        ("x", "pid_x"),
+        ("y", "pid_y"),
+        ("z", "pid_z"),
+        ("cross", "cross_coupling"),
+    ] {
+        if let (Some(file_line), Some(line)) = (given(file), f.lines.get(gains).copied())
+            && f.map.contains_key(gains)
+        {
+            return Err(f.err(
+                gains,
+                line,
+                format!(
+                    "`{gains}` and the controller file `{file}` (line {file_line}) both set this controller; give one"
+                ),
+            ));
+        }
+    }
+    let uncoupled = matches!(
+        f.map.get("coupled").map(|v| v.get_ref()),
+        Some(Value::Boolean(false))
+    );
+    for key in ["cross", "cross_coupling"] {
+        let line = given(key).or_else(|| f.map.contains_key(key).then(|| f.line_of_field(key)));
+        if let (true, Some(line)) = (uncoupled, line) {
+            return Err(f.err(
+                key,
+                line,
+                format!(
+                    "`{key}` sets the cross-coupling controller, but `coupled = false` (line {}) writes none; give one",
+                    f.line_of_field("coupled")
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Parses and validates a manifest. `source` names it in errors; `base` is

@@ -134,6 +134,11 @@ pub enum ExperimentError {
     /// A closed-loop run diverged.
     #[error(transparent)]
     Diverged(#[from] closed_loop::Divergence),
+    /// A closed loop sat on its command limits for much of the run (a
+    /// limit cycle, or a reference out of the actuator's reach): its record
+    /// is no identification data.
+    #[error("{0}")]
+    NotTracking(String),
     /// A step failed; the message says which and why.
     #[error("{step}: {message}")]
     Step {
@@ -485,12 +490,38 @@ pub fn sweep_record(
         &timing,
     )
     .map_err(|e| step_err("sweep")(e.to_string()))?;
-    let (trace, _) = track(params, 1, &pid_hc, &sweep_ref)?;
+    let (trace, metrics) = track(params, 1, &pid_hc, &sweep_ref)?;
+    check_tracking(&metrics, params.pid)?;
     let window = sweep_ref.evaluated();
     Ok((
         trace.filtered_reference[window.clone()].to_vec(),
         trace.measurement[window].to_vec(),
     ))
+}
+
+/// Most saturated samples a closed-loop record may have: the \[Li21\]
+/// sweep never saturates, an oscillating loop (gains beyond the stable
+/// range) swings between the limits on a large part of its samples.
+pub const MAX_SATURATED_FRACTION: f64 = 0.01;
+
+/// Refuses a closed-loop run whose command sat on its limits on more than
+/// [`MAX_SATURATED_FRACTION`] of the evaluated samples.
+fn check_tracking(metrics: &TrackingMetrics, pid: PidSpec) -> Result<(), ExperimentError> {
+    let fraction = metrics.saturated_samples as f64 / metrics.samples.max(1) as f64;
+    if fraction <= MAX_SATURATED_FRACTION {
+        return Ok(());
+    }
+    Err(ExperimentError::NotTracking(format!(
+        "the closed loop does not track: the command sat on its limits ({} .. {} V) on {:.1} % of the {} samples (at most {} % allowed); the PID gains kp {} ki {} kd {} make the loop oscillate (a limit cycle) or the reference leaves the actuator's range, so no record is written",
+        pid.output_min,
+        pid.output_max,
+        100.0 * fraction,
+        metrics.samples,
+        100.0 * MAX_SATURATED_FRACTION,
+        pid.kp,
+        pid.ki,
+        pid.kd
+    )))
 }
 
 /// Steps 1-3: what fts identifies from the virtual FTS (never from its

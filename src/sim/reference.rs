@@ -259,6 +259,42 @@ pub fn from_samples(mut samples: Vec<f64>, timing: &ReferenceTiming, label: Stri
     with_lead_in(samples, evaluated, timing, 0, label)
 }
 
+/// Samples `values` taken at the times `t` (s, increasing) at the loop's
+/// sample time `ts`: `r(t0 + k ts)` for every instant up to the last time,
+/// linearly interpolated between the two samples around it. A file whose
+/// time step is already `ts` comes back unchanged; one at 1 ms played at
+/// 0.1 ms keeps its frequencies instead of running ten times faster.
+/// `Err` says why (too many samples, fewer than two).
+pub fn resample_linear(t: &[f64], values: &[f64], ts: f64) -> Result<Vec<f64>, String> {
+    let (Some(&t0), Some(&t1)) = (t.first(), t.last()) else {
+        return Err("no samples".into());
+    };
+    if t.len() != values.len() || t.len() < 2 {
+        return Err("at least two timed samples are needed".into());
+    }
+    // The last instant counts when it falls on the grid within rounding.
+    let n = ((t1 - t0) / ts * (1.0 + 1e-9)).floor() + 1.0;
+    if n > excite::MAX_SAMPLES {
+        return Err(format!(
+            "{:.3} s at the loop's ts = {ts} s would be {n:.3e} samples, more than fts simulates ({:e})",
+            t1 - t0,
+            excite::MAX_SAMPLES
+        ));
+    }
+    let mut out = Vec::with_capacity(n as usize);
+    let mut j = 0;
+    for k in 0..n as usize {
+        let tk = (t0 + k as f64 * ts).min(t1);
+        while j + 2 < t.len() && t[j + 1] < tk {
+            j += 1;
+        }
+        // t[j] <= tk <= t[j + 1] (the last interval takes the end).
+        let w = ((tk - t[j]) / (t[j + 1] - t[j])).clamp(0.0, 1.0);
+        out.push(values[j] + w * (values[j + 1] - values[j]));
+    }
+    Ok(out)
+}
+
 /// A step of `amplitude` from `offset` at `step_at` s into the evaluated
 /// part, held to `duration` s (and through the tail). The lead-in brings
 /// the loop to `offset` first, so the step starts from rest.
@@ -336,6 +372,33 @@ pub fn step_tracking(
         info,
         steady_state_error: amplitude * (1.0 - y_final),
     })
+}
+
+#[cfg(test)]
+mod resample_tests {
+    use super::resample_linear;
+
+    #[test]
+    fn a_line_resampled_is_the_same_line_and_the_same_grid_is_unchanged() {
+        // r = 2 t + 1 at 1 ms, read at 0.1 ms: exact on a line.
+        let t: Vec<f64> = (0..11).map(|k| k as f64 * 1e-3).collect();
+        let r: Vec<f64> = t.iter().map(|t| 2.0 * t + 1.0).collect();
+        let out = resample_linear(&t, &r, 1e-4).unwrap();
+        assert_eq!(out.len(), 101);
+        for (k, v) in out.iter().enumerate() {
+            assert!(
+                (v - (2.0 * k as f64 * 1e-4 + 1.0)).abs() < 1e-12,
+                "{k}: {v}"
+            );
+        }
+        assert_eq!(resample_linear(&t, &r, 1e-3).unwrap(), r);
+    }
+
+    #[test]
+    fn an_absurd_length_is_refused_before_allocating() {
+        let e = resample_linear(&[0.0, 1e6], &[0.0, 1.0], 1e-4).unwrap_err();
+        assert!(e.contains("samples"), "{e}");
+    }
 }
 
 #[cfg(test)]

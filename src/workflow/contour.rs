@@ -8,7 +8,7 @@
 
 use super::{Choices, StepError, Validate, positive, whole_number};
 use crate::io::controller_file::MultiAxisControllerFile;
-use crate::io::plot::{Panel, PlotError, Series, panels_svg};
+use crate::io::plot::{Panel, PlotError, PlotFormat, Series, render};
 use crate::lti::ss::StateSpace;
 use crate::sim::contour::{
     AXES, AxisController, AxisLoop, AxisSetup, ContourError, ContourMetrics, ContourRun,
@@ -303,30 +303,39 @@ impl TrajectoryReport {
 
     /// The path's x-y and y-z projections and the speed along it.
     pub fn svg(&self) -> Result<String, PlotError> {
+        let bytes = self.plot(PlotFormat::Svg)?;
+        Ok(String::from_utf8(bytes).expect("the SVG backend writes UTF-8"))
+    }
+
+    /// [`Self::svg`] in `format`.
+    pub fn plot(&self, format: PlotFormat) -> Result<Vec<u8>, PlotError> {
         let s = &self.samples;
         let line = |label, x, y| Series { label, x, y };
-        panels_svg(&[
-            Panel::lines(
-                "path, x-y projection",
-                "x (um)",
-                "y (um)",
-                vec![line("reference", &s.xyz[0], &s.xyz[1])],
-            )
-            .with_equal_aspect(),
-            Panel::lines(
-                "path, y-z projection",
-                "y (um)",
-                "z (um)",
-                vec![line("reference", &s.xyz[1], &s.xyz[2])],
-            )
-            .with_equal_aspect(),
-            Panel::lines(
-                "speed along the path",
-                "t (s)",
-                "speed (um/s)",
-                vec![line("speed", &s.t, &s.speed)],
-            ),
-        ])
+        render(
+            &[
+                Panel::lines(
+                    "path, x-y projection",
+                    "x (um)",
+                    "y (um)",
+                    vec![line("reference", &s.xyz[0], &s.xyz[1])],
+                )
+                .with_equal_aspect(),
+                Panel::lines(
+                    "path, y-z projection",
+                    "y (um)",
+                    "z (um)",
+                    vec![line("reference", &s.xyz[1], &s.xyz[2])],
+                )
+                .with_equal_aspect(),
+                Panel::lines(
+                    "speed along the path",
+                    "t (s)",
+                    "speed (um/s)",
+                    vec![line("speed", &s.t, &s.speed)],
+                ),
+            ],
+            format,
+        )
     }
 }
 
@@ -905,6 +914,12 @@ impl ContourReport {
     /// Path projections (reference and actual), tracking errors per axis
     /// and the contour error (with and without cross-coupling).
     pub fn svg(&self) -> Result<String, PlotError> {
+        let bytes = self.plot(PlotFormat::Svg)?;
+        Ok(String::from_utf8(bytes).expect("the SVG backend writes UTF-8"))
+    }
+
+    /// [`Self::svg`] in `format`.
+    pub fn plot(&self, format: PlotFormat) -> Result<Vec<u8>, PlotError> {
         let t = &self.main.run.trace;
         let errors: Vec<Vec<f64>> = (0..3)
             .map(|i| {
@@ -948,30 +963,33 @@ impl ContourReport {
         for (label, p) in labels.into_iter().zip(&plane[1..]) {
             in_plane.push(line(label, &p[0], &p[1]));
         }
-        panels_svg(&[
-            Panel::lines(
-                &plane_title,
-                "along x (um)",
-                "along the inclined axis (um)",
-                in_plane,
-            )
-            .with_equal_aspect(),
-            Panel::lines("path, x-y projection", "x (um)", "y (um)", projection(0, 1))
+        render(
+            &[
+                Panel::lines(
+                    &plane_title,
+                    "along x (um)",
+                    "along the inclined axis (um)",
+                    in_plane,
+                )
                 .with_equal_aspect(),
-            Panel::lines("path, y-z projection", "y (um)", "z (um)", projection(1, 2))
-                .with_equal_aspect(),
-            Panel::lines(
-                "tracking error per axis",
-                "t (s)",
-                "e (um)",
-                vec![
-                    line("e_x", &t.t, &errors[0]),
-                    line("e_y", &t.t, &errors[1]),
-                    line("e_z", &t.t, &errors[2]),
-                ],
-            ),
-            Panel::lines("contour error", "t (s)", "contour error (um)", contour),
-        ])
+                Panel::lines("path, x-y projection", "x (um)", "y (um)", projection(0, 1))
+                    .with_equal_aspect(),
+                Panel::lines("path, y-z projection", "y (um)", "z (um)", projection(1, 2))
+                    .with_equal_aspect(),
+                Panel::lines(
+                    "tracking error per axis",
+                    "t (s)",
+                    "e (um)",
+                    vec![
+                        line("e_x", &t.t, &errors[0]),
+                        line("e_y", &t.t, &errors[1]),
+                        line("e_z", &t.t, &errors[2]),
+                    ],
+                ),
+                Panel::lines("contour error", "t (s)", "contour error (um)", contour),
+            ],
+            format,
+        )
     }
 }
 

@@ -119,9 +119,12 @@ impl Serialize for ConvertReport {
 
 fn describe_tf(t: &TransferFunction) -> String {
     match t {
-        TransferFunction::Continuous(c) => {
-            format!("num (s) {:?}, den (s) {:?}", c.num(), c.den())
-        }
+        TransferFunction::Continuous(c) => format!(
+            "num (s) {:?}, den (s) {:?}, input delay {} s",
+            c.num(),
+            c.den(),
+            c.delay()
+        ),
         TransferFunction::Discrete(d) => format!(
             "num (z^-1) {:?}, den (z^-1) {:?}, delay {}, ts {} s",
             d.num().coeffs(),
@@ -182,6 +185,14 @@ pub struct ZpkReport {
 impl ZpkStep {
     /// Computes the zpk form of every channel of `model`.
     pub fn run(&self, model: &Model, source: &str) -> Result<ZpkReport, StepError> {
+        if let LoopSystem::Tf(TransferFunction::Continuous(c)) = model
+            && c.delay() != 0.0
+        {
+            return Err(StepError::input(format!(
+                "{source} field 'delay': zpk lists the zeros, poles and gain of a rational model; the {} s input delay has none (`fts tf info` reports the model with it)",
+                c.delay()
+            )));
+        }
         let tfs = match model {
             LoopSystem::Tf(t) => vec![vec![Some(t.clone())]],
             LoopSystem::Ss(s) => convert::ss_to_tfs(s).map_err(conv_err(source))?,

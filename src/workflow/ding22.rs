@@ -6,7 +6,7 @@
 //! numerical work is [`crate::synth::ding22`].
 
 use super::{StepError, Validate, whole_number};
-use crate::io::plot::{PlotError, Series, line_chart_svg_log_x};
+use crate::io::plot::{PlotError, PlotFormat, Series, line_chart_log_x};
 use crate::io::ss_json;
 use crate::lti::logspace;
 use crate::synth::budget::ErrorBudget;
@@ -407,6 +407,12 @@ impl Ding22Report {
     /// An SVG of the cumulative amplitude spectra (per source and total,
     /// and the PID's total).
     pub fn budget_svg(&self) -> Result<String, PlotError> {
+        let bytes = self.budget_plot(PlotFormat::Svg)?;
+        Ok(String::from_utf8(bytes).expect("the SVG backend writes UTF-8"))
+    }
+
+    /// [`Self::budget_svg`] in `format`.
+    pub fn budget_plot(&self, format: PlotFormat) -> Result<Vec<u8>, PlotError> {
         let b = &self.budget;
         let pid = self.pid.as_ref().map(|p| &p.budget);
         let nm = |v: &[f64]| v.iter().map(|x| x * NM).collect::<Vec<f64>>();
@@ -434,11 +440,12 @@ impl Ding22Report {
                 y,
             });
         }
-        line_chart_svg_log_x(
+        line_chart_log_x(
             "Ding22 error budget: cumulative amplitude spectrum",
             "frequency (Hz)",
             "CAS (nm)",
             &series,
+            format,
         )
     }
 

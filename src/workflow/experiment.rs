@@ -9,7 +9,8 @@ use crate::ident::hysteresis::HysteresisModel;
 use crate::io::timeseries::{time_column, write_csv};
 use crate::runtime::PidSpec;
 use crate::sim::experiment::{
-    DEFAULT_PID, ExperimentParams, align_triangle_record, sweep_record, triangle_record,
+    DEFAULT_PID, ExperimentError, ExperimentParams, align_triangle_record, sweep_record,
+    triangle_record,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -152,7 +153,10 @@ impl VirtualSweep {
     pub fn run(&self, hysteresis: Option<&HysteresisModel>) -> Result<VirtualRecord, StepError> {
         self.validate()?;
         let p = self.params();
-        let (r, y) = sweep_record(&p, hysteresis).map_err(|e| StepError::input(e.to_string()))?;
+        let (r, y) = sweep_record(&p, hysteresis).map_err(|e| match e {
+            ExperimentError::NotTracking(m) => StepError::computation(m),
+            other => StepError::input(other.to_string()),
+        })?;
         Ok(VirtualRecord::new(p.plant.ts, r, y))
     }
 }

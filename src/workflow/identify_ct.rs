@@ -294,6 +294,14 @@ impl Validate for IdentifyCtFrd {
                 positive(field, v)?;
             }
         }
+        if let (Some(lo), Some(hi)) = (self.fmin, self.fmax)
+            && lo >= hi
+        {
+            return Err(StepError::setting(
+                "fmax",
+                format!("the band is empty: fmax ({hi} Hz) must exceed fmin ({lo} Hz)"),
+            ));
+        }
         Ok(())
     }
 }
@@ -473,10 +481,11 @@ impl CtReport {
         }
     }
 
-    /// The rational part `B(s)/A(s)` (the delay is reported beside it).
+    /// The model `e^{-s delay} B(s)/A(s)`, as its `fts.tf/1` file holds it.
     pub fn transfer_function(&self) -> Result<TransferFunction, StepError> {
         self.model
             .tf()
+            .and_then(|g| g.with_delay(self.model.delay))
             .map(TransferFunction::Continuous)
             .map_err(|e| StepError::computation(format!("{}: {e}", self.source)))
     }

@@ -89,11 +89,13 @@ pub struct Simulate {
     pub ki: f64,
     /// PID derivative gain per sample, V/um, on the measurement; default 0.
     pub kd: f64,
-    /// Lowest command of a state-space controller, V; default the virtual
-    /// FTS amplifier's (none on a linear model).
+    /// Lowest command of the feedback controller (PID or state space), V;
+    /// default the virtual FTS amplifier's (a state-space controller on a
+    /// linear model: none).
     pub output_min: Option<f64>,
-    /// Highest command of a state-space controller, V; default the virtual
-    /// FTS amplifier's (none on a linear model).
+    /// Highest command of the feedback controller (PID or state space), V;
+    /// default the virtual FTS amplifier's (a state-space controller on a
+    /// linear model: none).
     pub output_max: Option<f64>,
     /// Discretisation of a continuous state-space controller; default tustin.
     pub c2d: Discretisation,
@@ -150,7 +152,7 @@ impl Validate for Simulate {
                     .map_err(|e| StepError::setting(field, e.to_string()))?;
             }
         }
-        Ok(())
+        self.check_limits()
     }
 }
 
@@ -394,7 +396,34 @@ impl Simulate {
             .map_err(|e| StepError::setting("controller", e.to_string()))
     }
 
-    /// The PID gains, each finite, limited to the amplifier's range.
+    /// The command limits, each finite when given, the lower below the upper.
+    fn check_limits(&self) -> Result<(), StepError> {
+        for (name, value) in [
+            ("output_min", self.output_min),
+            ("output_max", self.output_max),
+        ] {
+            if let Some(v) = value
+                && !v.is_finite()
+            {
+                return Err(StepError::setting(
+                    name,
+                    format!("expected a finite command in V, got {v}"),
+                ));
+            }
+        }
+        if let (Some(lo), Some(hi)) = (self.output_min, self.output_max)
+            && lo >= hi
+        {
+            return Err(StepError::setting(
+                "output_max",
+                format!("output_max ({hi}) must exceed output_min ({lo})"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The PID gains, each finite, limited to `output_min`..`output_max`
+    /// (default the amplifier's range).
     fn pid(&self, plant: &VirtualFtsParams) -> Result<PidSpec, StepError> {
         for (name, value) in [("kp", self.kp), ("ki", self.ki), ("kd", self.kd)] {
             if !value.is_finite() {
@@ -408,8 +437,26 @@ impl Simulate {
             kp: self.kp,
             ki: self.ki,
             kd: self.kd,
-            output_min: plant.amplifier.input_min_v,
-            output_max: plant.amplifier.input_max_v,
+            output_min: self.output_min.unwrap_or(plant.amplifier.input_min_v),
+            output_max: self.output_max.unwrap_or(plant.amplifier.input_max_v),
+        })
+        .and_then(|pid| {
+            // One limit given beside the other's default must still leave a range.
+            if pid.output_min < pid.output_max {
+                Ok(pid)
+            } else {
+                Err(StepError::setting(
+                    if self.output_max.is_some() {
+                        "output_max"
+                    } else {
+                        "output_min"
+                    },
+                    format!(
+                        "the PID's command range {} .. {} V is empty",
+                        pid.output_min, pid.output_max
+                    ),
+                ))
+            }
         })
     }
 
@@ -545,6 +592,20 @@ impl Simulate {
             return Ok(reference::from_samples(samples, &timing, label));
         }
         let excite = |e: ExciteError| StepError::setting(e.field, e.message);
+        if matches!(self.reference, ReferenceShape::Sine | ReferenceShape::Sweep)
+            && !(self.amplitude.is_finite() && self.amplitude > 0.0)
+        {
+            // A zero amplitude leaves nothing to track and the error in % of
+            // it undefined; a negative one is the same sine shifted by half
+            // a period, and is asked for by mistake.
+            return Err(StepError::setting(
+                "amplitude",
+                format!(
+                    "expected a positive amplitude in um, got {}",
+                    self.amplitude
+                ),
+            ));
+        }
         match self.reference {
             ReferenceShape::Sine => {
                 let duration = self.sine_duration()?;
@@ -860,11 +921,20 @@ impl fmt::Display for SimulateReport {
             self.evaluated_from_s(),
             m.samples
         )?;
-        writeln!(
-            f,
-            "tracking error: max {:.4} um, rms {:.4} um, max {:.2} % of the {:.3} um amplitude",
-            m.max_abs_error, m.rms_error, m.max_error_percent, m.amplitude
-        )?;
+        if m.max_error_percent.is_finite() {
+            writeln!(
+                f,
+                "tracking error: max {:.4} um, rms {:.4} um, max {:.2} % of the {:.3} um amplitude",
+                m.max_abs_error, m.rms_error, m.max_error_percent, m.amplitude
+            )?;
+        } else {
+            // A constant reference (from a file) has no amplitude to relate to.
+            writeln!(
+                f,
+                "tracking error: max {:.4} um, rms {:.4} um (the reference is constant: no % of its amplitude)",
+                m.max_abs_error, m.rms_error
+            )?;
+        }
         match &self.step {
             Some(Ok(s)) => write_step(f, s)?,
             Some(Err(e)) => writeln!(f, "step: no figures: {e}")?,

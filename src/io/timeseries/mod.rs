@@ -398,6 +398,9 @@ fn read_table_with<R: BufRead>(
             .map_err(|e| InputError::new(source, format!("cannot read: {e}")))?;
         return read_mat_table(&bytes, source, layout, min_rows, time, pick(true));
     }
+    if let Some(reason) = super::mat::binary_reason(peek) {
+        return Err(InputError::new(source, reason));
+    }
     let Some(mut rows) = RowReader::open(reader, source, layout.delimiter)? else {
         return Err(InputError::new(
             source,
