@@ -161,15 +161,6 @@ pub fn plot_path(text: &str) -> Result<PathBuf, String> {
     Ok(path)
 }
 
-/// [`plot_path`] for the plots drawn in SVG only.
-pub fn svg_plot_path(text: &str) -> Result<PathBuf, String> {
-    let path = PathBuf::from(text);
-    match PlotFormat::from_path(&path) {
-        Ok(PlotFormat::Svg) => Ok(path),
-        _ => Err("this plot is written as SVG only: give a .svg file".into()),
-    }
-}
-
 /// Renders a plot in the format `path`'s extension names and writes it
 /// atomically: the one way every `--plot` file is written.
 pub fn write_plot(

@@ -115,7 +115,7 @@ pub struct IlcArgs {
     #[arg(short = 'o', long = "out", value_name = "CTRL.json")]
     output: Option<PathBuf>,
     /// Plot the error per trial and the last trial's error to this SVG.
-    #[arg(long, value_name = "ILC.svg", value_parser = super::common::svg_plot_path)]
+    #[arg(long, value_name = "ILC.svg", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
@@ -151,7 +151,7 @@ pub fn run_ilc(args: IlcArgs) -> anyhow::Result<()> {
         write_atomic(path, report.controller.to_json_string().as_bytes())?;
     }
     if let Some(path) = &args.plot {
-        write_atomic(path, ilc_plot(&report)?.as_bytes())?;
+        super::common::write_plot(path, |format| ilc_plot(&report, format))?;
     }
     print_report(&report, args.json)?;
     if !args.json {
@@ -169,7 +169,7 @@ pub fn run_ilc(args: IlcArgs) -> anyhow::Result<()> {
 
 /// Max and RMS error per trial (log scale) and the last trial's error, its
 /// evaluated window shaded.
-fn ilc_plot(report: &IlcReport) -> anyhow::Result<String> {
+fn ilc_plot(report: &IlcReport, format: plot::PlotFormat) -> anyhow::Result<Vec<u8>> {
     let trials: Vec<f64> = report.trials.iter().map(|r| r.trial as f64).collect();
     let max: Vec<f64> = report.trials.iter().map(|r| r.max_error).collect();
     let rms: Vec<f64> = report.trials.iter().map(|r| r.rms_error).collect();
@@ -184,39 +184,42 @@ fn ilc_plot(report: &IlcReport) -> anyhow::Result<String> {
         report.evaluated.end.saturating_sub(1) as f64 * trace.ts,
         "evaluated",
     );
-    Ok(plot::panels_svg(&[
-        plot::Panel {
-            log_y: true,
-            ..plot::Panel::lines(
-                &title,
-                "trial",
-                "tracking error (um)",
-                vec![
-                    plot::Series {
-                        label: "max |e|",
-                        x: &trials,
-                        y: &max,
-                    },
-                    plot::Series {
-                        label: "rms e",
-                        x: &trials,
-                        y: &rms,
-                    },
-                ],
-            )
-        },
-        plot::Panel {
-            shade: Some(window),
-            ..plot::Panel::lines(
-                "last trial's error",
-                "t (s)",
-                "e = r - y (um)",
-                vec![plot::Series {
-                    label: "e",
-                    x: &t,
-                    y: &e,
-                }],
-            )
-        },
-    ])?)
+    Ok(plot::render(
+        &[
+            plot::Panel {
+                log_y: true,
+                ..plot::Panel::lines(
+                    &title,
+                    "trial",
+                    "tracking error (um)",
+                    vec![
+                        plot::Series {
+                            label: "max |e|",
+                            x: &trials,
+                            y: &max,
+                        },
+                        plot::Series {
+                            label: "rms e",
+                            x: &trials,
+                            y: &rms,
+                        },
+                    ],
+                )
+            },
+            plot::Panel {
+                shade: Some(window),
+                ..plot::Panel::lines(
+                    "last trial's error",
+                    "t (s)",
+                    "e = r - y (um)",
+                    vec![plot::Series {
+                        label: "e",
+                        x: &t,
+                        y: &e,
+                    }],
+                )
+            },
+        ],
+        format,
+    )?)
 }

@@ -255,7 +255,7 @@ fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
     }
     match seen.iter().find(|(_, id, _)| others.contains(id)) {
         Some((option, _, value)) => Err(format!(
-            "{value}: {option} names an input of this run; refusing to write a result onto it (nothing was computed), name another file"
+            "{value} ({option}): refusing to write a result onto an input of this run; nothing was computed; name another file"
         )),
         None => Ok(()),
     }

@@ -39,8 +39,8 @@ for i, (cmd, opt) in enumerate(PLOT):
     for p in (bad_ext[i % len(bad_ext)], bad_ext[(i + 3) % len(bad_ext)]):
         files = H if "h.csv" in cmd else None
         case(cmd.format(p=p), 2, [opt, p, ".svg, .png"], files)
-case("ilc --plot x.png", 2, ["--plot", "x.png", "SVG only"])
-case("ilc --plot x.pdf", 2, ["--plot", "x.pdf", "SVG only"])
+case("ilc --plot x.jpg", 2, ["--plot", "x.jpg", ".svg, .png"])
+case("ilc --plot x.pdf", 2, ["--plot", "x.pdf", ".svg, .png"])
 
 # ---------------------------------------------------------------- simulate
 for a, shown in [("0", "0"), ("-1", "-1"), ("nan", "NaN"), ("inf", "inf"), ("-inf", "-inf")]:
