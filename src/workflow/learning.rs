@@ -146,7 +146,7 @@ impl DesignRepetitive {
             ..RepetitiveParams::new(self.period_samples(ts))
         };
         let design = repetitive::design(model, &params).map_err(|e| match e {
-            RepetitiveError::Setting(m) => StepError::setting("period", m),
+            RepetitiveError::Setting(m) => self.setting_error(&m, ts),
             other => StepError::computation(other.to_string()),
         })?;
         let block = RepetitiveBlock {
@@ -157,6 +157,37 @@ impl DesignRepetitive {
             gain: design.gain,
         };
         Ok(RepetitiveReport { design, block })
+    }
+}
+
+impl DesignRepetitive {
+    /// The setting a design's refusal `key: message` is about: `q`, `gain`,
+    /// `lead` when it was given, otherwise the period as it was given
+    /// (`period`, `period_s` or `spindle_hz`, with its value and the
+    /// period in samples it makes at `ts`).
+    fn setting_error(&self, message: &str, ts: f64) -> StepError {
+        let (key, rest) = message.split_once(": ").unwrap_or(("period", message));
+        match key {
+            "q" if self.q.is_some() => StepError::setting("q", rest.to_string()),
+            "gain" => StepError::setting("gain", rest.to_string()),
+            "lead" if self.lead.is_some() => StepError::setting("lead", rest.to_string()),
+            _ => {
+                let v = super::fmt_value;
+                let (field, given) = match (self.period_s, self.spindle_hz) {
+                    (Some(s), _) => ("period_s", format!("{} s at ts {} s", v(s), v(ts))),
+                    (_, Some(f)) => ("spindle_hz", format!("{} Hz at ts {} s", v(f), v(ts))),
+                    _ => ("period", String::new()),
+                };
+                let samples = super::fmt_about(self.period_samples(ts));
+                let rest = rest.replace(&format!("{} samples", self.period_samples(ts)), &format!("{samples} samples"));
+                let message = match (given.is_empty(), rest.starts_with("a period")) {
+                    (true, _) => rest,
+                    (false, true) => format!("{given}: {rest}"),
+                    (false, false) => format!("{given} is a period of {rest}"),
+                };
+                StepError::setting(field, message)
+            }
+        }
     }
 }
 
@@ -286,7 +317,38 @@ impl RepetitiveFile {
                 self.ts
             )));
         }
+        self.check_block(ts, source)?;
         Ok(self.block.clone())
+    }
+
+    /// The block as a real-time loop would load it (period and lead within
+    /// the runtime's memory, finite taps): a refusal names `source`, the
+    /// file's key and its value.
+    fn check_block(&self, ts: f64, source: &str) -> Result<(), StepError> {
+        use crate::io::controller_file::{Feedback, Provenance, Units};
+        let file = ControllerFile {
+            ts,
+            units: Units::default(),
+            zpetc: None,
+            repetitive: Some(self.block.clone()),
+            feedforward_table: None,
+            hysteresis: None,
+            feedback: Feedback::None,
+            provenance: Provenance::default(),
+        };
+        crate::runtime::RuntimeController::new(&file.runtime_spec())
+            .map(|_| ())
+            .map_err(|e| {
+                let field = crate::io::controller_file::runtime_field(&e);
+                let key = field.trim_start_matches("repetitive.");
+                let value = serde_json::to_value(&self.block)
+                    .ok()
+                    .and_then(|v| v.get(key).map(|x| format!(" {x}")))
+                    .unwrap_or_default();
+                StepError::input(format!(
+                    "{source} field '{key}':{value}: the runtime refuses it ({e})"
+                ))
+            })
     }
 }
 

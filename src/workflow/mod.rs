@@ -69,6 +69,35 @@ pub fn fmt_complex(z: crate::lti::c64) -> String {
     }
 }
 
+/// A number as a person reads it back: as typed (shortest round trip)
+/// from 1e-4 to 1e9, in scientific notation beyond (`1e300`, not three
+/// hundred digits).
+pub fn fmt_value(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A computed magnitude (a sample count, a duration) to 4 significant
+/// digits, in scientific notation beyond 1e9.
+pub fn fmt_about(x: f64) -> String {
+    if x.is_finite() && x.abs() < 1e9 && x.abs() >= 1e-4 {
+        let digits = (3 - x.abs().log10().floor() as i32).max(0) as usize;
+        let s = format!("{x:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else if x == 0.0 || !x.is_finite() {
+        format!("{x}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
 /// Why a step failed: its settings or inputs are at fault (`Input`), or the
 /// computation broke down on valid input (`Computation`). Messages name the
 /// setting (`field`) as a manifest key, never as a command-line flag; the
@@ -221,7 +250,7 @@ pub(crate) fn positive(field: &'static str, x: f64) -> Result<f64, StepError> {
     } else {
         Err(StepError::setting(
             field,
-            format!("expected a positive number, got {x}"),
+            format!("expected a positive number, got {}", fmt_value(x)),
         ))
     }
 }
