@@ -197,9 +197,7 @@ pub fn step_error(e: crate::workflow::StepError) -> anyhow::Error {
 /// A help text with the settings it names written as flags (`max_iterations`
 /// is `--max-iterations`): help is built before any command line is parsed.
 fn help_flags(message: &str) -> String {
-    crate::workflow::render_settings(message, |field| {
-        format!("--{}", field.replace('_', "-"))
-    })
+    crate::workflow::render_settings(message, |field| format!("--{}", field.replace('_', "-")))
 }
 
 /// Prints a step's report: serialised with `--json`, else its summary.

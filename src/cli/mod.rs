@@ -148,12 +148,10 @@ pub fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     let mut command = allow_negative_numbers(Cli::command());
-    let parsed = command
-        .try_get_matches_from_mut(&args)
-        .and_then(|m| {
-            names::remember(&command, &m, &args);
-            Cli::from_arg_matches(&m)
-        });
+    let parsed = command.try_get_matches_from_mut(&args).and_then(|m| {
+        names::remember(&command, &m, &args);
+        Cli::from_arg_matches(&m)
+    });
     let cli = match parsed {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {

@@ -7,9 +7,9 @@
 //! for is named as the setting (`'field'`), never as a flag the command does
 //! not have.
 
+use crate::workflow::StepError;
 use clap::{ArgMatches, Command};
 use std::ffi::OsString;
-use crate::workflow::StepError;
 use std::sync::OnceLock;
 
 /// The running command's clap definition and the words of its command line.
@@ -207,7 +207,8 @@ pub fn flags_in(message: &str) -> Vec<String> {
     let mut i = 0;
     while let Some(at) = message[i..].find("--") {
         let start = i + at;
-        let before_ok = start == 0 || !(bytes[start - 1].is_ascii_alphanumeric() || bytes[start - 1] == b'-');
+        let before_ok =
+            start == 0 || !(bytes[start - 1].is_ascii_alphanumeric() || bytes[start - 1] == b'-');
         let mut end = start + 2;
         while end < bytes.len() && (bytes[end].is_ascii_alphanumeric() || bytes[end] == b'-') {
             end += 1;
@@ -273,8 +274,16 @@ mod tests {
     /// Settings a command sets by other means than an option of that name:
     /// (command, setting, why).
     const NOT_OPTIONS: &[(&str, &str, &str)] = &[
-        ("mechanism lever", "hinge", "the --hinge-* options, checked alone"),
-        ("mechanism bridge", "hinge", "the --hinge-* options, checked alone"),
+        (
+            "mechanism lever",
+            "hinge",
+            "the --hinge-* options, checked alone",
+        ),
+        (
+            "mechanism bridge",
+            "hinge",
+            "the --hinge-* options, checked alone",
+        ),
         ("ding22", "pid", "--no-pid"),
         ("trajectory", "shape", "the positional <SHAPE>"),
         ("contour", "shape", "the positional <SHAPE>"),
@@ -286,7 +295,10 @@ mod tests {
     fn commands() -> Vec<(Vec<&'static str>, Vec<String>)> {
         let s = |path: &[&'static str], keys: Vec<String>| (path.to_vec(), keys);
         vec![
-            s(&["repetitive"], settings(&w::learning::DesignRepetitive::default())),
+            s(
+                &["repetitive"],
+                settings(&w::learning::DesignRepetitive::default()),
+            ),
             s(
                 &["ilc"],
                 [
@@ -302,17 +314,35 @@ mod tests {
             s(&["balred"], settings(&w::convert::Balred::default())),
             s(&["trajectory"], settings(&w::MakeTrajectory::default())),
             s(&["contour"], settings(&w::Contour::default())),
-            s(&["virtual", "triangles"], settings(&w::VirtualTriangles::default())),
+            s(
+                &["virtual", "triangles"],
+                settings(&w::VirtualTriangles::default()),
+            ),
             s(&["virtual", "sweep"], settings(&w::VirtualSweep::default())),
             s(
                 &["mechanism", "flexure-loss"],
                 settings(&w::mechanism::FlexureLoss::default()),
             ),
-            s(&["mechanism", "hinge"], settings(&w::mechanism::Hinge::default())),
-            s(&["mechanism", "3puu"], settings(&w::mechanism::Puu3Study::default())),
-            s(&["mechanism", "lever"], settings(&w::mechanism::Lever::default())),
-            s(&["mechanism", "bridge"], settings(&w::mechanism::Bridge::default())),
-            s(&["identify", "ct"], settings(&w::identify_ct::IdentifyCt::default())),
+            s(
+                &["mechanism", "hinge"],
+                settings(&w::mechanism::Hinge::default()),
+            ),
+            s(
+                &["mechanism", "3puu"],
+                settings(&w::mechanism::Puu3Study::default()),
+            ),
+            s(
+                &["mechanism", "lever"],
+                settings(&w::mechanism::Lever::default()),
+            ),
+            s(
+                &["mechanism", "bridge"],
+                settings(&w::mechanism::Bridge::default()),
+            ),
+            s(
+                &["identify", "ct"],
+                settings(&w::identify_ct::IdentifyCt::default()),
+            ),
             s(
                 &["identify", "ct-frd"],
                 settings(&w::identify_ct::IdentifyCtFrd::default()),
@@ -345,14 +375,23 @@ mod tests {
                 }
             }
         }
-        assert!(missing.is_empty(), "settings without an option:\n{}", missing.join("\n"));
+        assert!(
+            missing.is_empty(),
+            "settings without an option:\n{}",
+            missing.join("\n")
+        );
     }
 
     /// A command with no arguments matched: the words typed after it.
     fn typed(path: &[&str], words: &[&str]) -> Names {
         Names {
             command: leaf(path),
-            words: ["fts"].iter().chain(path).chain(words).map(|w| w.to_string()).collect(),
+            words: ["fts"]
+                .iter()
+                .chain(path)
+                .chain(words)
+                .map(|w| w.to_string())
+                .collect(),
         }
     }
 
@@ -370,7 +409,11 @@ mod tests {
                 ] {
                     let m = names.message(&e);
                     let foreign = names.foreign_flags(&m);
-                    assert!(foreign.is_empty(), "fts {}: {m:?} names {foreign:?}", path.join(" "));
+                    assert!(
+                        foreign.is_empty(),
+                        "fts {}: {m:?} names {foreign:?}",
+                        path.join(" ")
+                    );
                 }
             }
         }
@@ -388,14 +431,26 @@ mod tests {
             "--learning-gain: expected a positive number, got -1"
         );
         let shape = StepError::setting("shape", "bad");
-        assert_eq!(typed(&["weight"], &["--shape", "ws"]).message(&shape), "--shape: bad");
-        assert_eq!(typed(&["weight"], &["--kind", "ws"]).message(&shape), "--kind: bad");
+        assert_eq!(
+            typed(&["weight"], &["--shape", "ws"]).message(&shape),
+            "--shape: bad"
+        );
+        assert_eq!(
+            typed(&["weight"], &["--kind", "ws"]).message(&shape),
+            "--kind: bad"
+        );
         assert_eq!(typed(&["weight"], &[]).message(&shape), "--kind: bad");
         let cc = StepError::setting("cross_coupling", "bad");
         assert_eq!(typed(&["contour"], &["circle"]).message(&cc), "--cc: bad");
         let w = StepError::setting("width_mm", "bad");
-        assert_eq!(typed(&["mechanism", "lever"], &[]).message(&w), "--hinge-width-mm: bad");
-        assert_eq!(typed(&["mechanism", "hinge"], &[]).message(&w), "--width-mm: bad");
+        assert_eq!(
+            typed(&["mechanism", "lever"], &[]).message(&w),
+            "--hinge-width-mm: bad"
+        );
+        assert_eq!(
+            typed(&["mechanism", "hinge"], &[]).message(&w),
+            "--width-mm: bad"
+        );
         let out = StepError::setting("output", "bad");
         assert_eq!(typed(&["zpk"], &["-o", "x"]).message(&out), "'output': bad");
         assert_eq!(typed(&["convert"], &["-o", "x"]).message(&out), "-o: bad");
@@ -403,7 +458,7 @@ mod tests {
         let k = StepError::setting("trace_points", "see `ts` and `trace_points`");
         assert_eq!(
             typed(&["contour"], &["circle"]).message(&k),
-            "'trace_points': see --ts and 'trace_points'"
+            "see --ts and 'trace_points'"
         );
         let shape = StepError::setting("shape", "bad");
         assert_eq!(typed(&["trajectory"], &[]).message(&shape), "<SHAPE>: bad");

@@ -154,7 +154,11 @@ impl TrajectorySettings {
         let v = |x: f64, unit: &str| format!("{} {unit}", super::fmt_value(x));
         let candidates = [
             ("size", self.size / d.size, v(self.size, "um")),
-            ("velocity", d.velocity / self.velocity, v(self.velocity, "um/s")),
+            (
+                "velocity",
+                d.velocity / self.velocity,
+                v(self.velocity, "um/s"),
+            ),
             (
                 "acceleration",
                 d.acceleration / self.acceleration,
@@ -173,11 +177,7 @@ impl TrajectorySettings {
 
 /// Samples of a path of `duration` s at `ts`, at most [`MAX_ROWS`]; beyond,
 /// the error names the setting that made it long ([`TrajectorySettings::culprit`]).
-fn sample_count(
-    settings: &TrajectorySettings,
-    duration: f64,
-    ts: f64,
-) -> Result<usize, StepError> {
+fn sample_count(settings: &TrajectorySettings, duration: f64, ts: f64) -> Result<usize, StepError> {
     let n = (duration / ts).ceil() + 1.0;
     if n > MAX_ROWS as f64 {
         let (field, value) = settings.culprit(ts, MakeTrajectory::default().ts);
@@ -493,7 +493,10 @@ impl Validate for Contour {
         if !(self.settle.is_finite() && self.settle >= 0.0) {
             return Err(StepError::setting(
                 "settle",
-                format!("expected seconds >= 0, got {}", super::fmt_value(self.settle)),
+                format!(
+                    "expected seconds >= 0, got {}",
+                    super::fmt_value(self.settle)
+                ),
             ));
         }
         check_pid("pid_x", self.pid_x)?;
@@ -1122,6 +1125,58 @@ mod tests {
             bad.validate(),
             Err(StepError::Input {
                 field: Some("output_disturbance"),
+                ..
+            })
+        ));
+    }
+
+    /// A table too long blames the setting that made it long, with the
+    /// value as typed (docs/formats.md "Naming options").
+    #[test]
+    fn a_table_too_long_names_the_setting_that_made_it_so() {
+        let field = |f: &dyn Fn(&mut MakeTrajectory)| {
+            let mut step = MakeTrajectory::default();
+            f(&mut step);
+            match step.validate() {
+                Err(StepError::Input {
+                    field: Some(k),
+                    message,
+                }) => (k, message),
+                other => panic!("{other:?}"),
+            }
+        };
+        let (k, m) = field(&|s| s.trajectory.size = 1e300);
+        assert_eq!(k, "size");
+        assert!(
+            m.starts_with("1e300 um makes the table 1.047e299 samples"),
+            "{m}"
+        );
+        assert_eq!(
+            field(&|s| s.trajectory.acceleration = 1e-300).0,
+            "acceleration"
+        );
+        assert_eq!(field(&|s| s.trajectory.jerk = 1e-300).0, "jerk");
+        assert_eq!(field(&|s| s.trajectory.velocity = 1e-300).0, "velocity");
+        let (k, m) = field(&|s| s.ts = 1e-12);
+        assert_eq!(k, "ts");
+        assert!(m.starts_with("1e-12 s makes the table"), "{m}");
+        let mut run = Contour {
+            settle: 1e9,
+            ..Contour::default()
+        };
+        assert!(matches!(
+            run.validate(),
+            Err(StepError::Input {
+                field: Some("settle"),
+                ..
+            })
+        ));
+        run.settle = 0.0;
+        run.trajectory.size = 1e12;
+        assert!(matches!(
+            run.validate(),
+            Err(StepError::Input {
+                field: Some("size"),
                 ..
             })
         ));

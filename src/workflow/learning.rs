@@ -168,9 +168,16 @@ impl DesignRepetitive {
     fn setting_error(&self, message: &str, ts: f64) -> StepError {
         let (key, rest) = message.split_once(": ").unwrap_or(("period", message));
         match key {
-            "q" if self.q.is_some() => StepError::setting("q", rest.to_string()),
+            "q" if self.q.is_some() => {
+                let taps = self.q.iter().flatten().map(|x| super::fmt_value(*x));
+                let taps: Vec<String> = taps.collect();
+                StepError::setting("q", format!("{rest}, got {}", taps.join(",")))
+            }
             "gain" => StepError::setting("gain", rest.to_string()),
-            "lead" if self.lead.is_some() => StepError::setting("lead", rest.to_string()),
+            "lead" if self.lead.is_some() => StepError::setting(
+                "lead",
+                format!("{} samples: {rest}", self.lead.unwrap_or_default()),
+            ),
             _ => {
                 let v = super::fmt_value;
                 let (field, given) = match (self.period_s, self.spindle_hz) {
@@ -178,8 +185,14 @@ impl DesignRepetitive {
                     (_, Some(f)) => ("spindle_hz", format!("{} Hz at ts {} s", v(f), v(ts))),
                     _ => ("period", String::new()),
                 };
-                let samples = super::fmt_about(self.period_samples(ts));
-                let rest = rest.replace(&format!("{} samples", self.period_samples(ts)), &format!("{samples} samples"));
+                let samples = match self.period {
+                    Some(p) => super::fmt_value(p),
+                    None => super::fmt_about(self.period_samples(ts)),
+                };
+                let rest = rest.replace(
+                    &format!("{} samples", self.period_samples(ts)),
+                    &format!("{samples} samples"),
+                );
                 let message = match (given.is_empty(), rest.starts_with("a period")) {
                     (true, _) => rest,
                     (false, true) => format!("{given}: {rest}"),

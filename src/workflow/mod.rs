@@ -280,6 +280,19 @@ mod tests {
         }
     }
 
+    #[test]
+    fn numbers_are_printed_for_people() {
+        assert_eq!(fmt_value(-1.0), "-1");
+        assert_eq!(fmt_value(0.001), "0.001");
+        assert_eq!(fmt_value(1e300), "1e300");
+        assert_eq!(fmt_value(1e-9), "1e-9");
+        assert_eq!(fmt_value(f64::NAN), "NaN");
+        assert_eq!(fmt_about(79510282.4), "79510282");
+        assert_eq!(fmt_about(6.5731), "6.573");
+        assert_eq!(fmt_about(2.5066e299), "2.507e299");
+        assert!(fmt_about(1.0 / 3.0 * 1e300).len() < 12);
+    }
+
     /// Every listed name deserialises to a value whose name it is.
     fn names_round_trip<T: Choices + serde::Serialize + serde::de::DeserializeOwned>() {
         for (name, _) in T::CHOICES {

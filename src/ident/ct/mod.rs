@@ -255,7 +255,7 @@ pub(crate) fn check_orders(np: usize, nz: usize) -> Result<(), CtError> {
     if np == 0 {
         return Err(CtError::Setting {
             field: "np",
-            message: "at least one pole".into(),
+            message: "at least one pole, got 0".into(),
         });
     }
     if nz > np {
