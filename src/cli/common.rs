@@ -221,39 +221,21 @@ pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
 /// The JSON and text forms of complex numbers, shared with the library's reports.
 pub use crate::workflow::{complex_pairs, fmt_complex};
 
-/// A step's error as a command's: a setting is named by its flag
-/// (`--prewarp`), bad input exits 2 and a failed computation 1.
+/// A step's error as a command's: a setting is named by the option that
+/// sets it, as typed ([`super::names`]); bad input exits 2 and a failed
+/// computation 1.
 pub fn step_error(e: crate::workflow::StepError) -> anyhow::Error {
-    use crate::workflow::StepError;
+    let message = super::names::message(&e);
     match e {
-        StepError::Input {
-            field: Some(field),
-            message,
-        } => {
-            // A message that names its flag already reads as is.
-            let message = flags(&message);
-            if message.contains(&flag(field)) {
-                bad(message)
-            } else {
-                bad(format!("{}: {message}", flag(field)))
-            }
-        }
-        StepError::Input {
-            field: None,
-            message,
-        } => bad(flags(&message)),
-        StepError::Computation(message) => anyhow::anyhow!(flags(&message)),
+        crate::workflow::StepError::Input { .. } => bad(message),
+        crate::workflow::StepError::Computation(_) => anyhow::anyhow!(message),
     }
 }
 
-/// The flag of a step's setting: `max_iterations` is `--max-iterations`.
-fn flag(field: &str) -> String {
-    format!("--{}", field.replace('_', "-"))
-}
-
-/// A step's message with the settings it names written as flags.
-fn flags(message: &str) -> String {
-    crate::workflow::render_settings(message, flag)
+/// A help text with the settings it names written as flags (`max_iterations`
+/// is `--max-iterations`): help is built before any command line is parsed.
+fn help_flags(message: &str) -> String {
+    crate::workflow::render_settings(message, |field| format!("--{}", field.replace('_', "-")))
 }
 
 /// Prints a step's report: serialised with `--json`, else its summary.
@@ -281,7 +263,7 @@ where
     use serde::de::value::{Error, StrDeserializer};
     let values = T::CHOICES.iter().map(|&(name, help)| match help {
         "" => PossibleValue::new(name),
-        help => PossibleValue::new(name).help(flags(help)),
+        help => PossibleValue::new(name).help(help_flags(help)),
     });
     PossibleValuesParser::new(values).map(|name: String| {
         T::deserialize(StrDeserializer::<Error>::new(&name)).expect("a listed choice deserialises")

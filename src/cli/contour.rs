@@ -3,6 +3,7 @@
 //! control of the contour error.
 
 use super::common::{bad, choice, print_report, read_input, step_error, write_atomic, write_plot};
+use super::names::option;
 use crate::io::controller_file::{CONTROLLER_FORMAT, Feedback, parse_controller, parse_multiaxis};
 use crate::io::ss_json::parse_system;
 use crate::sim::contour::AxisController;
@@ -122,13 +123,13 @@ pub struct ContourArgs {
     #[arg(long, value_name = "K.json")]
     controller_z: Option<PathBuf>,
     /// Cross-coupling controller, replacing the --cc PID (the same kinds of file).
-    #[arg(long, value_name = "K.json", conflicts_with_all = ["cc", "no_cc"])]
+    #[arg(long, value_name = "K.json", conflicts_with_all = ["cross_coupling", "no_cc"])]
     cc_controller: Option<PathBuf>,
     /// All four controllers from a multi-axis file (`fts.multiaxis-controller/1`,
     /// e.g. written by -o), run at its sample time.
     #[arg(long, value_name = "K3.json", conflicts_with_all = [
         "controller_x", "controller_y", "controller_z", "cc_controller",
-        "pid_x", "pid_y", "pid_z", "cc", "ts",
+        "pid_x", "pid_y", "pid_z", "cross_coupling", "ts",
     ])]
     controller: Option<PathBuf>,
     /// Write the controllers the run executed as a multi-axis controller file
@@ -164,14 +165,15 @@ pub struct ContourArgs {
     pid_z: Option<Vec<f64>>,
     /// Cross-coupling PID on the contour-error estimate [0.4,0.005,0.0005,100].
     #[arg(
-        long,
+        id = "cross_coupling",
+        long = "cc",
         value_name = "P,I,D,N",
         value_delimiter = ',',
         allow_hyphen_values = true
     )]
     cc: Option<Vec<f64>>,
     /// No cross-coupling (the axes alone).
-    #[arg(long, conflicts_with = "cc")]
+    #[arg(long, conflicts_with = "cross_coupling")]
     no_cc: bool,
     /// Skip the run without cross-coupling.
     #[arg(long)]
@@ -194,13 +196,14 @@ pub struct ContourArgs {
     json: bool,
 }
 
-/// `P,I,D,N` of the option `flag` (four numbers), or the default.
-fn gains(flag: &str, v: &Option<Vec<f64>>, default: PidGains4) -> anyhow::Result<PidGains4> {
+/// `P,I,D,N` of the option of setting `field` (four numbers), or the default.
+fn gains(field: &str, v: &Option<Vec<f64>>, default: PidGains4) -> anyhow::Result<PidGains4> {
     match v.as_deref() {
         None => Ok(default),
         Some(&[p, i, d, n]) => Ok([p, i, d, n]),
         Some(g) => Err(bad(format!(
-            "{flag}: expected four numbers P,I,D,N, got {}",
+            "{}: expected four numbers P,I,D,N, got {}",
+            option(field),
             g.len()
         ))),
     }
@@ -213,21 +216,22 @@ impl ContourArgs {
             (_, true) => None,
             (None, false) => d.output_disturbance.clone(),
             (Some(spec), false) => Some(
-                Disturbance::parse(spec).map_err(|e| bad(format!("--output-disturbance: {e}")))?,
+                Disturbance::parse(spec)
+                    .map_err(|e| bad(format!("{}: {e}", option("output_disturbance"))))?,
             ),
         };
         let cc = self
             .cc
             .as_ref()
-            .map(|_| gains("--cc", &self.cc, [0.0; 4]))
+            .map(|_| gains("cross_coupling", &self.cc, [0.0; 4]))
             .transpose()?;
         Ok(Contour {
             trajectory: self.path.settings(),
             ts: self.ts.unwrap_or(d.ts),
             settle: self.settle,
-            pid_x: gains("--pid-x", &self.pid_x, d.pid_x)?,
-            pid_y: gains("--pid-y", &self.pid_y, d.pid_y)?,
-            pid_z: gains("--pid-z", &self.pid_z, d.pid_z)?,
+            pid_x: gains("pid_x", &self.pid_x, d.pid_x)?,
+            pid_y: gains("pid_y", &self.pid_y, d.pid_y)?,
+            pid_z: gains("pid_z", &self.pid_z, d.pid_z)?,
             cross_coupling: if self.no_cc {
                 None
             } else {

@@ -38,7 +38,7 @@ pub struct CtArgs {
     #[arg(long, default_value_t = IdentifyCt::default().skip_periods)]
     pub skip_periods: usize,
     /// Cutoff of the start estimate's state-variable filter, Hz (default: six tried over [0.002, 0.2]/Ts, best fit kept).
-    #[arg(long, value_name = "HZ")]
+    #[arg(id = "svf_cutoff_hz", long = "svf-cutoff", value_name = "HZ")]
     pub svf_cutoff: Option<f64>,
     /// SRIVC iteration cap.
     #[arg(long, default_value_t = IdentifyCt::default().max_iterations)]

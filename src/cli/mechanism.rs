@@ -28,19 +28,20 @@ pub enum MechanismCommand {
 }
 
 /// A leaf hinge (all optional: without --hinge-width-mm there is no hinge).
+/// Each flag's id is the hinge's setting, so the hinge's errors name it.
 #[derive(Debug, Args)]
 pub struct HingeFlags {
     /// Hinge width b, mm: gives the pivot/hinges their compliance ([Li21] Eq. 2 and E b t/l).
-    #[arg(long)]
+    #[arg(id = "width_mm", long = "hinge-width-mm")]
     hinge_width_mm: Option<f64>,
     /// Hinge length l, mm.
-    #[arg(long, default_value_t = Hinge::default().length_mm)]
+    #[arg(id = "length_mm", long = "hinge-length-mm", default_value_t = Hinge::default().length_mm)]
     hinge_length_mm: f64,
     /// Hinge thickness t, mm.
-    #[arg(long, default_value_t = Hinge::default().thickness_mm)]
+    #[arg(id = "thickness_mm", long = "hinge-thickness-mm", default_value_t = Hinge::default().thickness_mm)]
     hinge_thickness_mm: f64,
     /// Hinge fillet radius R, mm.
-    #[arg(long, default_value_t = Hinge::default().radius_mm)]
+    #[arg(id = "radius_mm", long = "hinge-radius-mm", default_value_t = Hinge::default().radius_mm)]
     hinge_radius_mm: f64,
     /// Young's modulus, GPa.
     #[arg(long, default_value_t = Hinge::default().e_gpa)]
@@ -48,8 +49,8 @@ pub struct HingeFlags {
 }
 
 impl HingeFlags {
-    /// The hinge, checked here so that an error names the `--hinge-*` flag
-    /// (the step's own message names the hinge's keys).
+    /// The hinge, checked here so that an error names its own `--hinge-*`
+    /// option (the step's error, nested, would name `hinge`).
     fn hinge(&self) -> anyhow::Result<Option<Hinge>> {
         let Some(w) = self.hinge_width_mm else {
             return Ok(None);
@@ -61,17 +62,8 @@ impl HingeFlags {
             thickness_mm: self.hinge_thickness_mm,
             radius_mm: self.hinge_radius_mm,
         };
-        match h.validate() {
-            Err(crate::workflow::StepError::Input {
-                field: Some(field),
-                message,
-            }) if field != "e_gpa" => Err(bad(format!(
-                "--hinge-{}: {message}",
-                field.replace('_', "-")
-            ))),
-            Err(e) => Err(step_error(e)),
-            Ok(()) => Ok(Some(h)),
-        }
+        h.validate().map_err(step_error)?;
+        Ok(Some(h))
     }
 }
 

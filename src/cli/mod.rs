@@ -44,6 +44,7 @@ mod identify_linear;
 mod learning;
 mod loop_analysis;
 mod mechanism;
+mod names;
 mod response;
 mod robust;
 mod simulate;
@@ -146,9 +147,11 @@ pub fn main() -> ExitCode {
         eprintln!("fts: error: {message}");
         return ExitCode::from(2);
     }
-    let parsed = allow_negative_numbers(Cli::command())
-        .try_get_matches_from(args)
-        .and_then(|m| Cli::from_arg_matches(&m));
+    let mut command = allow_negative_numbers(Cli::command());
+    let parsed = command.try_get_matches_from_mut(&args).and_then(|m| {
+        names::remember(&command, &m, &args);
+        Cli::from_arg_matches(&m)
+    });
     let cli = match parsed {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {

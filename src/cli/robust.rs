@@ -125,7 +125,7 @@ pub fn run_h2(args: SynthArgs) -> anyhow::Result<()> {
 #[derive(Debug, Args)]
 pub struct WeightArgs {
     /// Which weight (`shape` in a manifest, where `kind` names the step's kind).
-    #[arg(long, value_parser = choice::<WeightShape>(), visible_alias = "shape")]
+    #[arg(id = "shape", long = "kind", value_name = "KIND", value_parser = choice::<WeightShape>(), visible_alias = "shape")]
     kind: WeightShape,
     /// Peak sensitivity / gain M (ws, wt).
     #[arg(long)]

@@ -143,13 +143,51 @@ impl Default for MakeTrajectory {
 /// The most rows a trajectory table may have.
 pub const MAX_ROWS: usize = 10_000_000;
 
-fn sample_count(duration: f64, ts: f64) -> Result<usize, StepError> {
+impl TrajectorySettings {
+    /// The setting to blame for a sampled path of too many samples: the
+    /// count grows with `size` and falls with each limit and with `ts`, so
+    /// of these the one furthest from its default toward more samples
+    /// (`default_ts` is the command's). Returns the field and its value as
+    /// typed, with its unit.
+    fn culprit(&self, ts: f64, default_ts: f64) -> (&'static str, String) {
+        let d = TrajectorySettings::default();
+        let v = |x: f64, unit: &str| format!("{} {unit}", super::fmt_value(x));
+        let candidates = [
+            ("size", self.size / d.size, v(self.size, "um")),
+            (
+                "velocity",
+                d.velocity / self.velocity,
+                v(self.velocity, "um/s"),
+            ),
+            (
+                "acceleration",
+                d.acceleration / self.acceleration,
+                v(self.acceleration, "um/s^2"),
+            ),
+            ("jerk", d.jerk / self.jerk, v(self.jerk, "um/s^3")),
+            ("ts", default_ts / ts, v(ts, "s")),
+        ];
+        let (field, _, value) = candidates
+            .into_iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("five candidates");
+        (field, value)
+    }
+}
+
+/// Samples of a path of `duration` s at `ts`, at most [`MAX_ROWS`]; beyond,
+/// the error names the setting that made it long ([`TrajectorySettings::culprit`]).
+fn sample_count(settings: &TrajectorySettings, duration: f64, ts: f64) -> Result<usize, StepError> {
     let n = (duration / ts).ceil() + 1.0;
     if n > MAX_ROWS as f64 {
+        let (field, value) = settings.culprit(ts, MakeTrajectory::default().ts);
         return Err(StepError::setting(
-            "ts",
+            field,
             format!(
-                "{ts} s gives {n:.0} samples over {duration:.3} s; at most {MAX_ROWS} are written"
+                "{value} makes the table {} samples (a path of {} s at ts {} s); at most {MAX_ROWS} are written",
+                super::fmt_about(n),
+                super::fmt_about(duration),
+                super::fmt_value(ts)
             ),
         ));
     }
@@ -160,7 +198,7 @@ impl Validate for MakeTrajectory {
     fn validate(&self) -> Result<(), StepError> {
         positive("ts", self.ts)?;
         let traj = self.trajectory.plan()?;
-        sample_count(traj.duration(), self.ts).map(|_| ())
+        sample_count(&self.trajectory, traj.duration(), self.ts).map(|_| ())
     }
 }
 
@@ -169,7 +207,7 @@ impl MakeTrajectory {
     pub fn run(&self) -> Result<TrajectoryReport, StepError> {
         self.validate()?;
         let trajectory = self.trajectory.plan()?;
-        let n = sample_count(trajectory.duration(), self.ts)?;
+        let n = sample_count(&self.trajectory, trajectory.duration(), self.ts)?;
         let mut samples = TrajectoryTable::default();
         for k in 0..n {
             let t = k as f64 * self.ts;
@@ -450,7 +488,10 @@ fn check_pid(field: &'static str, g: PidGains4) -> Result<(), StepError> {
     } else {
         Err(StepError::setting(
             field,
-            format!("expected P,I,D,N finite with N > 0 (rad/s), got {g:?}"),
+            format!(
+                "expected P,I,D,N finite with N > 0 (rad/s), got {}",
+                g.map(super::fmt_value).join(",")
+            ),
         ))
     }
 }
@@ -461,7 +502,10 @@ impl Validate for Contour {
         if !(self.settle.is_finite() && self.settle >= 0.0) {
             return Err(StepError::setting(
                 "settle",
-                format!("expected seconds >= 0, got {}", self.settle),
+                format!(
+                    "expected seconds >= 0, got {}",
+                    super::fmt_value(self.settle)
+                ),
             ));
         }
         check_pid("pid_x", self.pid_x)?;
@@ -474,11 +518,18 @@ impl Validate for Contour {
         let traj = self.trajectory.plan()?;
         let n = (traj.duration() + self.settle) / self.ts;
         if n > 1e9 {
+            let (field, value) = if self.settle > traj.duration() {
+                ("settle", format!("{} s", super::fmt_value(self.settle)))
+            } else {
+                self.trajectory.culprit(self.ts, Contour::default().ts)
+            };
             return Err(StepError::setting(
-                "ts",
+                field,
                 format!(
-                    "{} s gives {n:.3e} samples; at most 1e9 are simulated",
-                    self.ts
+                    "{value} makes the run {} samples ({} s at ts {} s); at most 1e9 are simulated",
+                    super::fmt_about(n),
+                    super::fmt_about(traj.duration() + self.settle),
+                    super::fmt_value(self.ts)
                 ),
             ));
         }
@@ -1092,6 +1143,58 @@ mod tests {
             bad.validate(),
             Err(StepError::Input {
                 field: Some("output_disturbance"),
+                ..
+            })
+        ));
+    }
+
+    /// A table too long blames the setting that made it long, with the
+    /// value as typed (docs/formats.md "Naming options").
+    #[test]
+    fn a_table_too_long_names_the_setting_that_made_it_so() {
+        let field = |f: &dyn Fn(&mut MakeTrajectory)| {
+            let mut step = MakeTrajectory::default();
+            f(&mut step);
+            match step.validate() {
+                Err(StepError::Input {
+                    field: Some(k),
+                    message,
+                }) => (k, message),
+                other => panic!("{other:?}"),
+            }
+        };
+        let (k, m) = field(&|s| s.trajectory.size = 1e300);
+        assert_eq!(k, "size");
+        assert!(
+            m.starts_with("1e300 um makes the table 1.047e299 samples"),
+            "{m}"
+        );
+        assert_eq!(
+            field(&|s| s.trajectory.acceleration = 1e-300).0,
+            "acceleration"
+        );
+        assert_eq!(field(&|s| s.trajectory.jerk = 1e-300).0, "jerk");
+        assert_eq!(field(&|s| s.trajectory.velocity = 1e-300).0, "velocity");
+        let (k, m) = field(&|s| s.ts = 1e-12);
+        assert_eq!(k, "ts");
+        assert!(m.starts_with("1e-12 s makes the table"), "{m}");
+        let mut run = Contour {
+            settle: 1e9,
+            ..Contour::default()
+        };
+        assert!(matches!(
+            run.validate(),
+            Err(StepError::Input {
+                field: Some("settle"),
+                ..
+            })
+        ));
+        run.settle = 0.0;
+        run.trajectory.size = 1e12;
+        assert!(matches!(
+            run.validate(),
+            Err(StepError::Input {
+                field: Some("size"),
                 ..
             })
         ));

@@ -5,7 +5,7 @@
 //! structural sweep of the flexure that re-synthesises at every point. The
 //! numerical work is [`crate::synth::ding22`].
 
-use super::{StepError, Validate, whole_number};
+use super::{StepError, Validate, positive, whole_number};
 use crate::io::plot::{PlotError, PlotFormat, Series, line_chart_log_x};
 use crate::io::ss_json;
 use crate::lti::logspace;
@@ -261,15 +261,43 @@ pub struct Ding22Report {
 impl Ding22Study {
     /// The problem and the swept axes, in that order of checking.
     fn prepare(&self) -> Result<(Ding22Problem, Option<SweepAxes>), StepError> {
-        if !(self.fmax.is_finite() && self.fmax > 1e-3) || self.points < 2 {
+        if !(self.fmax.is_finite() && self.fmax > 1e-3) {
             return Err(StepError::setting(
                 "fmax",
-                format!("must be above 1e-3 Hz, got {}", self.fmax),
+                format!("must be above 1e-3 Hz, got {}", super::fmt_value(self.fmax)),
             ));
         }
+        if self.points < 2 {
+            return Err(StepError::setting(
+                "points",
+                format!("expected at least 2 points, got {}", self.points),
+            ));
+        }
+        self.check_weights()?;
         let problem = self.problem()?;
         let axes = self.sweep.as_deref().map(parse_sweep).transpose()?;
         Ok((problem, axes))
+    }
+
+    /// The noise levels and `wb_hz`, named by their settings (the weights'
+    /// own check names `W1`.. and takes `w_b` in rad/s).
+    fn check_weights(&self) -> Result<(), StepError> {
+        positive("sensor_noise", self.sensor_noise)?;
+        for (field, v) in [
+            ("current_noise", self.current_noise),
+            ("base_noise", self.base_noise),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(StepError::setting(
+                    field,
+                    format!("expected a finite number >= 0, got {}", super::fmt_value(v)),
+                ));
+            }
+        }
+        match self.wb_hz {
+            Some(x) => positive("wb_hz", x).map(|_| ()),
+            None => Ok(()),
+        }
     }
 
     fn problem(&self) -> Result<Ding22Problem, StepError> {

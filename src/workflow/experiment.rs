@@ -70,11 +70,14 @@ impl Validate for VirtualTriangles {
             .amplitudes
             .iter()
             .enumerate()
-            .find(|(_, a)| !a.is_finite())
+            .find(|(_, a)| !(a.is_finite() && **a > 0.0))
         {
             return Err(StepError::setting(
                 "amplitudes",
-                format!("item {i}: expected a finite number, found {a}"),
+                format!(
+                    "item {i}: expected a positive number of volts, got {}",
+                    super::fmt_value(*a)
+                ),
             ));
         }
         positive("freq", self.freq).map(|_| ())

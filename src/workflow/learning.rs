@@ -144,7 +144,7 @@ impl DesignRepetitive {
             ..RepetitiveParams::new(self.period_samples(ts))
         };
         let design = repetitive::design(model, &params).map_err(|e| match e {
-            RepetitiveError::Setting(m) => StepError::setting(setting_named(&m), m),
+            RepetitiveError::Setting(m) => self.setting_error(&m, ts),
             e @ RepetitiveError::ConditionFails { .. } => {
                 StepError::computation(format!("{e}; {}", self.remedy(model, &params)))
             }
@@ -159,15 +159,6 @@ impl DesignRepetitive {
         };
         Ok(RepetitiveReport { design, block })
     }
-}
-
-/// The setting a library message starts with (`q: ...`, `lead: ...`),
-/// else `period`.
-fn setting_named(message: &str) -> &'static str {
-    ["gain", "q", "lead"]
-        .into_iter()
-        .find(|f| message.starts_with(&format!("{f}:")))
-        .unwrap_or("period")
 }
 
 /// Divisors of the gain and of Q's cutoff tried by the remedy.
@@ -232,6 +223,48 @@ impl DesignRepetitive {
             ));
         }
         advice
+    }
+
+    /// The setting a design's refusal `key: message` is about: `q`, `gain`,
+    /// `lead` when it was given, otherwise the period as it was given
+    /// (`period`, `period_s` or `spindle_hz`, with its value and the
+    /// period in samples it makes at `ts`).
+    fn setting_error(&self, message: &str, ts: f64) -> StepError {
+        let (key, rest) = message.split_once(": ").unwrap_or(("period", message));
+        match key {
+            "q" if self.q.is_some() => {
+                let taps = self.q.iter().flatten().map(|x| super::fmt_value(*x));
+                let taps: Vec<String> = taps.collect();
+                StepError::setting("q", format!("{rest}, got {}", taps.join(",")))
+            }
+            "gain" => StepError::setting("gain", rest.to_string()),
+            "lead" if self.lead.is_some() => StepError::setting(
+                "lead",
+                format!("{} samples: {rest}", self.lead.unwrap_or_default()),
+            ),
+            _ => {
+                let v = super::fmt_value;
+                let (field, given) = match (self.period_s, self.spindle_hz) {
+                    (Some(s), _) => ("period_s", format!("{} s at ts {} s", v(s), v(ts))),
+                    (_, Some(f)) => ("spindle_hz", format!("{} Hz at ts {} s", v(f), v(ts))),
+                    _ => ("period", String::new()),
+                };
+                let samples = match self.period {
+                    Some(p) => super::fmt_value(p),
+                    None => super::fmt_about(self.period_samples(ts)),
+                };
+                let rest = rest.replace(
+                    &format!("{} samples", self.period_samples(ts)),
+                    &format!("{samples} samples"),
+                );
+                let message = match (given.is_empty(), rest.starts_with("a period")) {
+                    (true, _) => rest,
+                    (false, true) => format!("{given}: {rest}"),
+                    (false, false) => format!("{given} is a period of {rest}"),
+                };
+                StepError::setting(field, message)
+            }
+        }
     }
 }
 
@@ -361,7 +394,38 @@ impl RepetitiveFile {
                 self.ts
             )));
         }
+        self.check_block(ts, source)?;
         Ok(self.block.clone())
+    }
+
+    /// The block as a real-time loop would load it (period and lead within
+    /// the runtime's memory, finite taps): a refusal names `source`, the
+    /// file's key and its value.
+    fn check_block(&self, ts: f64, source: &str) -> Result<(), StepError> {
+        use crate::io::controller_file::{ControllerFile, Feedback, Provenance, Units};
+        let file = ControllerFile {
+            ts,
+            units: Units::default(),
+            zpetc: None,
+            repetitive: Some(self.block.clone()),
+            feedforward_table: None,
+            hysteresis: None,
+            feedback: Feedback::None,
+            provenance: Provenance::default(),
+        };
+        crate::runtime::RuntimeController::new(&file.runtime_spec())
+            .map(|_| ())
+            .map_err(|e| {
+                let field = crate::io::controller_file::runtime_field(&e);
+                let key = field.trim_start_matches("repetitive.");
+                let value = serde_json::to_value(&self.block)
+                    .ok()
+                    .and_then(|v| v.get(key).map(|x| format!(" {x}")))
+                    .unwrap_or_default();
+                StepError::input(format!(
+                    "{source} field '{key}':{value}: the runtime refuses it ({e})"
+                ))
+            })
     }
 }
 

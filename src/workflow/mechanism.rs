@@ -252,7 +252,13 @@ impl Validate for Puu3Study {
         }
         for (field, v) in [("x_um", self.x_um), ("y_um", self.y_um)] {
             if !v.is_finite() {
-                return Err(StepError::setting(field, "expected a finite number of um"));
+                return Err(StepError::setting(
+                    field,
+                    format!(
+                        "expected a finite number of um, got {}",
+                        super::fmt_value(v)
+                    ),
+                ));
             }
         }
         Ok(())
@@ -291,7 +297,17 @@ impl Puu3Study {
             platform_radius: self.platform_radius_mm,
         };
         let (x, y) = (self.x_um * 1e-3, self.y_um * 1e-3);
-        let unreachable = || StepError::setting("x_um", "the pose is out of the rods' reach");
+        let unreachable = || {
+            StepError::setting(
+                "x_um",
+                format!(
+                    "the pose x = {} um, y = {} um is out of the rods' reach (`rod_mm` {} mm)",
+                    super::fmt_value(self.x_um),
+                    super::fmt_value(self.y_um),
+                    super::fmt_value(self.rod_mm)
+                ),
+            )
+        };
         let jacobian = m.jacobian(x, y).ok_or_else(unreachable)?;
         let s = m.inverse(x, y, 0.0).ok_or_else(unreachable)?;
         let home = m.inverse(0.0, 0.0, 0.0).ok_or_else(unreachable)?;

@@ -70,6 +70,35 @@ pub fn fmt_complex(z: crate::lti::c64) -> String {
     }
 }
 
+/// A number as a person reads it back: as typed (shortest round trip)
+/// from 1e-4 to 1e9, in scientific notation beyond (`1e300`, not three
+/// hundred digits).
+pub fn fmt_value(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A computed magnitude (a sample count, a duration) to 4 significant
+/// digits, in scientific notation beyond 1e9.
+pub fn fmt_about(x: f64) -> String {
+    if x.is_finite() && x.abs() < 1e9 && x.abs() >= 1e-4 {
+        let digits = (3 - x.abs().log10().floor() as i32).max(0) as usize;
+        let s = format!("{x:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else if x == 0.0 || !x.is_finite() {
+        format!("{x}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
 /// Why a step failed: its settings or inputs are at fault (`Input`), or the
 /// computation broke down on valid input (`Computation`). Messages name the
 /// setting (`field`) as a manifest key, never as a command-line flag; the
@@ -222,7 +251,7 @@ pub(crate) fn positive(field: &'static str, x: f64) -> Result<f64, StepError> {
     } else {
         Err(StepError::setting(
             field,
-            format!("expected a positive number, got {x}"),
+            format!("expected a positive number, got {}", fmt_value(x)),
         ))
     }
 }
@@ -250,6 +279,19 @@ mod tests {
         for m in ["use `fts identify oe`", "`A` and `", "a ` b", "`2a`"] {
             assert_eq!(render_settings(m, |_| "X".into()), m);
         }
+    }
+
+    #[test]
+    fn numbers_are_printed_for_people() {
+        assert_eq!(fmt_value(-1.0), "-1");
+        assert_eq!(fmt_value(0.001), "0.001");
+        assert_eq!(fmt_value(1e300), "1e300");
+        assert_eq!(fmt_value(1e-9), "1e-9");
+        assert_eq!(fmt_value(f64::NAN), "NaN");
+        assert_eq!(fmt_about(79510282.4), "79510282");
+        assert_eq!(fmt_about(6.5731), "6.573");
+        assert_eq!(fmt_about(2.5066e299), "2.507e299");
+        assert!(fmt_about(1.0 / 3.0 * 1e300).len() < 12);
     }
 
     /// Every listed name deserialises to a value whose name it is.
