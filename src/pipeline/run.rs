@@ -112,19 +112,32 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
-/// Prefix and suffix of the temporary files outputs are staged in.
+/// Prefix and suffix of the temporary files outputs are staged in; the
+/// name between is `<pid>-<random>`, so that a later run can tell a file a
+/// killed run left (its process is gone) from one a running process is
+/// still writing.
 const TEMP_PREFIX: &str = ".fts-";
 const TEMP_SUFFIX: &str = ".tmp";
 
-/// Writes `bytes` to a synced temporary file beside `path`, to be renamed
-/// over it (`persist`); dropped unpersisted, it is removed.
-fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> {
-    let dir = match path.parent() {
+/// The folder a path is written in (`.` for a bare file name).
+pub fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
-    };
+    }
+}
+
+fn temp_builder<'a>(prefix: &'a str) -> tempfile::Builder<'a, 'static> {
     let mut builder = tempfile::Builder::new();
-    builder.prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX);
+    builder.prefix(prefix).suffix(TEMP_SUFFIX);
+    builder
+}
+
+/// Writes `bytes` to a synced temporary file beside `path`, to be renamed
+/// over it (`persist`); dropped unpersisted, it is removed.
+pub fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> {
+    let prefix = format!("{TEMP_PREFIX}{}-", std::process::id());
+    let mut builder = temp_builder(&prefix);
     // tempfile creates 0600 files; an output gets the usual 0644 (less the
     // umask), or keeps the mode of the file it replaces.
     #[cfg(unix)]
@@ -133,10 +146,68 @@ fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> 
         let mode = std::fs::metadata(path).map_or(0o644, |m| m.permissions().mode() & 0o7777);
         builder.permissions(std::fs::Permissions::from_mode(mode));
     }
-    let mut tmp = builder.tempfile_in(dir)?;
+    let mut tmp = builder.tempfile_in(folder_of(path))?;
     tmp.write_all(bytes)?;
     tmp.as_file().sync_all()?;
     Ok(tmp)
+}
+
+/// Keeps the current content of `path` under a temporary name beside it (a
+/// hard link, else a copy), so that a multi-file commit can be undone.
+pub fn keep_previous(path: &Path) -> std::io::Result<std::path::PathBuf> {
+    let prefix = format!("{TEMP_PREFIX}{}-", std::process::id());
+    let tmp = temp_builder(&prefix).tempfile_in(folder_of(path))?;
+    let (file, name) = tmp.keep().map_err(|e| e.error)?;
+    drop(file);
+    // The unique name is reserved; the old file replaces the empty one.
+    std::fs::remove_file(&name)?;
+    if std::fs::hard_link(path, &name).is_err() {
+        std::fs::copy(path, &name)?;
+    }
+    Ok(name)
+}
+
+/// Whether process `pid` still runs (a zombie counts as running).
+fn alive(pid: u32) -> bool {
+    #[cfg(unix)]
+    {
+        let Ok(pid) = libc::pid_t::try_from(pid) else {
+            return true;
+        };
+        // SAFETY: signal 0 only checks that the process exists.
+        if unsafe { libc::kill(pid, 0) } == 0 {
+            return true;
+        }
+        std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = pid;
+        true
+    }
+}
+
+/// The owner of a staged temporary file name, `.fts-<pid>-<random>.tmp`.
+fn temp_owner(name: &str) -> Option<u32> {
+    let inner = name.strip_prefix(TEMP_PREFIX)?.strip_suffix(TEMP_SUFFIX)?;
+    inner.split_once('-')?.0.parse().ok()
+}
+
+/// Removes the temporary files in `dir` that a run killed mid-write left
+/// (their process is gone); files of running processes are kept.
+pub fn sweep_stale_temps(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(temp_owner) else {
+            continue;
+        };
+        if pid != std::process::id() && !alive(pid) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 /// Removes temporary files that a killed run left beside the plan's outputs.
@@ -145,24 +216,12 @@ fn remove_stale_temps(plan: &Plan) {
     let mut dirs: Vec<std::path::PathBuf> = outputs
         .map(|f| plan.locate(&f.path))
         .chain([plan.lock.clone()])
-        .map(|p| match p.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-            _ => std::path::PathBuf::from("."),
-        })
+        .map(|p| folder_of(&p).to_path_buf())
         .collect();
     dirs.sort();
     dirs.dedup();
     for dir in dirs {
-        let Ok(entries) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        for entry in entries.flatten() {
-            let name = entry.file_name();
-            let name = name.to_string_lossy();
-            if name.starts_with(TEMP_PREFIX) && name.ends_with(TEMP_SUFFIX) {
-                let _ = std::fs::remove_file(entry.path());
-            }
-        }
+        sweep_stale_temps(&dir);
     }
 }
 

@@ -18,7 +18,7 @@ fn van_loan(a: &DMatrix<f64>, b: &DVector<f64>, h: f64) -> (DMatrix<f64>, DVecto
     let mut m = DMatrix::zeros(n + 1, n + 1);
     m.view_mut((0, 0), (n, n)).copy_from(&(a * h));
     m.view_mut((0, n), (n, 1)).copy_from(&(b * h));
-    let e = m.exp();
+    let e = crate::lti::c2d::expm(&m);
     (
         e.view((0, 0), (n, n)).into_owned(),
         e.view((0, n), (n, 1)).column(0).into_owned(),
