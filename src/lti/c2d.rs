@@ -161,6 +161,32 @@ mod tests {
     use crate::lti::c64;
     use crate::lti::norms::bilinear_to_continuous;
 
+    /// `expm` against closed forms where nalgebra's `exp()` hangs (norms
+    /// beyond about 1e30), and unchanged below its scaling threshold.
+    #[test]
+    fn expm_is_bounded_and_exact_on_diagonal_and_rotation_matrices() {
+        use nalgebra::DMatrix;
+        let e = expm(&DMatrix::from_row_slice(2, 2, &[-1e60, 0.0, 0.0, -3e59]));
+        assert_eq!(e.as_slice(), &[0.0, 0.0, 0.0, 0.0]);
+        let e = expm(&DMatrix::from_row_slice(1, 1, &[1e60]));
+        assert!(!e[(0, 0)].is_finite());
+        let e = expm(&DMatrix::from_row_slice(1, 1, &[f64::NAN]));
+        assert!(e[(0, 0)].is_nan());
+        // A rotation by 1e40 rad: its angle is lost to rounding (1e40 *
+        // 2^-52 rad) and the squarings amplify the error without limit, but
+        // the call returns; a non-finite result is refused by every caller.
+        let w = 1e40;
+        let start = std::time::Instant::now();
+        let e = expm(&DMatrix::from_row_slice(2, 2, &[0.0, w, -w, 0.0]));
+        assert!(start.elapsed().as_secs() < 5);
+        assert!(
+            e.iter().all(|x| !x.is_finite() || x.abs() <= 1.0 + 1e-6),
+            "{e}"
+        );
+        let m = DMatrix::from_row_slice(2, 2, &[-3.0, 1.0, 0.5, -2.0]);
+        assert_eq!(expm(&m), m.exp());
+    }
+
     #[test]
     fn tustin_at_an_eigenvalue_names_it() {
         // 1/(s - 20), T = 0.1: 2/T = 20 is the eigenvalue.
