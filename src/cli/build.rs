@@ -112,12 +112,10 @@ fn run_steps(plan: &pipeline::Plan, args: &BuildArgs) -> anyhow::Result<Vec<Step
         }
         Event::Done(r) => {
             if !quiet {
-                bar.suspend(|| {
-                    use std::io::Write as _;
-                    // Best effort inside the observer: a stdout that cannot
-                    // be written fails the final summary, with exit 1.
-                    let _ = writeln!(std::io::stdout(), "{}", line(r));
-                });
+                use std::io::Write as _;
+                // Held with the rest of the run's stdout: printed only when
+                // the whole build has succeeded.
+                let _ = writeln!(super::common::Out, "{}", line(r));
             }
         }
     };

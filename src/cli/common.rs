@@ -172,14 +172,120 @@ pub fn write_plot(
     write_atomic(path, &draw(format)?)
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same folder,
-/// flushed and synced, then renamed over the target. On any error the target
-/// is untouched and the temporary file is removed. A path that is an input or
+/// Results of this run staged in synced temporary files beside their
+/// targets, renamed into place together only when the whole command has
+/// succeeded ([`commit_outputs`]); dropped (so removed) on any failure.
+static STAGED: Mutex<Vec<(tempfile::NamedTempFile, PathBuf)>> = Mutex::new(Vec::new());
+
+/// Folders already swept of stale temporary files in this run.
+static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Removes the temporary files a killed run left in `dir` (once per run).
+pub fn sweep(dir: &Path) {
+    let id = identity(dir);
+    if let Ok(mut swept) = SWEPT.lock() {
+        if swept.contains(&id) {
+            return;
+        }
+        swept.push(id);
+    }
+    crate::pipeline::sweep_stale_temps(dir);
+}
+
+/// Stages `bytes` for `path`: written to a synced temporary file in the
+/// same folder now, renamed over the target by [`commit_outputs`] once the
+/// command has succeeded, so a failed run leaves every target as it was and
+/// a multi-file result is committed together. A path that is an input or
 /// an earlier result of this run, or not a regular file, is refused (exit 2).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     claim_output(path)?;
-    crate::pipeline::write_atomic(path, bytes)
-        .with_context(|| format!("{}: cannot write the output atomically", path.display()))
+    sweep(crate::pipeline::folder_of(path));
+    let tmp = crate::pipeline::stage(path, bytes)
+        .with_context(|| format!("{}: cannot write the output atomically", path.display()))?;
+    STAGED
+        .lock()
+        .map_err(|_| anyhow::anyhow!("output registry poisoned"))?
+        .push((tmp, path.to_path_buf()));
+    Ok(())
+}
+
+/// Removes every staged result (the command failed).
+pub fn discard_outputs() {
+    if let Ok(mut staged) = STAGED.lock() {
+        staged.clear();
+    }
+}
+
+/// The committed results: each target with the temporary copy of what it
+/// held before (`None`: it did not exist), until [`Committed::finish`].
+pub struct Committed(Vec<(PathBuf, Option<PathBuf>)>);
+
+impl Committed {
+    /// Puts every target back as it was (a later step of the run failed).
+    pub fn undo(self) {
+        for (target, previous) in self.0.into_iter().rev() {
+            let _ = match previous {
+                Some(p) => std::fs::rename(&p, &target),
+                None => std::fs::remove_file(&target),
+            };
+        }
+    }
+
+    /// Keeps the new results and removes the copies of the old ones.
+    pub fn finish(self) {
+        for (_, previous) in self.0 {
+            if let Some(p) = previous {
+                let _ = std::fs::remove_file(p);
+            }
+        }
+    }
+}
+
+/// Renames every staged result over its target, together: each target is
+/// checked again (still a regular file or absent), its previous content is
+/// kept under a temporary name, and any failure puts back every target
+/// already replaced.
+pub fn commit_outputs() -> anyhow::Result<Committed> {
+    let staged = std::mem::take(
+        &mut *STAGED
+            .lock()
+            .map_err(|_| anyhow::anyhow!("output registry poisoned"))?,
+    );
+    let mut done = Committed(Vec::with_capacity(staged.len()));
+    for (tmp, target) in staged {
+        match replace(tmp, &target) {
+            Ok(previous) => done.0.push((target, previous)),
+            Err(e) => {
+                done.undo();
+                return Err(e);
+            }
+        }
+    }
+    Ok(done)
+}
+
+/// Renames `tmp` over `target`, first keeping what `target` held.
+fn replace(tmp: tempfile::NamedTempFile, target: &Path) -> anyhow::Result<Option<PathBuf>> {
+    let cannot = |e: &dyn std::fmt::Display| {
+        anyhow::anyhow!(
+            "{}: cannot write the output atomically: {e}",
+            target.display()
+        )
+    };
+    let previous = match std::fs::symlink_metadata(target) {
+        Ok(m) if m.is_file() => {
+            Some(crate::pipeline::keep_previous(target).map_err(|e| cannot(&e))?)
+        }
+        Ok(_) => return Err(cannot(&"it is no longer a regular file")),
+        Err(_) => None,
+    };
+    if let Err(e) = tmp.persist(target) {
+        if let Some(p) = previous {
+            let _ = std::fs::remove_file(p);
+        }
+        return Err(cannot(&e.error));
+    }
+    Ok(previous)
 }
 
 /// The most frequency points a command evaluates (checked before any work,
@@ -208,9 +314,49 @@ pub fn stdout_error(e: std::io::Error) -> anyhow::Error {
     anyhow::anyhow!("cannot write to stdout: {e}")
 }
 
+/// What this run prints on stdout, held until it has succeeded: a failed
+/// run prints no result.
+static STDOUT: Mutex<Vec<u8>> = Mutex::new(Vec::new());
+
+/// The run's stdout (held in memory; [`flush_stdout`] writes it).
+pub struct Out;
+
+impl Write for Out {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        STDOUT
+            .lock()
+            .map_err(|_| std::io::Error::other("stdout buffer poisoned"))?
+            .extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Writes what the run printed to the real stdout.
+pub fn flush_stdout() -> anyhow::Result<()> {
+    let text = std::mem::take(
+        &mut *STDOUT
+            .lock()
+            .map_err(|_| anyhow::anyhow!("stdout buffer poisoned"))?,
+    );
+    let mut out = std::io::stdout().lock();
+    out.write_all(&text).map_err(stdout_error)?;
+    out.flush().map_err(stdout_error)
+}
+
+/// Forgets what the run printed (it failed).
+pub fn discard_stdout() {
+    if let Ok(mut text) = STDOUT.lock() {
+        text.clear();
+    }
+}
+
 /// Prints exactly one JSON object on stdout (the `--json` contract).
 pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
-    let mut out = std::io::stdout().lock();
+    let mut out = Out;
     serde_json::to_writer_pretty(&mut out, value)
         .map_err(std::io::Error::from)
         .map_err(stdout_error)?;

@@ -177,7 +177,7 @@ fn read_inverse(path: &Path, inputs: &mut Vec<InputHash>) -> anyhow::Result<Hyst
     let (text, source) = hashed(path, "hysteresis_inverse", inputs)?;
     let file = hysteresis_json::parse_model(&text, &source)?;
     if file.output.unit != "V" && !file.output.unit.is_empty() {
-        eprintln!(
+        note!(
             "warning: {source}: the model's output unit is {:?}; the HC feedforward is added to a command in V",
             file.output.unit
         );
@@ -206,7 +206,7 @@ fn read_filter(args: &EmitArgs, inputs: &mut Vec<InputHash>) -> anyhow::Result<O
 fn warn_fast_poles(sys: &StateSpace, ts: f64, source: &str) {
     let fast = SsController::poles_beyond_nyquist(sys, ts);
     if let Some((pole, hz)) = fast.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
-        eprintln!(
+        note!(
             "warning: {source}: {} continuous pole(s) beyond the Nyquist frequency {} Hz of ts = {ts} s, the fastest {}{:+}j rad/s ({hz:.4e} Hz); the discretised controller does not reproduce them: sample faster or reduce the controller",
             fast.len(),
             0.5 / ts,
@@ -275,12 +275,12 @@ pub fn run(args: EmitArgs) -> anyhow::Result<()> {
             return Err(bad("--c-header goes with --format json"));
         }
         write_atomic(h, to_c_header(&file).as_bytes())?;
-        eprintln!("wrote {}", h.display());
+        note!("wrote {}", h.display());
     }
     match &args.output {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;
-            eprintln!(
+            note!(
                 "wrote {} ({}, preview {} samples, ts {} s)",
                 path.display(),
                 file.stages_name(),
@@ -310,7 +310,7 @@ fn run_multiaxis(args: &EmitArgs, path: &Path) -> anyhow::Result<()> {
             for (name, text) in files {
                 write_atomic(&dir.join(name), text.as_bytes())?;
             }
-            eprintln!(
+            note!(
                 "wrote {}/{{fts_multiaxis.h, fts_runtime.h, fts_runtime.c}} (ts {} s); compile with -ffp-contract=off",
                 dir.display(),
                 file.ts
@@ -321,7 +321,7 @@ fn run_multiaxis(args: &EmitArgs, path: &Path) -> anyhow::Result<()> {
     match &args.output {
         Some(out) => {
             write_atomic(out, text.as_bytes())?;
-            eprintln!("wrote {} (three axes, ts {} s)", out.display(), file.ts);
+            note!("wrote {} (three axes, ts {} s)", out.display(), file.ts);
         }
         None => say_part!("{text}"),
     }
@@ -358,7 +358,7 @@ fn write_c_runtime(args: &EmitArgs, file: &ControllerFile) -> anyhow::Result<()>
     for (name, text) in to_c_files(file) {
         write_atomic(&dir.join(name), text.as_bytes())?;
     }
-    eprintln!(
+    note!(
         "wrote {}/{{fts_controller.h, fts_runtime.h, fts_runtime.c}} ({}, preview {} samples, ts {} s); compile with -ffp-contract=off",
         dir.display(),
         file.stages_name(),

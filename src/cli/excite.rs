@@ -142,7 +142,7 @@ pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
     match &args.output {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;
-            eprintln!(
+            note!(
                 "wrote {} ({} samples, ts = {ts} s)",
                 path.display(),
                 u.len()
@@ -223,7 +223,7 @@ impl MultisineArgs {
             ts,
         })
         .map_err(to_bad)?;
-        eprintln!("multisine lines (Hz): {used:?}");
+        note!("multisine lines (Hz): {used:?}");
         Ok(u)
     }
 }

@@ -278,9 +278,11 @@ pub fn run(cmd: IdentifyLinear) -> anyhow::Result<()> {
             let inputs = a.data.inputs()?;
             let report = observed(|observe| step.run_observed(inputs, observe))?;
             if let Some(s) = &report.details.selection {
-                eprintln!(
+                note!(
                     "structure selection over {} candidates chose {} (rule {})",
-                    s.candidates, report.orders, s.rule
+                    s.candidates,
+                    report.orders,
+                    s.rule
                 );
             }
             finish(&report, &a.out)

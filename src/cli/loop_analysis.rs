@@ -186,6 +186,9 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         ..LoopParams::default()
     };
     let plant = args.plant.display().to_string();
+    for (sys, source) in [(&g, &plant), (&k, &controller)] {
+        crate::lti::margins::check_realisable(sys).map_err(|e| bad(format!("{source}: {e}")))?;
+    }
     let report = analyze_loop(&g, &k, &params).map_err(|e| match e {
         // A failed eigenvalue iteration is a computation failure (exit 1).
         LoopError::Ss(SsError::NoConvergence) => anyhow::Error::new(e),

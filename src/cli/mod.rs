@@ -14,7 +14,17 @@
 macro_rules! say {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        writeln!(std::io::stdout(), $($t)*).map_err($crate::cli::common::stdout_error)?
+        writeln!($crate::cli::common::Out, $($t)*).map_err($crate::cli::common::stdout_error)?
+    }};
+}
+
+/// A line on stderr (a note, a warning, the error): a stderr that cannot be
+/// written (`2> /dev/full`) loses it instead of panicking, and the exit
+/// code stays the command's own.
+macro_rules! note {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
     }};
 }
 
@@ -22,7 +32,7 @@ macro_rules! say {
 macro_rules! say_part {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        write!(std::io::stdout(), $($t)*).map_err($crate::cli::common::stdout_error)?
+        write!($crate::cli::common::Out, $($t)*).map_err($crate::cli::common::stdout_error)?
     }};
 }
 
@@ -138,13 +148,16 @@ enum Command {
 
 /// Runs the command line and returns the process exit code.
 pub fn main() -> ExitCode {
+    // Temporary files of runs killed mid-write (in the working folder here;
+    // in each output's folder when it is written).
+    common::sweep(std::path::Path::new("."));
     if let Err(message) = reject_ambiguous_options(std::env::args_os().skip(1)) {
-        eprintln!("fts: error: {message}");
+        note!("fts: error: {message}");
         return ExitCode::from(2);
     }
     let args = join_negative_values(std::env::args_os().collect());
     if let Err(message) = reject_duplicate_outputs(&args) {
-        eprintln!("fts: error: {message}");
+        note!("fts: error: {message}");
         return ExitCode::from(2);
     }
     let mut command = allow_negative_numbers(Cli::command());
@@ -160,15 +173,34 @@ pub fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            eprintln!("fts: {}", usage_error_line(&e.to_string()));
+            note!("fts: {}", usage_error_line(&e.to_string()));
             return ExitCode::from(2);
         }
     };
-    match run(cli) {
+    match run(cli).and_then(|()| finish()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("fts: error: {}", common::one_line(&e));
+            common::discard_outputs();
+            common::discard_stdout();
+            note!("fts: error: {}", common::one_line(&e));
             ExitCode::from(common::exit_code(&e))
+        }
+    }
+}
+
+/// A successful run's results: every staged file renamed into place, then
+/// the summary printed; if stdout cannot take it, the files are put back,
+/// so a non-zero exit never leaves a result behind.
+fn finish() -> anyhow::Result<()> {
+    let committed = common::commit_outputs()?;
+    match common::flush_stdout() {
+        Ok(()) => {
+            committed.finish();
+            Ok(())
+        }
+        Err(e) => {
+            committed.undo();
+            Err(e)
         }
     }
 }

@@ -99,7 +99,7 @@ pub fn run_hinf(args: SynthArgs) -> anyhow::Result<()> {
     // The summary carries the warnings; JSON output repeats them on stderr.
     if args.json {
         for w in report.warnings() {
-            eprintln!("fts: warning: {w}");
+            note!("fts: warning: {w}");
         }
     }
     write_system(args.output.as_deref(), &report.result.k)?;
@@ -260,10 +260,10 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
     // The summary carries the note and the warnings; JSON output repeats them on stderr.
     if args.json {
         if let Some(note) = report.reduction_note() {
-            eprintln!("{note}");
+            note!("{note}");
         }
         for w in report.hinf.warnings() {
-            eprintln!("fts: warning: {w}");
+            note!("fts: warning: {w}");
         }
     }
     write_system(args.augmented.as_deref(), &report.augmented)?;
@@ -323,6 +323,12 @@ pub struct SsInfoArgs {
 /// H2 and H-infinity norms.
 pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
     let sys = read_system(&args.input)?;
+    crate::workflow::convert::check_analysed_states(
+        &sys,
+        &args.input.display().to_string(),
+        "ss-info",
+    )
+    .map_err(step_error)?;
     let poles = sys.poles()?;
     let stable = sys.is_stable()?;
     let norm = |r: Result<f64, NormError>| match r {

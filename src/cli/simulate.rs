@@ -359,7 +359,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     let report = args
         .run
         .step()?
-        .run_observed(inputs, &mut |note| eprintln!("{note}"))
+        .run_observed(inputs, &mut |note| note!("{note}"))
         .map_err(step_error)?;
     write_outputs(&args, &report)?;
     print_report(&report, args.json)?;

@@ -118,7 +118,7 @@ fn write_record(record: &VirtualRecord, path: Option<&Path>) -> anyhow::Result<(
     match path {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;
-            eprintln!(
+            note!(
                 "wrote {} ({} samples, ts = {} s)",
                 path.display(),
                 record.u.len(),

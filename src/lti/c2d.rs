@@ -40,7 +40,7 @@ pub fn c2d(sys: &StateSpace, ts: f64, method: C2dMethod) -> Result<StateSpace, S
         C2dMethod::Zoh => {
             let big = block2(&sys.a, &sys.b, &Mat::zeros(m, n), &Mat::zeros(m, m));
             let k = n + m;
-            let e = nalgebra::DMatrix::from_fn(k, k, |i, j| big[(i, j)] * ts).exp();
+            let e = expm(&nalgebra::DMatrix::from_fn(k, k, |i, j| big[(i, j)] * ts));
             let ef = Mat::from_fn(k, k, |i, j| e[(i, j)]);
             StateSpace::new(
                 sub(&ef, 0, n, 0, n),
@@ -75,6 +75,45 @@ pub fn c2d(sys: &StateSpace, ts: f64, method: C2dMethod) -> Result<StateSpace, S
             )
         }
     }
+}
+
+/// `e^M` in bounded time: nalgebra's `exp()` picks its number of squarings
+/// from norms of powers of `M` (up to `M^10`, and `|M|^27` after scaling),
+/// which overflow to infinity once `||M||_1` passes about 1e30, and it then
+/// squares `u64::MAX` times (a hang). Beyond `||M||_1 = 1e20` `M` is first
+/// scaled by `2^-k` to 1-norm at most 1e20 (`k <= 1024` for any finite
+/// `M`), exponentiated, and squared back `k` times (Higham 2005, SIAM J.
+/// Matrix Anal. Appl. 26(4), scaling and squaring); below, nalgebra's
+/// result is unchanged. A non-finite `M` gives a matrix of NaN, which every
+/// caller refuses as a non-finite result.
+pub fn expm(m: &nalgebra::DMatrix<f64>) -> nalgebra::DMatrix<f64> {
+    const SAFE_NORM: f64 = 1e20;
+    if !m.iter().all(|x| x.is_finite()) {
+        return nalgebra::DMatrix::from_element(m.nrows(), m.ncols(), f64::NAN);
+    }
+    // Column sums of |M| / 2 cannot overflow for finite entries... unless
+    // there are many near f64::MAX: halve first, then compare with the half.
+    let half_norm = (0..m.ncols())
+        .map(|j| m.column(j).iter().map(|x| 0.5 * x.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    if !(half_norm > 0.5 * SAFE_NORM) {
+        return m.exp();
+    }
+    let k = if half_norm.is_finite() {
+        (2.0 * (half_norm / SAFE_NORM)).log2().ceil() as i32
+    } else {
+        1030
+    };
+    let scale = 2f64.powi(-(k / 2)) * 2f64.powi(-(k - k / 2));
+    let mut e = (m * scale).exp();
+    for _ in 0..k {
+        // Settled (all zero) or overflowed: further squarings change nothing.
+        if e.iter().all(|&x| x == 0.0) || !e.iter().all(|x| x.is_finite()) {
+            break;
+        }
+        e = &e * &e;
+    }
+    e
 }
 
 /// The error for `I - A / alpha` singular: names the eigenvalue of `A`
@@ -121,6 +160,32 @@ mod tests {
     use super::*;
     use crate::lti::c64;
     use crate::lti::norms::bilinear_to_continuous;
+
+    /// `expm` against closed forms where nalgebra's `exp()` hangs (norms
+    /// beyond about 1e30), and unchanged below its scaling threshold.
+    #[test]
+    fn expm_is_bounded_and_exact_on_diagonal_and_rotation_matrices() {
+        use nalgebra::DMatrix;
+        let e = expm(&DMatrix::from_row_slice(2, 2, &[-1e60, 0.0, 0.0, -3e59]));
+        assert_eq!(e.as_slice(), &[0.0, 0.0, 0.0, 0.0]);
+        let e = expm(&DMatrix::from_row_slice(1, 1, &[1e60]));
+        assert!(!e[(0, 0)].is_finite());
+        let e = expm(&DMatrix::from_row_slice(1, 1, &[f64::NAN]));
+        assert!(e[(0, 0)].is_nan());
+        // A rotation by 1e40 rad: its angle is lost to rounding (1e40 *
+        // 2^-52 rad) and the squarings amplify the error without limit, but
+        // the call returns; a non-finite result is refused by every caller.
+        let w = 1e40;
+        let start = std::time::Instant::now();
+        let e = expm(&DMatrix::from_row_slice(2, 2, &[0.0, w, -w, 0.0]));
+        assert!(start.elapsed().as_secs() < 5);
+        assert!(
+            e.iter().all(|x| !x.is_finite() || x.abs() <= 1.0 + 1e-6),
+            "{e}"
+        );
+        let m = DMatrix::from_row_slice(2, 2, &[-3.0, 1.0, 0.5, -2.0]);
+        assert_eq!(expm(&m), m.exp());
+    }
 
     #[test]
     fn tustin_at_an_eigenvalue_names_it() {

@@ -164,9 +164,34 @@ impl LoopSystem {
     }
 }
 
+/// The most states a discrete transfer function is realised with: `z^-d`
+/// becomes `d` states of a dense matrix, and the commands that work on
+/// state space (`loop`, `response`, `minreal`, `convert`, `d2c`, `c2d`)
+/// take about 1 to 4 s at 200 states (docs/formats.md, Bounds).
+pub const MAX_REALISED_STATES: usize = 200;
+
+/// Refuses a delayed discrete transfer function whose realisation would
+/// exceed [`MAX_REALISED_STATES`] (before any allocation).
+pub fn check_realisable(sys: &LoopSystem) -> Result<(), SsError> {
+    let LoopSystem::Tf(TransferFunction::Discrete(d)) = sys else {
+        return Ok(());
+    };
+    let nn = (d.num().coeffs().len() - 1 + d.delay()).max(d.den().coeffs().len() - 1);
+    if nn > MAX_REALISED_STATES {
+        return Err(SsError::TooManyStates {
+            delay: d.delay(),
+            states: nn,
+            max: MAX_REALISED_STATES,
+        });
+    }
+    Ok(())
+}
+
 /// `z^-d b(z^-1)/a(z^-1)` as a state-space model: descending powers of `z`
-/// after multiplying by `z^N`.
+/// after multiplying by `z^N`. Refused (before any allocation) beyond
+/// [`MAX_REALISED_STATES`].
 pub fn discrete_tf_to_ss(d: &DiscreteTf) -> Result<StateSpace, SsError> {
+    check_realisable(&LoopSystem::Tf(TransferFunction::Discrete(d.clone())))?;
     let (b, a) = (d.num().coeffs(), d.den().coeffs());
     let nn = (b.len() - 1 + d.delay()).max(a.len() - 1);
     let mut num = vec![0.0; nn + 1];

@@ -42,6 +42,19 @@ pub enum SsError {
     /// A continuous input delay has no finite realisation.
     #[error("an input delay of {0} s has no finite state-space realisation")]
     Delayed(f64),
+    /// A delayed discrete transfer function would need more states than
+    /// [`crate::lti::margins::MAX_REALISED_STATES`] (`z^-d` is `d` states).
+    #[error(
+        "field 'delay': {delay} samples would be realised as {states} states; a discrete transfer function is realised as at most {max} states (docs/formats.md, Bounds)"
+    )]
+    TooManyStates {
+        /// The delay, samples.
+        delay: usize,
+        /// The states its realisation would need.
+        states: usize,
+        /// The bound.
+        max: usize,
+    },
     /// The bilinear (Tustin) map `s = alpha (z - 1)/(z + 1)` sends an
     /// eigenvalue at (or within rounding of) `s = alpha` to `z = infinity`.
     #[error(

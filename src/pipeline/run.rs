@@ -112,19 +112,32 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
-/// Prefix and suffix of the temporary files outputs are staged in.
+/// Prefix and suffix of the temporary files outputs are staged in; the
+/// name between is `<pid>-<random>`, so that a later run can tell a file a
+/// killed run left (its process is gone) from one a running process is
+/// still writing.
 const TEMP_PREFIX: &str = ".fts-";
 const TEMP_SUFFIX: &str = ".tmp";
 
-/// Writes `bytes` to a synced temporary file beside `path`, to be renamed
-/// over it (`persist`); dropped unpersisted, it is removed.
-fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> {
-    let dir = match path.parent() {
+/// The folder a path is written in (`.` for a bare file name).
+pub fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
-    };
+    }
+}
+
+fn temp_builder<'a>(prefix: &'a str) -> tempfile::Builder<'a, 'static> {
     let mut builder = tempfile::Builder::new();
-    builder.prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX);
+    builder.prefix(prefix).suffix(TEMP_SUFFIX);
+    builder
+}
+
+/// Writes `bytes` to a synced temporary file beside `path`, to be renamed
+/// over it (`persist`); dropped unpersisted, it is removed.
+pub fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> {
+    let prefix = format!("{TEMP_PREFIX}{}-", std::process::id());
+    let mut builder = temp_builder(&prefix);
     // tempfile creates 0600 files; an output gets the usual 0644 (less the
     // umask), or keeps the mode of the file it replaces.
     #[cfg(unix)]
@@ -133,10 +146,68 @@ fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> 
         let mode = std::fs::metadata(path).map_or(0o644, |m| m.permissions().mode() & 0o7777);
         builder.permissions(std::fs::Permissions::from_mode(mode));
     }
-    let mut tmp = builder.tempfile_in(dir)?;
+    let mut tmp = builder.tempfile_in(folder_of(path))?;
     tmp.write_all(bytes)?;
     tmp.as_file().sync_all()?;
     Ok(tmp)
+}
+
+/// Keeps the current content of `path` under a temporary name beside it (a
+/// hard link, else a copy), so that a multi-file commit can be undone.
+pub fn keep_previous(path: &Path) -> std::io::Result<std::path::PathBuf> {
+    let prefix = format!("{TEMP_PREFIX}{}-", std::process::id());
+    let tmp = temp_builder(&prefix).tempfile_in(folder_of(path))?;
+    let (file, name) = tmp.keep().map_err(|e| e.error)?;
+    drop(file);
+    // The unique name is reserved; the old file replaces the empty one.
+    std::fs::remove_file(&name)?;
+    if std::fs::hard_link(path, &name).is_err() {
+        std::fs::copy(path, &name)?;
+    }
+    Ok(name)
+}
+
+/// Whether process `pid` still runs (a zombie counts as running).
+fn alive(pid: u32) -> bool {
+    #[cfg(unix)]
+    {
+        let Ok(pid) = libc::pid_t::try_from(pid) else {
+            return true;
+        };
+        // SAFETY: signal 0 only checks that the process exists.
+        if unsafe { libc::kill(pid, 0) } == 0 {
+            return true;
+        }
+        std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = pid;
+        true
+    }
+}
+
+/// The owner of a staged temporary file name, `.fts-<pid>-<random>.tmp`.
+fn temp_owner(name: &str) -> Option<u32> {
+    let inner = name.strip_prefix(TEMP_PREFIX)?.strip_suffix(TEMP_SUFFIX)?;
+    inner.split_once('-')?.0.parse().ok()
+}
+
+/// Removes the temporary files in `dir` that a run killed mid-write left
+/// (their process is gone); files of running processes are kept.
+pub fn sweep_stale_temps(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(temp_owner) else {
+            continue;
+        };
+        if pid != std::process::id() && !alive(pid) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 /// Removes temporary files that a killed run left beside the plan's outputs.
@@ -145,24 +216,12 @@ fn remove_stale_temps(plan: &Plan) {
     let mut dirs: Vec<std::path::PathBuf> = outputs
         .map(|f| plan.locate(&f.path))
         .chain([plan.lock.clone()])
-        .map(|p| match p.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-            _ => std::path::PathBuf::from("."),
-        })
+        .map(|p| folder_of(&p).to_path_buf())
         .collect();
     dirs.sort();
     dirs.dedup();
     for dir in dirs {
-        let Ok(entries) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        for entry in entries.flatten() {
-            let name = entry.file_name();
-            let name = name.to_string_lossy();
-            if name.starts_with(TEMP_PREFIX) && name.ends_with(TEMP_SUFFIX) {
-                let _ = std::fs::remove_file(entry.path());
-            }
-        }
+        sweep_stale_temps(&dir);
     }
 }
 
@@ -199,6 +258,7 @@ fn stale_reasons(
     step: &Step,
     entry: Option<&LockEntry>,
     pending: &BTreeMap<String, String>,
+    staged: &Staged,
 ) -> Result<Vec<String>, PipelineError> {
     let Some(entry) = entry else {
         return Ok(vec!["never built".into()]);
@@ -218,7 +278,12 @@ fn stale_reasons(
             ));
             continue;
         }
-        match (file_hash(&plan.locate(&f.path))?, entry.inputs.get(&f.path)) {
+        let path = plan.locate(&f.path);
+        let now = match staged.get(&path) {
+            Some(bytes) => Some(sha256_hex(bytes)),
+            None => file_hash(&path)?,
+        };
+        match (now, entry.inputs.get(&f.path)) {
             (None, _) => reasons.push(format!("input {} is missing", f.path)),
             (Some(_), None) => reasons.push(format!("input {} is new", f.path)),
             (Some(now), Some(then)) if &now != then => {
@@ -265,7 +330,13 @@ pub fn check(
     let mut pending = BTreeMap::new();
     let mut reports = Vec::new();
     for step in &plan.steps {
-        let reasons = stale_reasons(plan, step, lock.steps.get(&step.name), &pending)?;
+        let reasons = stale_reasons(
+            plan,
+            step,
+            lock.steps.get(&step.name),
+            &pending,
+            &Staged::new(),
+        )?;
         let status = if reasons.is_empty() {
             Status::UpToDate
         } else {
@@ -281,19 +352,21 @@ pub fn check(
     Ok(reports)
 }
 
+/// The outputs of the steps built so far, by path, until the build commits.
+type Staged = BTreeMap<std::path::PathBuf, Vec<u8>>;
+
 /// Rebuilds every stale step (every step with `force`), in dependency order.
 ///
-/// Each output is written atomically, and only after the whole step has
-/// succeeded; the lock file is rewritten (atomically) after each completed
-/// step. A failing step therefore leaves its previous outputs, the outputs
-/// of the steps after it and their lock entries exactly as they were.
+/// Outputs are held in memory (a later step reads its inputs from there)
+/// and written together with the lock file only when every step has
+/// succeeded: a failing build leaves every output and the lock exactly as
+/// they were.
 pub fn build(
     plan: &Plan,
     force: bool,
     observer: &mut dyn FnMut(Event<'_>),
 ) -> Result<Vec<StepReport>, PipelineError> {
-    // With `force` an unreadable lock is simply replaced; entries of steps
-    // not yet rebuilt are kept, so a failure still leaves it accurate.
+    // With `force` an unreadable lock is simply replaced.
     let (old, old_text) = match read_lock(plan) {
         Err(_) if force => (Lock::default(), None),
         other => other?,
@@ -302,12 +375,14 @@ pub fn build(
     let names: BTreeSet<&str> = plan.steps.iter().map(|s| s.name.as_str()).collect();
     let mut lock = old.clone();
     lock.steps.retain(|name, _| names.contains(name.as_str()));
+    let mut staged = Staged::new();
     let mut reports = Vec::new();
     for step in &plan.steps {
         let reasons = if force {
             vec!["`force`".to_string()]
         } else {
-            stale_reasons(plan, step, old.steps.get(&step.name), &BTreeMap::new())?
+            let entry = old.steps.get(&step.name);
+            stale_reasons(plan, step, entry, &BTreeMap::new(), &staged)?
         };
         if reasons.is_empty() {
             let r = report(step, Status::UpToDate, reasons, 0.0);
@@ -317,7 +392,7 @@ pub fn build(
         }
         observer(Event::Start(step));
         let start = Instant::now();
-        build_step(plan, step, &mut lock)?;
+        build_step(plan, step, &mut lock, &mut staged)?;
         let r = report(step, Status::Built, reasons, start.elapsed().as_secs_f64());
         observer(Event::Done(&r));
         reports.push(r);
@@ -325,15 +400,21 @@ pub fn build(
     // Entries of steps no longer in the manifest are dropped.
     let text = lock.to_json_string();
     if old_text.as_deref() != Some(text.as_str()) {
-        write_lock(plan, &lock)?;
+        staged.insert(plan.lock.clone(), text.into_bytes());
     }
+    commit_all(staged)?;
     Ok(reports)
 }
 
-/// Builds one step: reads its inputs, runs it, commits its outputs, and
-/// records it in the lock file.
-fn build_step(plan: &Plan, step: &Step, lock: &mut Lock) -> Result<(), PipelineError> {
-    let (inputs, mut entry) = read_inputs(plan, step)?;
+/// Builds one step: reads its inputs, runs it, holds its outputs, and
+/// records it in the lock.
+fn build_step(
+    plan: &Plan,
+    step: &Step,
+    lock: &mut Lock,
+    staged: &mut Staged,
+) -> Result<(), PipelineError> {
+    let (inputs, mut entry) = read_inputs(plan, step, staged)?;
     let outputs = execute(plan, step, &inputs).map_err(|e| {
         let prefix = format!(
             "{} line {}, step {:?} ({})",
@@ -347,9 +428,12 @@ fn build_step(plan: &Plan, step: &Step, lock: &mut Lock) -> Result<(), PipelineE
             PipelineError::Failure(m) => PipelineError::Failure(format!("{prefix}: {m}")),
         }
     })?;
-    commit_outputs(plan, &outputs, &mut entry)?;
+    for (f, bytes) in outputs {
+        entry.outputs.insert(f.path.clone(), sha256_hex(&bytes));
+        staged.insert(plan.locate(&f.path), bytes);
+    }
     lock.steps.insert(step.name.clone(), entry);
-    write_lock(plan, lock)
+    Ok(())
 }
 
 /// A step's inputs by field, each read once (the bytes hashed are the bytes
@@ -357,6 +441,7 @@ fn build_step(plan: &Plan, step: &Step, lock: &mut Lock) -> Result<(), PipelineE
 fn read_inputs(
     plan: &Plan,
     step: &Step,
+    staged: &Staged,
 ) -> Result<(BTreeMap<String, Vec<u8>>, LockEntry), PipelineError> {
     let mut inputs = BTreeMap::new();
     let mut entry = LockEntry {
@@ -366,6 +451,11 @@ fn read_inputs(
     };
     for f in &step.inputs {
         let path = plan.locate(&f.path);
+        if let Some(bytes) = staged.get(&path) {
+            entry.inputs.insert(f.path.clone(), sha256_hex(bytes));
+            inputs.insert(f.field.clone(), bytes.clone());
+            continue;
+        }
         let bytes = std::fs::read(&path).map_err(|e| {
             PipelineError::BadInput(format!(
                 "{} line {}, field 'step.{}.{}': cannot read {}: {e}",
@@ -382,51 +472,63 @@ fn read_inputs(
     Ok((inputs, entry))
 }
 
-/// Writes the lock file atomically.
-fn write_lock(plan: &Plan, lock: &Lock) -> Result<(), PipelineError> {
-    write_atomic(&plan.lock, lock.to_json_string().as_bytes())
-        .map_err(|e| PipelineError::Failure(format!("{}: cannot write: {e}", plan.lock.display())))
-}
-
-/// Writes a step's outputs all or none: every changed output is staged in a
-/// synced temporary file first, and only when all are staged are they
-/// renamed into place (the lock is written after, by the caller). Identical
-/// content is not rewritten, so its time stamp stays.
-fn commit_outputs(
-    plan: &Plan,
-    outputs: &[(FileRef, Vec<u8>)],
-    entry: &mut LockEntry,
-) -> Result<(), PipelineError> {
+/// Writes the build's files (outputs and lock) all or none: every changed
+/// file is staged in a synced temporary file first; only when all are staged
+/// are they renamed into place, each target's previous content kept until
+/// all renames succeeded (and put back if one fails). Identical content is
+/// not rewritten, so its time stamp stays.
+fn commit_all(files: Staged) -> Result<(), PipelineError> {
+    let cannot = |path: &Path, e: &dyn std::fmt::Display| {
+        PipelineError::Failure(format!("{}: cannot write: {e}", path.display()))
+    };
     let mut staged = Vec::new();
-    for (f, bytes) in outputs {
-        let path = plan.locate(&f.path);
-        let hash = sha256_hex(bytes);
-        if file_hash(&path).ok().flatten().as_deref() != Some(hash.as_str()) {
-            // Caught before anything is renamed, so the step stays all or none.
-            if std::fs::symlink_metadata(&path).is_ok_and(|m| !m.is_file()) {
-                return Err(PipelineError::Failure(format!(
-                    "{}: cannot write: it exists and is not a regular file",
-                    path.display()
-                )));
-            }
-            if let Some(dir) = path.parent()
-                && !dir.as_os_str().is_empty()
-            {
-                std::fs::create_dir_all(dir).map_err(|e| {
-                    PipelineError::Failure(format!("{}: cannot create: {e}", dir.display()))
-                })?;
-            }
-            let tmp = stage(&path, bytes).map_err(|e| {
-                PipelineError::Failure(format!("{}: cannot write: {e}", path.display()))
-            })?;
-            staged.push((tmp, path));
+    for (path, bytes) in &files {
+        if file_hash(path).ok().flatten().as_deref() == Some(sha256_hex(bytes).as_str()) {
+            continue;
         }
-        entry.outputs.insert(f.path.clone(), hash);
-    }
-    for (tmp, path) in staged {
-        tmp.persist(&path).map_err(|e| {
-            PipelineError::Failure(format!("{}: cannot write: {}", path.display(), e.error))
+        // Caught before anything is renamed, so the build stays all or none.
+        if std::fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
+            return Err(cannot(path, &"it exists and is not a regular file"));
+        }
+        let dir = folder_of(path);
+        std::fs::create_dir_all(dir).map_err(|e| {
+            PipelineError::Failure(format!("{}: cannot create: {e}", dir.display()))
         })?;
+        staged.push((stage(path, bytes).map_err(|e| cannot(path, &e))?, path));
+    }
+    let mut done: Vec<(&Path, Option<std::path::PathBuf>)> = Vec::new();
+    let undo = |done: Vec<(&Path, Option<std::path::PathBuf>)>| {
+        for (target, previous) in done.into_iter().rev() {
+            let _ = match previous {
+                Some(p) => std::fs::rename(&p, target),
+                None => std::fs::remove_file(target),
+            };
+        }
+    };
+    for (tmp, path) in staged {
+        let previous = match path.is_file() {
+            true => match keep_previous(path) {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    undo(done);
+                    return Err(cannot(path, &e));
+                }
+            },
+            false => None,
+        };
+        if let Err(e) = tmp.persist(path) {
+            if let Some(p) = previous {
+                let _ = std::fs::remove_file(p);
+            }
+            undo(done);
+            return Err(cannot(path, &e.error));
+        }
+        done.push((path, previous));
+    }
+    for (_, previous) in done {
+        if let Some(p) = previous {
+            let _ = std::fs::remove_file(p);
+        }
     }
     Ok(())
 }

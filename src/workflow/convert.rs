@@ -30,6 +30,27 @@ fn realise(model: &LoopSystem, source: &str) -> Result<StateSpace, StepError> {
     model.to_ss().map_err(ss_err(source))
 }
 
+/// The most states `fts balred` and `fts ss-info` take: their Gramians,
+/// Hamiltonian bisections and zero pencils cost O(n^3) per step over many
+/// steps, about 2 to 3 s at 64 states and over 25 s at 105
+/// (docs/formats.md, Bounds).
+pub const MAX_ANALYSED_STATES: usize = 64;
+
+/// Refuses a system beyond [`MAX_ANALYSED_STATES`] before any work.
+pub fn check_analysed_states(
+    sys: &StateSpace,
+    source: &str,
+    command: &str,
+) -> Result<(), StepError> {
+    if sys.nx() > MAX_ANALYSED_STATES {
+        return Err(StepError::input(format!(
+            "{source}: {} states; `fts {command}` takes at most {MAX_ANALYSED_STATES} states (docs/formats.md, Bounds)",
+            sys.nx()
+        )));
+    }
+    Ok(())
+}
+
 /// A model in either file form.
 pub type Model = LoopSystem;
 
@@ -441,6 +462,7 @@ impl Balred {
         self.validate()?;
         let order = self.order.unwrap_or(0);
         let sys = realise(model, source)?;
+        check_analysed_states(&sys, source, "balred")?;
         if order > sys.nx() {
             return Err(StepError::setting(
                 "order",

@@ -68,8 +68,25 @@ impl Default for IdentifyCt {
     }
 }
 
+/// The most poles a continuous model is identified with: beyond, the
+/// powers of `s` in the regression span more than the float range over any
+/// useful band (docs/formats.md, Bounds).
+pub const MAX_CT_POLES: usize = 20;
+
+/// The most SRIVC work, samples x poles x iterations: each of the 6 start
+/// cutoffs runs up to `max_iterations` filter passes of O(samples x np);
+/// 20,000 samples at 8 poles and 50 iterations (8e6) take about 15 s, at
+/// 16 poles (1.6e7) about 30 s (docs/formats.md, Bounds).
+pub const MAX_SRIVC_WORK: usize = 20_000_000;
+
 fn orders(np: Option<usize>, nz: Option<usize>) -> Result<(usize, usize), StepError> {
     let np = np.ok_or_else(|| StepError::setting("np", "missing: the number of poles"))?;
+    if np > MAX_CT_POLES {
+        return Err(StepError::setting(
+            "np",
+            format!("{np} poles; at most {MAX_CT_POLES} (docs/formats.md, Bounds)"),
+        ));
+    }
     let nz = nz.ok_or_else(|| StepError::setting("nz", "missing: the number of zeros"))?;
     crate::ident::ct::check_orders(np, nz).map_err(ct_err(""))?;
     Ok((np, nz))
@@ -125,6 +142,19 @@ impl IdentifyCt {
         };
         let prep = settings.prepare(inputs)?;
         let (np, nz) = orders(self.np, self.nz)?;
+        let samples = prep.est.u.len();
+        let work = samples
+            .saturating_mul(np)
+            .saturating_mul(self.max_iterations);
+        if work > MAX_SRIVC_WORK {
+            return Err(StepError::setting(
+                "np",
+                format!(
+                    "{np} poles and {} `max_iterations` on {samples} samples: samples x poles x iterations = {work} exceeds {MAX_SRIVC_WORK} (docs/formats.md, Bounds); decimate or shorten the record, or lower `np` or `max_iterations`",
+                    self.max_iterations
+                ),
+            ));
+        }
         let mut p = SrivcParams::new(np, nz, prep.ts);
         p.delay = self.delay;
         p.svf_cutoff_hz = self.svf_cutoff_hz;
