@@ -283,7 +283,9 @@ fn run_tables(tables: &[PathBuf], min_cases: usize) {
                         *g += 1;
                         i
                     };
-                    let Some((table, case)) = cases.get(i) else { break };
+                    let Some((table, case)) = cases.get(i) else {
+                        break;
+                    };
                     if let Err(e) = run_case(i, case, &base) {
                         failures.lock().unwrap().push((i, format!("{table}: {e}")));
                     }

@@ -144,6 +144,21 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot write the output atomically", path.display()))
 }
 
+/// Writes several results all or none: each path is claimed as by
+/// [`write_atomic`], every file is staged before any is renamed into place,
+/// so a folder that cannot be written leaves the others unwritten too.
+pub fn write_atomic_all(files: &[(&Path, &[u8])]) -> anyhow::Result<()> {
+    for (path, _) in files {
+        claim_output(path)?;
+    }
+    crate::pipeline::write_atomic_all(files).map_err(|(k, e)| {
+        anyhow::anyhow!(
+            "{}: cannot write the output atomically: {e}",
+            files[k].0.display()
+        )
+    })
+}
+
 /// The most frequency points a command evaluates (checked before any work,
 /// so a mistyped count is an error, not an allocation abort).
 pub const MAX_POINTS: usize = 1_000_000;
@@ -214,7 +229,7 @@ fn flag(field: &str) -> String {
 }
 
 /// A step's message with the settings it names written as flags.
-fn flags(message: &str) -> String {
+pub fn flags(message: &str) -> String {
     crate::workflow::render_settings(message, flag)
 }
 

@@ -19,4 +19,6 @@ pub mod run;
 
 pub use hash::{Lock, LockEntry};
 pub use manifest::{Plan, Step, parse_manifest};
-pub use run::{Event, PipelineError, Status, StepReport, build, check, load, write_atomic};
+pub use run::{
+    Event, PipelineError, Status, StepReport, build, check, load, write_atomic, write_atomic_all,
+};

@@ -112,6 +112,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
+/// Writes several files all or none as far as staging goes: every one is
+/// staged in a synced temporary file before any is renamed into place. The
+/// error names the file (its index in `files`).
+pub fn write_atomic_all(files: &[(&Path, &[u8])]) -> Result<(), (usize, std::io::Error)> {
+    let mut staged = Vec::new();
+    for (k, (path, bytes)) in files.iter().enumerate() {
+        staged.push(stage(path, bytes).map_err(|e| (k, e))?);
+    }
+    for (k, (tmp, (path, _))) in staged.into_iter().zip(files).enumerate() {
+        tmp.persist(path).map_err(|e| (k, e.error))?;
+    }
+    Ok(())
+}
+
 /// Prefix and suffix of the temporary files outputs are staged in.
 const TEMP_PREFIX: &str = ".fts-";
 const TEMP_SUFFIX: &str = ".tmp";

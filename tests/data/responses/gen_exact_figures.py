@@ -89,6 +89,7 @@ def figures(num, den):
             tk = refine(h, ts[k - 1], ts[k])
             cands.append((tk, y(tk)))
     tp, yp = max(cands, key=lambda c: abs(c[1]))
+    tu, yu = min(cands, key=lambda c: c[1] * mp.sign(yf))
 
     def first_crossing(level):
         for k in range(len(ts)):
@@ -107,6 +108,8 @@ def figures(num, den):
         "peak": float(abs(yp)),
         "peak_time": float(tp),
         "overshoot": float(100 * (yp - yf) / yf),
+        "undershoot": float(-100 * yu / yf) if yu * yf < 0 else 0.0,
+        "undershoot_time": float(tu),
         "rise_time": float(t90 - t10),
         "t10": float(t10),
         "t90": float(t90),
