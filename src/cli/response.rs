@@ -3,7 +3,7 @@
 //! the time response of a system or of its closed loop with a controller,
 //! with rise time, settling time, overshoot and steady-state error.
 
-use super::common::{bad, choice, print_report, read_input, step_error, write_atomic};
+use super::common::{bad, choice, print_report, read_input, step_error, write_atomic, write_plot};
 use super::loop_analysis::{PidFlags, pid, read_loop_system};
 use crate::io::{plot, ss_json};
 use crate::lti::response::ResponseKind;
@@ -11,7 +11,7 @@ use crate::lti::ss::StateSpace;
 use crate::workflow::Validate;
 use crate::workflow::response::{Response, ResponseInputs, ResponseReport};
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(Debug, Args)]
 pub struct ResponseArgs {
@@ -82,26 +82,19 @@ pub fn run(args: ResponseArgs) -> anyhow::Result<()> {
             &source,
         )
         .map_err(step_error)?;
-    if let Some(path) = &args.csv {
-        write_atomic(path, csv_text(&report).as_bytes())?;
+    // Outputs are staged and committed together when the command succeeds:
+    // a failure leaves nothing behind (docs/formats.md "Exit codes").
+    if let Some(p) = &args.csv {
+        write_atomic(p, csv_text(&report).as_bytes())?;
     }
-    if let Some(path) = &args.plot {
-        write_plot(path, &report, &source)?;
+    if let Some(p) = &args.plot {
+        write_plot(p, |format| plot_bytes(&report, &source, format))?;
     }
-    print_report(&report, args.json)?;
-    if !report.stable {
-        // The samples are written and shown; the figures are not, and the
-        // run is not a success (docs/responses.md §2).
-        return Err(anyhow::anyhow!(
-            "{source}: the {} is unstable: its response diverges and has no step figures",
-            if report.closed_loop {
-                "closed loop"
-            } else {
-                "system"
-            }
-        ));
+    for w in &report.warnings {
+        let named = crate::workflow::render_settings(w, super::names::option);
+        eprintln!("warning: {source}: {named}");
     }
-    Ok(())
+    print_report(&report, args.json)
 }
 
 /// Column name of a channel: `y` for SISO, `y{i}_u{j}` (1-based) otherwise.
@@ -121,21 +114,23 @@ fn csv_text(report: &ResponseReport) -> String {
         out.push_str(&column(report, i, j));
     }
     out.push('\n');
-    let r = &report.response;
-    for k in 0..r.grid.n {
-        out.push_str(&r.grid.time(k).to_string());
+    for (k, t) in report.t.iter().enumerate() {
+        out.push_str(&t.to_string());
         for &(i, j) in &channels {
             out.push(',');
-            out.push_str(&r.y[i][j][k].to_string());
+            out.push_str(&report.y[i][j][k].to_string());
         }
         out.push('\n');
     }
     out
 }
 
-fn write_plot(path: &Path, report: &ResponseReport, source: &str) -> anyhow::Result<()> {
-    let r = &report.response;
-    let t = r.grid.times();
+fn plot_bytes(
+    report: &ResponseReport,
+    source: &str,
+    format: plot::PlotFormat,
+) -> anyhow::Result<Vec<u8>> {
+    let t = &report.t;
     let labels: Vec<(String, usize, usize)> = report
         .channels()
         .into_iter()
@@ -153,16 +148,16 @@ fn write_plot(path: &Path, report: &ResponseReport, source: &str) -> anyhow::Res
         .iter()
         .map(|(name, i, j)| plot::Series {
             label: name,
-            x: &t,
-            y: &r.y[*i][*j],
+            x: t,
+            y: &report.y[*i][*j],
         })
         .collect();
     series.extend(finals.iter().map(|(name, y)| plot::Series {
         label: name,
-        x: &t,
+        x: t,
         y,
     }));
-    let what = match r.kind {
+    let what = match report.kind {
         ResponseKind::Step => "Step",
         ResponseKind::Impulse => "Impulse",
     };
@@ -171,13 +166,11 @@ fn write_plot(path: &Path, report: &ResponseReport, source: &str) -> anyhow::Res
     } else {
         source.to_string()
     };
-    super::common::write_plot(path, |format| {
-        Ok(plot::line_chart(
-            &format!("{what} response, {of}"),
-            "time (s)",
-            "output (units of the system's output)",
-            &series,
-            format,
-        )?)
-    })
+    Ok(plot::line_chart(
+        &format!("{what} response, {of}"),
+        "time (s)",
+        "output (units of the system's output)",
+        &series,
+        format,
+    )?)
 }

@@ -5,6 +5,7 @@ pub(crate) mod accurate;
 pub mod balred;
 pub mod c2d;
 pub mod convert;
+pub mod exact_response;
 pub mod filter;
 pub mod freqresp;
 pub mod lyapunov;
