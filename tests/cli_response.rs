@@ -104,8 +104,10 @@ fn closed_loop_with_pid_gains_and_with_a_controller_file_agree() {
     assert!(x["steady_state_error"].as_f64().unwrap().abs() < 1e-12);
 }
 
+/// docs/responses.md §1 "Unstable systems": exit 1, one error line,
+/// nothing on stdout and no file written, whatever outputs were asked for.
 #[test]
-fn unstable_system_is_written_but_has_no_figures_and_exits_1() {
+fn unstable_system_exits_1_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let g = write(
         dir.path(),
@@ -113,16 +115,175 @@ fn unstable_system_is_written_but_has_no_figures_and_exits_1() {
         r#"{"format": "fts.tf/1", "var": "s", "num": [1], "den": [1, -1]}"#,
     );
     let csv = dir.path().join("u.csv");
-    fts()
+    let svg = dir.path().join("u.svg");
+    for kind in ["step", "impulse"] {
+        for json in [false, true] {
+            let mut cmd = fts();
+            cmd.args(["response", kind])
+                .arg(&g)
+                .args(["--duration", "2", "--csv"])
+                .arg(&csv)
+                .arg("--plot")
+                .arg(&svg);
+            if json {
+                cmd.arg("--json");
+            }
+            let out = cmd.assert().code(1).stdout("").get_output().stderr.clone();
+            let err = String::from_utf8(out).unwrap();
+            assert_eq!(err.lines().count(), 1, "{err}");
+            assert!(
+                err.starts_with("fts: error: ") && err.contains("unstable"),
+                "{err}"
+            );
+            assert!(!csv.exists() && !svg.exists());
+        }
+    }
+}
+
+const STIFF: &str = r#"{"format":"fts.tf/1","var":"s","num":[5000.01,51.0,10000.0],"den":[1.0,100.01,1000001.0,10000.0]}"#;
+const LIGHT: &str = r#"{"format":"fts.tf/1","var":"s","num":[1],"den":[1,0.002,1]}"#;
+
+/// Issue #27: with the defaults, the stiff system's 363 % overshoot at
+/// 1.52 ms is reported (python-control: 0 %), the default grid holds the
+/// peak sample itself, and no warning is printed. Reference values:
+/// tests/data/responses/exact_figures.json (mpmath).
+#[test]
+fn stiff_step_reports_the_fast_peak_with_the_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(dir.path(), "stiff.json", STIFF);
+    let csv = dir.path().join("s.csv");
+    let out = fts()
         .args(["response", "step"])
         .arg(&g)
-        .args(["--duration", "2", "--csv"])
+        .arg("--csv")
         .arg(&csv)
+        .arg("--json")
         .assert()
-        .code(1)
-        .stdout(predicate::str::contains("unstable: no final value"))
-        .stderr(predicate::str::contains("unstable"));
-    assert!(std::fs::read_to_string(&csv).unwrap().lines().count() == 2002);
+        .success()
+        .stderr("")
+        .get_output()
+        .stdout
+        .clone();
+    let v: Value = serde_json::from_slice(&out).unwrap();
+    let info = &v["channels"][0]["step_info"];
+    let f = |k: &str| info[k].as_f64().unwrap();
+    assert!((f("overshoot") - 363.347533166807).abs() < 1e-6, "{info}");
+    assert!((f("peak") - 4.633475331668071).abs() < 1e-9, "{info}");
+    assert!((f("peak_time") - 1.522682169e-3).abs() < 1e-9, "{info}");
+    assert!((f("settling_time") - 391.2023005428).abs() < 1e-6, "{info}");
+    assert_eq!(v["grid"], "composite");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<(f64, f64)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (t, y) = l.split_once(',').unwrap();
+            (t.parse().unwrap(), y.parse().unwrap())
+        })
+        .collect();
+    assert_eq!(rows.len() as u64, v["samples"].as_u64().unwrap());
+    assert!(rows.windows(2).all(|w| w[0].0 < w[1].0), "times increase");
+    let top = rows.iter().fold(0.0f64, |m, r| m.max(r.1.abs()));
+    assert_eq!(top, f("peak"), "the CSV holds the peak sample");
+}
+
+/// 1/(s^2 + 0.002 s + 1): 99.686 % at pi s (python-control: 96.6 % at
+/// 34.5 s), a rise of about 1.02 s (not 0).
+#[test]
+fn lightly_damped_step_has_its_closed_form_peak_and_a_rise() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(dir.path(), "light.json", LIGHT);
+    let v = json_out(fts().args(["response", "step"]).arg(&g));
+    let info = &v["channels"][0]["step_info"];
+    let zeta = 0.001f64;
+    let wd = (1.0 - zeta * zeta).sqrt();
+    let pi = std::f64::consts::PI;
+    let os = 100.0 * (-zeta * pi / wd).exp();
+    assert!(
+        (info["overshoot"].as_f64().unwrap() - os).abs() < 1e-8,
+        "{info}"
+    );
+    assert!(
+        (info["peak_time"].as_f64().unwrap() - pi / wd).abs() < 1e-8,
+        "{info}"
+    );
+    let rise = info["rise_time"].as_f64().unwrap();
+    assert!((rise - 1.0203861238316254).abs() < 1e-8, "{info}");
+}
+
+fn warnings(args: &[&str], file: &str) -> (Value, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let g = write(dir.path(), "g.json", file);
+    let out = fts()
+        .args(["response"])
+        .arg(args[0])
+        .arg(&g)
+        .args(&args[1..])
+        .arg("--json")
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    (v, err.lines().map(str::to_owned).collect())
+}
+
+/// docs/responses.md §3 "Warnings": a uniform grid too coarse for the
+/// fast mode, a duration shorter than the settling or the peak, an impulse
+/// response cut before it decays: one stderr line each, `warning: `, the
+/// option named; the figures stay exact.
+#[test]
+fn truncating_options_are_warned_about() {
+    let (v, w) = warnings(&["step", "--points", "2001"], STIFF);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].starts_with("warning: ") && w[0].contains("--points 2001"),
+        "{w:?}"
+    );
+    assert!(
+        w[0].contains("too coarse") && w[0].contains("4.633475"),
+        "{w:?}"
+    );
+    assert_eq!(v["grid"], "uniform");
+    assert_eq!(v["samples"], 2001);
+    assert!((v["channels"][0]["step_info"]["overshoot"].as_f64().unwrap() - 363.3475).abs() < 1e-3);
+
+    let (v, w) = warnings(&["step", "--duration", "100"], STIFF);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("--duration 100 s ends before the response settles"),
+        "{w:?}"
+    );
+    assert!(w[0].contains("391.2023"), "{w:?}");
+    assert!(v["channels"][0]["step_info"]["settling_time"].is_null());
+
+    // 1/(s^2 + 0.4 s + 1) peaks at 3.2 s: cut at 2 s.
+    let (_, w) = warnings(
+        &["step", "--duration", "2"],
+        r#"{"format":"fts.tf/1","var":"s","num":[1],"den":[1,0.4,1]}"#,
+    );
+    assert!(
+        w.iter().any(|l| l.contains("ends before the peak")),
+        "{w:?}"
+    );
+
+    let (v, w) = warnings(&["impulse", "--duration", "10"], LIGHT);
+    assert!(
+        w.iter()
+            .any(|l| l.contains("ends before the impulse response decays")),
+        "{w:?}"
+    );
+    assert!(
+        (v["channels"][0]["peak"].as_f64().unwrap() - 0.99843).abs() < 1e-3,
+        "{v}"
+    );
+
+    // The rise of the lightly damped system (1.02 s) spans a third of a
+    // 3.45 s step: the samples do not show it.
+    let (_, w) = warnings(&["step", "--points", "2001"], LIGHT);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].contains("--points 2001"), "{w:?}");
 }
 
 #[test]

@@ -244,3 +244,243 @@ fn li21_fixture_read_as_tf_matches() {
     let info = step_info_of(&sys, &r).unwrap()[0][0].clone().unwrap();
     compare_info("li21 fixture", &info, &c.step_info.as_ref().unwrap()[0][0]);
 }
+
+// ---------------------------------------------------------------------
+// Exact figures (docs/responses.md §2 "Exact figures of a continuous system")
+// ---------------------------------------------------------------------
+
+use fts::lti::c2d::{C2dMethod, c2d};
+use fts::lti::exact_response::exact_figures;
+use fts::lti::response::default_duration;
+use proptest::prelude::*;
+
+/// The step figures of `sys` over its default duration (search twice that).
+fn exact_step(sys: &StateSpace) -> StepInfo {
+    let t = default_duration(sys).unwrap();
+    let f = exact_figures(sys, ResponseKind::Step, t, 2.0 * t).unwrap();
+    f.channels[0][0].info.clone().unwrap().unwrap()
+}
+
+/// `y(t)` of channel (0, 0) by one ZOH step over `[0, t]` (Van Loan's
+/// exponential at `t` itself, independent of the lattice).
+fn step_at(sys: &StateSpace, t: f64) -> f64 {
+    if t == 0.0 {
+        return sys.d[(0, 0)];
+    }
+    let d = c2d(sys, t, C2dMethod::Zoh).unwrap();
+    (&d.c * &d.b)[(0, 0)] + d.d[(0, 0)]
+}
+
+#[derive(Deserialize)]
+struct Exact {
+    name: String,
+    num: Vec<f64>,
+    den: Vec<f64>,
+    peak: f64,
+    peak_time: f64,
+    overshoot: f64,
+    undershoot: f64,
+    rise_time: f64,
+    settling_time: f64,
+}
+
+#[derive(Deserialize)]
+struct ExactCases {
+    cases: Vec<Exact>,
+}
+
+fn rel(got: f64, want: f64, tol: f64, what: &str) {
+    assert!(
+        (got - want).abs() <= tol * want.abs().max(1e-300),
+        "{what}: {got} vs {want}"
+    );
+}
+
+/// The stiff system of issue #27 (poles -0.01 and -50 +- 998.7j: a 691 s
+/// mode beside a 1 ms one) and the lightly damped 1/(s^2 + 0.002 s + 1),
+/// against the partial-fraction closed form evaluated at 30 digits by
+/// mpmath (tests/data/responses/gen_exact_figures.py). python-control
+/// reports 0 % and 96.6 % overshoot for them.
+#[test]
+fn exact_figures_equal_the_partial_fraction_closed_form() {
+    let text = std::fs::read_to_string("tests/data/responses/exact_figures.json").unwrap();
+    let cases: ExactCases = serde_json::from_str(&text).unwrap();
+    assert_eq!(cases.cases.len(), 2);
+    for c in &cases.cases {
+        let g = StateSpace::from_tf(&c.num, &c.den, None).unwrap();
+        let s = exact_step(&g);
+        let n = &c.name;
+        rel(s.peak, c.peak, 1e-10, &format!("{n} peak"));
+        rel(s.peak_time, c.peak_time, 1e-7, &format!("{n} peak time"));
+        rel(s.overshoot, c.overshoot, 1e-10, &format!("{n} overshoot"));
+        rel(
+            s.undershoot.max(1e-300),
+            c.undershoot.max(1e-300),
+            1e-9,
+            &format!("{n} undershoot"),
+        );
+        rel(
+            s.rise_time.unwrap(),
+            c.rise_time,
+            1e-9,
+            &format!("{n} rise"),
+        );
+        rel(
+            s.settling_time.unwrap(),
+            c.settling_time,
+            1e-9,
+            &format!("{n} settling"),
+        );
+    }
+    // The quoted figures of the issue.
+    let stiff = &cases.cases[0];
+    assert!((stiff.overshoot - 363.35).abs() < 0.01 && (stiff.peak - 4.633).abs() < 1e-3);
+    assert!((stiff.peak_time - 1.52e-3).abs() < 0.01e-3);
+}
+
+/// 1/(s^2 + 2 zeta s + 1), zeta = 0.001: peak at pi/wd, overshoot
+/// exp(-zeta pi / sqrt(1 - zeta^2)), and the 10-90 % crossings of the
+/// analytic response y = 1 - e^{-zeta t} (cos wd t + zeta/sqrt(1-zeta^2)
+/// sin wd t), found here by bisection: the rise is about 1.02 s, not the 0
+/// a 2001-point grid over 6908 s gives.
+#[test]
+fn lightly_damped_second_order_has_its_closed_form_figures() {
+    let zeta = 0.001f64;
+    let g = StateSpace::from_tf(&[1.0], &[1.0, 2.0 * zeta, 1.0], None).unwrap();
+    let s = exact_step(&g);
+    let wd = (1.0 - zeta * zeta).sqrt();
+    let pi = std::f64::consts::PI;
+    rel(s.peak_time, pi / wd, 1e-9, "peak time");
+    let os = 100.0 * (-zeta * pi / wd).exp();
+    rel(s.overshoot, os, 1e-10, "overshoot");
+    assert!((s.overshoot - 99.686).abs() < 1e-3, "{}", s.overshoot);
+    let y = |t: f64| 1.0 - (-zeta * t).exp() * ((wd * t).cos() + zeta / wd * (wd * t).sin());
+    let cross = |level: f64| {
+        let (mut a, mut b) = (0.0, pi / wd);
+        for _ in 0..200 {
+            let m = 0.5 * (a + b);
+            if y(m) >= level { b = m } else { a = m }
+        }
+        b
+    };
+    let rise = cross(0.9) - cross(0.1);
+    rel(s.rise_time.unwrap(), rise, 1e-9, "rise");
+    assert!(s.rise_time.unwrap() > 1.0);
+}
+
+/// The exact figures can only improve on the sampled ones: on every
+/// continuous stable case of python-control, the exact peak is at least
+/// the largest sample, and the crossing times lie within the grid step of
+/// python-control's first-sample times.
+#[test]
+fn exact_figures_bracket_python_controls_sampled_ones() {
+    let mut compared = 0;
+    for c in cases()
+        .iter()
+        .filter(|c| c.stable && c.g.ts.is_none() && c.k.is_none())
+    {
+        let sys = case_system(c);
+        let g = grid(c, &sys);
+        let f = exact_figures(&sys, ResponseKind::Step, c.grid.t_final, c.grid.t_final).unwrap();
+        for (i, row) in c.step_info.as_ref().unwrap().iter().enumerate() {
+            for (j, want) in row.iter().enumerate() {
+                let Ok(got) = f.channels[i][j].info.clone().unwrap() else {
+                    continue;
+                };
+                let name = format!("{} [y{i} <- u{j}]", c.name);
+                let scale = want.steady_state.unwrap().abs().max(1.0);
+                assert!(
+                    got.peak >= want.peak.unwrap() - 1e-9 * scale,
+                    "{name}: peak"
+                );
+                assert!(got.peak <= want.peak.unwrap() * 1.01 + 1e-9, "{name}: peak");
+                if let (Some(a), Some(b)) = (got.rise_time, want.rise_time) {
+                    assert!(
+                        (a - b).abs() <= 2.0 * g.dt + 1e-12,
+                        "{name}: rise {a} vs {b}"
+                    );
+                }
+                if let (Some(a), Some(b)) = (got.settling_time, want.settling_time) {
+                    assert!((a - b).abs() <= g.dt + 1e-12, "{name}: settling {a} vs {b}");
+                }
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared >= 5, "{compared}");
+}
+
+/// A random stable system with poles spread over six decades (real
+/// poles and lightly to well damped pairs, `|p|` from 1e-2 to 1e4), in a
+/// real modal realisation with random input and output weights.
+fn spread_system() -> impl Strategy<Value = StateSpace> {
+    let mode = (
+        0u8..2,
+        -2.0f64..4.0,
+        0.02f64..0.9,
+        -1.0f64..1.0,
+        -1.0f64..1.0,
+    );
+    (prop::collection::vec(mode, 2..5), -0.5f64..0.5).prop_map(|(modes, d)| {
+        let mut blocks: Vec<(Vec<Vec<f64>>, Vec<f64>, Vec<f64>)> = Vec::new();
+        for (kind, lw, zeta, b, c) in modes {
+            let w = 10f64.powf(lw);
+            if kind == 0 {
+                blocks.push((vec![vec![-w]], vec![w * (1.0 + b)], vec![c + 1.5]));
+            } else {
+                let (re, im) = (-zeta * w, w * (1.0 - zeta * zeta).sqrt());
+                blocks.push((
+                    vec![vec![re, im], vec![-im, re]],
+                    vec![w * b, w],
+                    vec![c + 0.5, 1.0],
+                ));
+            }
+        }
+        let n: usize = blocks.iter().map(|b| b.1.len()).sum();
+        let mut a = Mat::<f64>::zeros(n, n);
+        let mut bm = Mat::<f64>::zeros(n, 1);
+        let mut cm = Mat::<f64>::zeros(1, n);
+        let mut k = 0;
+        for (ab, bb, cb) in blocks {
+            for r in 0..bb.len() {
+                for q in 0..bb.len() {
+                    a[(k + r, k + q)] = ab[r][q];
+                }
+                bm[(k + r, 0)] = bb[r];
+                cm[(0, k + r)] = cb[r];
+            }
+            k += bb.len();
+        }
+        StateSpace::new(a, bm, cm, Mat::from_fn(1, 1, |_, _| d), None).unwrap()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// The reported peak is `|y(peak_time)|` (an independent exponential
+    /// at that time), no sample of a fine grid around it exceeds it, and
+    /// no sample of a fine uniform simulation from 0 does either.
+    #[test]
+    fn peaks_of_widely_spread_systems_are_true_maxima(sys in spread_system()) {
+        let fastest = sys.poles().unwrap().iter().map(|p| p.norm()).fold(0.0, f64::max);
+        let s = exact_step(&sys);
+        let end = default_duration(&sys).unwrap();
+        let tp = s.peak_time;
+        let at = step_at(&sys, tp);
+        prop_assert!((at.abs() - s.peak).abs() <= 1e-9 * s.peak.max(1e-12), "{} vs {}", at, s.peak);
+        let delta = tp.max(1e-3 / fastest).min(1.0 / fastest) * 1e-3;
+        for k in -40i32..=40 {
+            let t = tp + f64::from(k) * delta;
+            if (0.0..=end).contains(&t) {
+                let y = step_at(&sys, t);
+                prop_assert!(y.abs() <= s.peak * (1.0 + 1e-10) + 1e-14, "y({t}) = {y} > {}", s.peak);
+            }
+        }
+        let horizon = (4e4 * 0.05 / fastest).min(end);
+        let grid = TimeGrid::continuous(horizon, 40_001).unwrap();
+        let r = time_response(&sys, ResponseKind::Step, &grid).unwrap();
+        let sampled = r.y[0][0].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        prop_assert!(sampled <= s.peak * (1.0 + 1e-9) + 1e-14, "samples {sampled} > {}", s.peak);
+    }
+}

@@ -342,6 +342,12 @@ impl Trace<'_> {
         for _ in 0..(REFINE_LEVELS + 4) {
             let mid = 0.5 * (lo.0 + hi.0);
             if !(mid > lo.0 && mid < hi.0) || hi.0 - lo.0 < 2.0 * self.lat.unit() {
+                // Converged on the root of dy/dt: near a flat top the best
+                // value evaluated is a matter of rounding, the root is not.
+                let end = if lo.1 >= hi.1 { lo } else { hi };
+                if end.1 >= best.1 - 1e-12 * best.1.abs() {
+                    best = (end.0, end.1);
+                }
                 break;
             }
             if hermite_bound(hi.0 - lo.0, (lo.1, lo.2), (hi.1, hi.2)) <= floor.max(best.1) {
