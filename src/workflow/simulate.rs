@@ -300,6 +300,11 @@ impl Simulate {
             vparams.seed = seed;
         }
         let ts = inputs.plant.ts();
+        if inputs.reference_samples.is_none() {
+            // Sized before the models are identified: a reference beyond
+            // the sample bound is refused before any work.
+            self.reference_samples_bound(ts)?;
+        }
         let model_plant = matches!(inputs.plant, SimPlant::Model { .. });
         let mut loop_model = None;
         let (file, models) = match inputs.controller {
@@ -637,6 +642,21 @@ impl Simulate {
     }
 
     /// The sine's duration: as set, or 20 periods and at least 0.2 s.
+    /// Refuses a generated reference of more than
+    /// [`crate::ident::excite::MAX_SAMPLES`] samples (docs/formats.md,
+    /// Bounds), before anything is generated or identified.
+    fn reference_samples_bound(&self, ts: f64) -> Result<(), StepError> {
+        let duration = match self.reference {
+            ReferenceShape::Sine => self.sine_duration()?,
+            ReferenceShape::Sweep => self.duration.unwrap_or(2.0),
+            ReferenceShape::Step => self.duration.unwrap_or(0.1),
+            ReferenceShape::FiveLeaf => self.duration.unwrap_or(1.0),
+        };
+        crate::ident::excite::sample_count(duration, ts)
+            .map(|_| ())
+            .map_err(|e| StepError::setting(e.field, e.message))
+    }
+
     fn sine_duration(&self) -> Result<f64, StepError> {
         match self.duration {
             Some(d) => Ok(d),
