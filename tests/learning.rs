@@ -363,6 +363,17 @@ fn ilc_data(name: &str) -> String {
     format!("{}/tests/data/ilc/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
+/// `fts ilc` on the models of tests/data/ilc along the five-leaved
+/// trajectory, `trials` trials.
+fn ilc_on_the_wrong_model(trials: &str) -> assert_cmd::Command {
+    let mut cmd = assert_cmd::Command::cargo_bin("fts").unwrap();
+    cmd.args(["ilc", "--hysteresis", &ilc_data("inverse-hysteresis.json")])
+        .args(["--zpetc", &ilc_data("zpetc.json")])
+        .args(["--closed-loop", &ilc_data("closed-loop.json")])
+        .args(["--reference", "five-leaf", "--trials", trials]);
+    cmd
+}
+
 /// The closed-loop model of tests/data/ilc is wrong between 2 and 2.5 kHz.
 /// Learning with gain 1 and Q at 2.5 kHz on it (fts's defaults before the
 /// model check) grows the five-leaf error from 0.05 um at trial 1 to 45 um:
@@ -372,12 +383,7 @@ fn ilc_data(name: &str) -> String {
 fn ilc_refuses_a_law_the_measured_model_error_breaks() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("c.json");
-    let assert = assert_cmd::Command::cargo_bin("fts")
-        .unwrap()
-        .args(["ilc", "--hysteresis", &ilc_data("inverse-hysteresis.json")])
-        .args(["--zpetc", &ilc_data("zpetc.json")])
-        .args(["--closed-loop", &ilc_data("closed-loop.json")])
-        .args(["--reference", "five-leaf", "--trials", "20"])
+    let assert = ilc_on_the_wrong_model("20")
         .args(["--learning-gain", "1", "--q-cutoff", "2500", "-o"])
         .arg(&out)
         .assert()
@@ -399,12 +405,7 @@ fn ilc_refuses_a_law_the_measured_model_error_breaks() {
 fn ilc_allowed_to_diverge_says_where_it_did() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("c.json");
-    let assert = assert_cmd::Command::cargo_bin("fts")
-        .unwrap()
-        .args(["ilc", "--hysteresis", &ilc_data("inverse-hysteresis.json")])
-        .args(["--zpetc", &ilc_data("zpetc.json")])
-        .args(["--closed-loop", &ilc_data("closed-loop.json")])
-        .args(["--reference", "five-leaf", "--trials", "8"])
+    let assert = ilc_on_the_wrong_model("8")
         .args(["--learning-gain", "1", "--q-cutoff", "2500"])
         .args(["--allow-divergence", "--json", "-o"])
         .arg(&out)
@@ -435,12 +436,8 @@ fn ilc_allowed_to_diverge_says_where_it_did() {
 /// factor 2 of the best, the last below a tenth of trial 0's).
 #[test]
 fn ilc_defaults_choose_a_law_the_wrong_model_still_supports() {
-    let out = assert_cmd::Command::cargo_bin("fts")
-        .unwrap()
-        .args(["ilc", "--hysteresis", &ilc_data("inverse-hysteresis.json")])
-        .args(["--zpetc", &ilc_data("zpetc.json")])
-        .args(["--closed-loop", &ilc_data("closed-loop.json")])
-        .args(["--reference", "five-leaf", "--trials", "10", "--json"])
+    let out = ilc_on_the_wrong_model("10")
+        .arg("--json")
         .assert()
         .success()
         .get_output()

@@ -822,18 +822,7 @@ fn predict(
         .map_err(|e| step_err("ILC")(e.to_string()))?;
     let check = ilc::robust::robust_check(design, &lm.model.tf, &error);
     if !check.converges() {
-        return Err(step_err("ILC")(format!(
-            "the model check fails: max |Q| (|1 - a L G| + a |L G| delta) = {:.4} >= 1 at {:.1} Hz (model error {:.1} %, {} on {})",
-            check.rho,
-            check.at_hz,
-            100.0 * check.delta_at_peak,
-            if check.measured_at_peak {
-                "measured"
-            } else {
-                "assumed"
-            },
-            error.source
-        )));
+        return Err(step_err("ILC")(check.failure(&error)));
     }
     Ok(check)
 }

@@ -311,7 +311,7 @@ impl Ilc {
                 .to_string(),
             )
         } else if !check.converges() {
-            Some(model_check_failure(&check, error))
+            Some(check.failure(error))
         } else {
             None
         };
@@ -399,22 +399,6 @@ fn ilc_error(e: ilc::IlcError) -> StepError {
         ilc::IlcError::Setting(m) => StepError::setting("q_cutoff", m),
         other => StepError::computation(other.to_string()),
     }
-}
-
-/// The model check's failure, with what it assumed.
-fn model_check_failure(check: &RobustCheck, error: &ModelError) -> String {
-    format!(
-        "the model check fails: max |Q| (|1 - a L G| + a |L G| delta) = {:.4} >= 1 at {:.1} Hz, where the model's relative error is {:.1} % ({} on {}); the learning would diverge on the loop. Lower Q's cutoff below where the model is wrong, or the learning gain",
-        check.rho,
-        check.at_hz,
-        100.0 * check.delta_at_peak,
-        if check.measured_at_peak {
-            "measured"
-        } else {
-            "assumed: not measured"
-        },
-        error.source
-    )
 }
 
 /// A cutoff beyond the Nyquist frequency is refused before any work.

@@ -131,6 +131,23 @@ impl RobustCheck {
     pub fn converges(&self) -> bool {
         self.rho < 1.0
     }
+
+    /// The failed check in words, with what it measured and what it
+    /// assumed (`error` is the model error it was evaluated with).
+    pub fn failure(&self, error: &ModelError) -> String {
+        format!(
+            "the model check fails: max |Q| (|1 - a L G| + a |L G| delta) = {:.4} >= 1 at {:.1} Hz, where the model's relative error is {:.1} % ({} on {}); the learning would diverge on the loop. Lower Q's cutoff below where the model is wrong, or the learning gain",
+            self.rho,
+            self.at_hz,
+            100.0 * self.delta_at_peak,
+            if self.measured_at_peak {
+                "measured"
+            } else {
+                "assumed: not measured"
+            },
+            error.source
+        )
+    }
 }
 
 /// Eq. (3) for `design` (made on `model`) on `points` frequencies up to
