@@ -138,11 +138,13 @@ pub fn run_ilc(args: IlcArgs) -> anyhow::Result<()> {
             &simulate,
             inputs,
             None,
-            &mut |note| eprintln!("{note}"),
+            &mut |message| note!("{message}"),
             &mut |row| {
-                eprintln!(
+                note!(
                     "trial {:>3}: max error {:.4} ({:.3} %)",
-                    row.trial, row.max_error, row.max_error_percent
+                    row.trial,
+                    row.max_error,
+                    row.max_error_percent
                 )
             },
         )
@@ -160,7 +162,7 @@ pub fn run_ilc(args: IlcArgs) -> anyhow::Result<()> {
         }
     }
     if report.diverging() {
-        eprintln!(
+        note!(
             "warning: a convergence check failed (see the prediction and the verdict); the result was written because --allow-divergence was given"
         );
     }

@@ -290,7 +290,7 @@ fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
     }
     match seen.iter().find(|(_, id, _)| others.contains(id)) {
         Some((option, _, value)) => Err(format!(
-            "{value} ({option}): refusing to write a result onto an input of this run; nothing was computed; name another file"
+            "{value}: refusing to write a result onto an input of this run ({option}); nothing was computed; name another file"
         )),
         None => Ok(()),
     }
