@@ -410,6 +410,9 @@ fn exact_figures_bracket_python_controls_sampled_ones() {
     assert!(compared >= 5, "{compared}");
 }
 
+/// One real or complex mode of a random system: `(A block, B, C)`.
+type ModalBlock = (Vec<Vec<f64>>, Vec<f64>, Vec<f64>);
+
 /// A random stable system with poles spread over six decades (real
 /// poles and lightly to well damped pairs, `|p|` from 1e-2 to 1e4), in a
 /// real modal realisation with random input and output weights.
@@ -422,7 +425,7 @@ fn spread_system() -> impl Strategy<Value = StateSpace> {
         -1.0f64..1.0,
     );
     (prop::collection::vec(mode, 2..5), -0.5f64..0.5).prop_map(|(modes, d)| {
-        let mut blocks: Vec<(Vec<Vec<f64>>, Vec<f64>, Vec<f64>)> = Vec::new();
+        let mut blocks: Vec<ModalBlock> = Vec::new();
         for (kind, lw, zeta, b, c) in modes {
             let w = 10f64.powf(lw);
             if kind == 0 {

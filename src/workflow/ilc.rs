@@ -35,7 +35,8 @@ pub const VALIDATION_AMPLITUDE: f64 = 1.0;
 pub struct Ilc {
     /// Trials after the first (which learns from nothing); default 10.
     pub trials: usize,
-    /// Learning gain; default: chosen with `q_cutoff` (see [`Ilc::choose`]).
+    /// Learning gain; default: chosen with `q_cutoff` (the largest of
+    /// [`CANDIDATE_GAINS`] the model check passes at the chosen cutoff).
     pub gain: Option<f64>,
     /// Cutoff of the zero-phase Q, Hz; default: the highest (in steps of
     /// 1/40 of Nyquist, not below the reference's band) at which a gain of
