@@ -15,6 +15,7 @@ use crate::sim::closed_loop::{self, TrackingMetrics};
 use crate::sim::reference::{self, Reference, ReferenceTiming};
 use crate::synth::ilc::robust::{self, ModelError, RobustCheck};
 use crate::synth::ilc::{self, IlcDesign, IlcParams};
+use crate::synth::zpetc::Zpetc;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -289,11 +290,10 @@ impl Ilc {
         band: f64,
         note: &mut dyn FnMut(&str),
     ) -> Result<(IlcDesign, Prediction), StepError> {
-        let base = ilc::design_unchecked(model, &self.params(1.0, 0.25 / model.ts()))
-            .map_err(ilc_error)?;
+        let learning = ilc::inversion(model, &IlcParams::default()).map_err(ilc_error)?;
         let (design, chosen) = match (self.gain, self.q_cutoff) {
-            (Some(gain), Some(cutoff)) => (self.candidate(&base, model, gain, cutoff)?, false),
-            _ => (self.choose(&base, model, error, band)?, true),
+            (Some(gain), Some(cutoff)) => (self.candidate(&learning, model, gain, cutoff)?, false),
+            _ => (self.choose(&learning, model, error, band)?, true),
         };
         let check = robust::robust_check(&design, model, error);
         let prediction = Prediction {
@@ -328,10 +328,10 @@ impl Ilc {
         }
     }
 
-    /// The law with this gain and cutoff on `base`'s inversion.
+    /// The law with this gain and cutoff on the inversion `learning`.
     fn candidate(
         &self,
-        base: &IlcDesign,
+        learning: &Zpetc,
         model: &DiscreteTf,
         gain: f64,
         cutoff: f64,
@@ -344,7 +344,7 @@ impl Ilc {
             ));
         }
         Ok(ilc::design_with_inversion(
-            base.learning.clone(),
+            learning.clone(),
             model,
             &self.params(gain, cutoff),
         ))
@@ -355,7 +355,7 @@ impl Ilc {
     /// [`CHOSEN_RHO_LIMIT`]; a given gain or cutoff is kept.
     fn choose(
         &self,
-        base: &IlcDesign,
+        learning: &Zpetc,
         model: &DiscreteTf,
         error: &ModelError,
         band: f64,
@@ -373,7 +373,7 @@ impl Ilc {
         let gains: Vec<f64> = self.gain.map_or(CANDIDATE_GAINS.to_vec(), |g| vec![g]);
         for &cutoff in &cutoffs {
             for &gain in &gains {
-                let d = self.candidate(base, model, gain, cutoff)?;
+                let d = self.candidate(learning, model, gain, cutoff)?;
                 if d.rho < 1.0 && robust::robust_check(&d, model, error).rho <= CHOSEN_RHO_LIMIT {
                     return Ok(d);
                 }

@@ -148,9 +148,13 @@ pub fn design_unchecked(g: &DiscreteTf, params: &IlcParams) -> Result<IlcDesign,
             params.q_half_length
         )));
     }
-    let learning =
-        zpetc::design(g, &params.inversion).map_err(|e| IlcError::Inversion(e.to_string()))?;
-    Ok(design_with_inversion(learning, g, params))
+    Ok(design_with_inversion(inversion(g, params)?, g, params))
+}
+
+/// `L`, the stable inversion of `g` as `params.inversion` makes it: what
+/// every law on one model shares ([`design_with_inversion`]).
+pub fn inversion(g: &DiscreteTf, params: &IlcParams) -> Result<Zpetc, IlcError> {
+    zpetc::design(g, &params.inversion).map_err(|e| IlcError::Inversion(e.to_string()))
 }
 
 /// [`design_unchecked`] with the inversion `L` of `g` already made (the
