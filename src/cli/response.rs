@@ -57,9 +57,25 @@ fn controller(args: &ResponseArgs, ts: Option<f64>) -> anyhow::Result<Option<Sta
         .controller
         .as_ref()
         .map_or("the PID".to_string(), |p| p.display().to_string());
-    k.to_ss()
-        .map(Some)
-        .map_err(|e| bad(format!("{source}: {e}")))
+    let k = k.to_ss().map_err(|e| bad(format!("{source}: {e}")))?;
+    let same = match (k.ts, ts) {
+        (None, None) => true,
+        (Some(a), Some(b)) => (a - b).abs() <= 1e-12 * a.abs().max(b.abs()),
+        _ => false,
+    };
+    if !same {
+        let says = |t: Option<f64>| {
+            t.map_or("continuous".to_string(), |t| {
+                format!("discrete (ts = {t} s)")
+            })
+        };
+        return Err(bad(format!(
+            "{source}: the controller is {} and the plant {}: a closed loop needs both continuous or both at one sample time",
+            says(k.ts),
+            says(ts)
+        )));
+    }
+    Ok(Some(k))
 }
 
 /// `fts response`.

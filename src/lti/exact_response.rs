@@ -608,7 +608,10 @@ pub fn exact_figures(
         count = max_steps;
         cut_short = true;
     }
-    let finest = Schedule::new(&poles, scale, top).finest();
+    // The lattice resolves the finest step and the horizon itself.
+    let finest = Schedule::new(&poles, scale, top)
+        .finest()
+        .min(horizon.log2().floor() as i32);
     let (m0, m1) = (finest - REFINE_LEVELS, top.max(finest));
     let levels = (m1 - m0 + 1) as f64;
     let k = (n + nu) as f64;

@@ -16,6 +16,12 @@ use std::fmt;
 
 /// Default number of grid points of a continuous response.
 pub const DEFAULT_POINTS: usize = 2001;
+/// The shortest `duration`, seconds (a nanosecond: far below any mode an
+/// FTS has, and the exact figures' time lattice stays in normal floats).
+pub const MIN_DURATION: f64 = 1e-9;
+/// The longest `duration`, seconds (about 32 years; beyond it `A t`
+/// overflows the matrix exponential of a fast system).
+pub const MAX_DURATION: f64 = 1e9;
 
 /// The step: which response, over how long, on how many points.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -44,6 +50,12 @@ impl Validate for Response {
     fn validate(&self) -> Result<(), StepError> {
         if let Some(d) = self.duration {
             positive("duration", d)?;
+            if !(MIN_DURATION..=MAX_DURATION).contains(&d) {
+                return Err(StepError::setting(
+                    "duration",
+                    format!("expected {MIN_DURATION:e} to {MAX_DURATION:e} seconds, got {d}"),
+                ));
+            }
         }
         if let Some(n) = self.points
             && !(2..=MAX_RESPONSE_SAMPLES).contains(&n)
@@ -103,15 +115,21 @@ impl Response {
         };
         let duration = self.duration(&sys)?;
         let grid = self.grid(&sys, duration)?;
+        // The grid's bounds are bad input, checked before stability.
+        let culprit = if self.points.is_some() {
+            "points"
+        } else {
+            "duration"
+        };
+        let resp = response::time_response(&sys, self.kind, &grid).map_err(|e| match e {
+            response::ResponseError::BadGrid(m) => StepError::setting(culprit, m),
+            response::ResponseError::Ss(e) => comp(e),
+        })?;
         if !stable {
             return Err(StepError::computation(unstable_message(
                 source, what, &poles, sys.ts,
             )));
         }
-        let resp = response::time_response(&sys, self.kind, &grid).map_err(|e| match e {
-            response::ResponseError::BadGrid(m) => StepError::setting("duration", m),
-            response::ResponseError::Ss(e) => comp(e),
-        })?;
         let search = 2.0 * response::default_duration(&sys).map_err(comp)?;
         let mut report = ResponseReport {
             closed_loop: inputs.controller.is_some(),
@@ -223,7 +241,7 @@ impl Response {
                 return Ok(());
             }
         };
-        if exact.cut_short || exact.horizon < horizon {
+        if exact.cut_short || exact.horizon < horizon * (1.0 - 1e-9) {
             report.warnings.push(format!(
                 "lightly damped modes: the figures were searched up to {:.6e} s only ({} steps at most)",
                 exact.searched_to,
@@ -245,7 +263,7 @@ impl Response {
                 let label = report.label(i, j);
                 report
                     .warnings
-                    .extend(self.horizon_warnings(&label, exact.horizon, &ch));
+                    .extend(self.horizon_warnings(&label, horizon, &ch));
                 if self.points.is_some() {
                     report
                         .warnings
@@ -338,7 +356,8 @@ impl Response {
             ));
         }
         let rise = c.info.as_ref()?.as_ref().ok()?.rise_time?;
-        (rise < MIN_RISE_SAMPLES * dt).then(|| {
+        // A rise of 0 is a jump through the feedthrough D: no grid shows more.
+        (rise > 0.0 && rise < MIN_RISE_SAMPLES * dt).then(|| {
             format!(
                 "{label}`points` {n} (dt = {dt:.3e} s) puts {:.1} samples in the rise ({rise:.6e} s): the samples (CSV, plot) do not show it; the figures are exact: give more points or a shorter duration",
                 rise / dt
@@ -425,7 +444,10 @@ fn unstable_message(source: &str, what: &str, poles: &[c64], ts: Option<f64>) ->
     let worst = poles
         .iter()
         .max_by(|a, b| key(a).total_cmp(&key(b)))
-        .map_or(String::new(), |p| format!(" (pole {})", fmt_complex(*p)));
+        // `+ 0.0` turns an integrator's -0 into 0.
+        .map_or(String::new(), |p| {
+            format!(" (pole {})", fmt_complex(c64::new(p.re + 0.0, p.im + 0.0)))
+        });
     format!(
         "{source}: the {what} is unstable{worst}: its response diverges, with no final value and no figures; nothing is written"
     )
