@@ -229,7 +229,7 @@ fn warnings(args: &[&str], file: &str) -> (Value, Vec<String>) {
     (v, err.lines().map(str::to_owned).collect())
 }
 
-/// docs/responses.md §3 "Warnings": a uniform grid too coarse for the
+/// docs/responses.md §2 "Warnings": a uniform grid too coarse for the
 /// fast mode, a duration shorter than the settling or the peak, an impulse
 /// response cut before it decays: one stderr line each, `warning: `, the
 /// option named; the figures stay exact.
