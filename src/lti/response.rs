@@ -1,6 +1,9 @@
 //! Step and impulse responses of state-space systems on a uniform time
 //! grid, and the step-response figures of MATLAB `stepinfo` /
-//! python-control `step_info` (docs/responses.md).
+//! python-control `step_info` read from samples (docs/responses.md). The
+//! figures `fts response` reports for a continuous system come from the
+//! response itself instead ([`super::exact_response`]): samples miss what
+//! happens between them.
 //!
 //! A continuous system is discretised exactly for a piecewise-constant
 //! input by the zero-order hold ([`super::c2d`], Van Loan's block
