@@ -71,7 +71,7 @@ fn file() -> MultiAxisControllerFile {
     let cc = block(Feedback::ParallelPid(parallel(
         0.4, 0.005, 0.0005, 100.0, 1e3,
     )));
-    controller_file([&x, &y, &z], Some(&cc), TS).unwrap()
+    controller_file([&x, &y, &z], Some(&cc), TS, Default::default()).unwrap()
 }
 
 fn simulate(file: &MultiAxisControllerFile) -> Vec<LoopSample> {

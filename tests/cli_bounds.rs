@@ -362,15 +362,19 @@ fn temp_files(dir: &Path) -> Vec<String> {
         .collect()
 }
 
-/// SIGKILL at random times while `excite` writes a 30 MB CSV: the target is
-/// either absent or complete, and the next run of any command (here
-/// `fts --version` in that folder) removes every temporary file the killed
-/// runs left.
+/// SIGKILL at random times while `excite` writes a 30 MB CSV into a
+/// folder of its own: the target is either absent or complete, and the
+/// next run of any command anywhere (here `fts --version` in another
+/// folder) removes every temporary file the killed runs left (their
+/// journals name the folder; docs/formats.md "Exit codes").
 #[test]
 #[cfg(unix)]
 fn killed_runs_leave_no_temporary_files_after_the_next_run() {
     use rand::{RngExt, SeedableRng};
     let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let elsewhere = tempfile::tempdir().unwrap();
     let bin = assert_cmd::cargo::cargo_bin("fts");
     // How long a whole run takes here, to spread the kills over it.
     let start = Instant::now();
@@ -384,7 +388,7 @@ fn killed_runs_leave_no_temporary_files_after_the_next_run() {
         "--ts",
         "1e-6",
         "-o",
-        "u.csv",
+        "out/u.csv",
     ];
     let status = std::process::Command::new(&bin)
         .current_dir(d.path())
@@ -393,12 +397,12 @@ fn killed_runs_leave_no_temporary_files_after_the_next_run() {
         .status()
         .unwrap();
     assert!(status.success());
-    let full = std::fs::read(d.path().join("u.csv")).unwrap();
+    let full = std::fs::read(out.join("u.csv")).unwrap();
     let run = start.elapsed();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(27);
     let mut stranded = 0;
     for _ in 0..50 {
-        std::fs::remove_file(d.path().join("u.csv")).ok();
+        std::fs::remove_file(out.join("u.csv")).ok();
         let mut child = std::process::Command::new(&bin)
             .current_dir(d.path())
             .args(args)
@@ -408,16 +412,16 @@ fn killed_runs_leave_no_temporary_files_after_the_next_run() {
         std::thread::sleep(run.mul_f64(rng.random_range(0.0..1.1)));
         child.kill().ok();
         child.wait().unwrap();
-        if let Ok(bytes) = std::fs::read(d.path().join("u.csv")) {
+        if let Ok(bytes) = std::fs::read(out.join("u.csv")) {
             assert!(bytes == full, "a half-written target");
         }
-        stranded += temp_files(d.path()).len();
+        stranded += temp_files(&out).len();
         fts()
-            .current_dir(d.path())
+            .current_dir(elsewhere.path())
             .arg("--version")
             .assert()
             .success();
-        let left = temp_files(d.path());
+        let left = temp_files(&out);
         assert!(left.is_empty(), "left behind: {left:?}");
     }
     // The test is only meaningful if some kills landed mid-write.

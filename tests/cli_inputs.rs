@@ -292,3 +292,110 @@ fn a_virtual_sweep_whose_loop_oscillates_writes_nothing() {
         .assert()
         .success();
 }
+
+/// docs/contouring.md "The loop": `fts contour --output-min/--output-max`
+/// clamp every controller fts builds (as the runtime clamps each block);
+/// the limits are written into `-o`, the run counts the samples at a
+/// limit, and replaying the written file gives the same errors.
+#[test]
+fn contour_command_limits_are_applied_written_and_replayed() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str]| -> Value {
+        let out = fts(dir.path())
+            .args([
+                "contour",
+                "circle",
+                "--ts",
+                "1e-5",
+                "--no-baseline",
+                "--json",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let free = run(&[]);
+    let limited = run(&["--output-min", "-5", "--output-max", "5", "-o", "k3.json"]);
+    assert_eq!(free["errors_um"]["limited_samples"], 0);
+    let n = limited["errors_um"]["limited_samples"].as_u64().unwrap();
+    assert!(n > 1000, "{limited}");
+    let rms = |v: &Value| v["errors_um"]["rms"]["contour"].as_f64().unwrap();
+    assert!((rms(&limited) - rms(&free)).abs() > 1e-3 * rms(&free));
+    let file: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("k3.json")).unwrap())
+            .unwrap();
+    for axis in ["x", "y", "z"] {
+        assert_eq!(file["axes"][axis]["output_min"], -5.0);
+        assert_eq!(file["axes"][axis]["output_max"], 5.0);
+    }
+    let replay = fts(dir.path())
+        .args([
+            "contour",
+            "circle",
+            "--controller",
+            "k3.json",
+            "--no-baseline",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(replay.status.success());
+    let replay: Value = serde_json::from_slice(&replay.stdout).unwrap();
+    assert_eq!(rms(&replay), rms(&limited));
+    let mut cmd = fts(dir.path());
+    cmd.args([
+        "contour",
+        "circle",
+        "--output-min",
+        "1",
+        "--output-max",
+        "-1",
+    ]);
+    refused(
+        &mut cmd,
+        2,
+        &["--output-max (-1) must exceed --output-min (1)"],
+    );
+}
+
+/// docs/learning.md "Disturbances": `file:PATH` with a time column plays
+/// the samples at their times: an 8 Hz sine recorded every 1 ms acts in the
+/// 0.1 ms loop as `sines:1@8` does (within the chords' error), not as an
+/// 80 Hz one; a file with only a time column is refused naming it.
+#[test]
+fn a_disturbance_file_plays_at_its_own_time_base() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("time_ms,d\n");
+    for k in 0..=1000 {
+        let t = k as f64 * 1e-3;
+        csv += &format!("{k},{}\n", (2.0 * PI * 8.0 * t).sin());
+    }
+    std::fs::write(dir.path().join("d.csv"), csv).unwrap();
+    std::fs::write(dir.path().join("t.csv"), "t\n0\n1\n").unwrap();
+    let max_error = |spec: &str| {
+        let out = fts(dir.path())
+            .args(["simulate", "--controller", "pid", "--reference", "sine"])
+            .args(["--amplitude", "0.001", "--duration", "0.5", "--json"])
+            .args(["--output-disturbance", spec])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["max_abs_error"].as_f64().unwrap()
+    };
+    let (file, sines) = (max_error("file:d.csv"), max_error("sines:1@8"));
+    assert!((file - sines).abs() < 2e-3 * sines, "{file} vs {sines}");
+    let mut cmd = fts(dir.path());
+    cmd.args(["simulate", "--output-disturbance", "file:t.csv"]);
+    refused(&mut cmd, 2, &["t.csv", "column 2"]);
+}

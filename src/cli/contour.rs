@@ -175,6 +175,14 @@ pub struct ContourArgs {
     /// No cross-coupling (the axes alone).
     #[arg(long, conflicts_with = "cross_coupling")]
     no_cc: bool,
+    /// Lowest command of every controller fts builds here (the PIDs and the
+    /// --controller-x/y/z, --cc-controller systems; a controller file's
+    /// block keeps its own limits) [none].
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "controller")]
+    output_min: Option<f64>,
+    /// Highest command of those controllers [none].
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "controller")]
+    output_max: Option<f64>,
     /// Skip the run without cross-coupling.
     #[arg(long)]
     no_baseline: bool,
@@ -239,6 +247,8 @@ impl ContourArgs {
             },
             baseline: !self.no_baseline,
             output_disturbance: disturbance,
+            output_min: self.output_min,
+            output_max: self.output_max,
             trace_points: d.trace_points,
         })
     }

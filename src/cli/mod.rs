@@ -148,8 +148,17 @@ enum Command {
 
 /// Runs the command line and returns the process exit code.
 pub fn main() -> ExitCode {
-    // Temporary files of runs killed mid-write (in the working folder here;
-    // in each output's folder when it is written).
+    let code = run_command_line();
+    // Every temporary file of this run is renamed or removed by now.
+    crate::pipeline::close_journal();
+    code
+}
+
+fn run_command_line() -> ExitCode {
+    // Temporary files of runs killed mid-write: wherever their journals
+    // say they staged, in the working folder, and in each output's folder
+    // when it is written.
+    crate::pipeline::sweep_stranded();
     common::sweep(std::path::Path::new("."));
     if let Err(message) = reject_ambiguous_options(std::env::args_os().skip(1)) {
         note!("fts: error: {message}");

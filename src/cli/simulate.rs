@@ -106,7 +106,7 @@ pub struct LoopArgs {
     /// Plug-in repetitive compensator (`fts.repetitive/1`, from `fts repetitive`) added to the stages.
     #[arg(long, value_name = "RC.json", conflicts_with = "controller_file")]
     repetitive: Option<PathBuf>,
-    /// Disturbance added to the plant's output, um: sines:A@HZ[@DEG],.. | spindle:A@HZ[,h2,h3,..] | file:PATH (one sample per controller period).
+    /// Disturbance added to the plant's output, um: sines:A@HZ[@DEG],.. | spindle:A@HZ[,h2,h3,..] | file:PATH (a CSV's first non-time column, played at its time column's times, else one row per controller period).
     #[arg(long, value_name = "SPEC")]
     output_disturbance: Option<String>,
     /// Disturbance added to the command at the plant's input, V (same forms as --output-disturbance).
@@ -167,26 +167,45 @@ impl LoopArgs {
     }
 }
 
-/// A `--*-disturbance` spec; `file:PATH` reads the first column of a CSV.
+/// A `--*-disturbance` spec; `file:PATH` reads a CSV's first column that
+/// is not its time column. With a time column (`t`, `time`, `time_ms`, ..)
+/// the samples are played at their times (interpolated at the loop's);
+/// without one, a row is one loop period.
 fn read_disturbance(flag: &str, spec: &Option<String>) -> anyhow::Result<Option<Disturbance>> {
     let Some(spec) = spec else {
         return Ok(None);
     };
     if let Some(path) = spec.strip_prefix("file:") {
-        let path = Path::new(path);
-        let source = path.display().to_string();
-        let params = ReadParams {
-            columns: vec![ColumnRef::parse("1")],
-            min_rows: 1,
-            ..ReadParams::default()
-        };
-        let table = read_table(open_input(path)?, &source, &params)?;
-        let values = table.columns.into_iter().next().unwrap_or_default();
-        return Ok(Some(Disturbance::Samples { values }));
+        return read_disturbance_file(Path::new(path)).map(Some);
     }
     Disturbance::parse(spec)
         .map(Some)
         .map_err(|e| bad(format!("invalid value '{spec}' for '{flag} <SPEC>': {e}")))
+}
+
+fn read_disturbance_file(path: &Path) -> anyhow::Result<Disturbance> {
+    let source = path.display().to_string();
+    let read = |column: usize| -> anyhow::Result<_> {
+        let params = ReadParams {
+            columns: vec![ColumnRef::Index(column)],
+            time: TimeColumn::Find,
+            min_rows: 1,
+            ..ReadParams::default()
+        };
+        Ok(read_table(open_input(path)?, &source, &params)?)
+    };
+    let mut table = read(1)?;
+    let time_first = table.timing.as_ref().map(|t| &t.column) == table.names.first();
+    if time_first {
+        table = read(2)?;
+    }
+    let values = table.columns.into_iter().next().unwrap_or_default();
+    let d = Disturbance::Samples {
+        values,
+        time_s: table.time,
+    };
+    d.validate().map_err(|e| bad(format!("{source}: {e}")))?;
+    Ok(d)
 }
 
 /// The linear model of `--plant-tf` (behind `--plant-hysteresis`), else the

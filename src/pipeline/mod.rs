@@ -20,6 +20,6 @@ pub mod run;
 pub use hash::{Lock, LockEntry};
 pub use manifest::{Plan, Step, parse_manifest};
 pub use run::{
-    Event, PipelineError, Status, StepReport, build, check, folder_of, keep_previous, load, stage,
-    sweep_stale_temps, write_atomic,
+    Event, PipelineError, Status, StepReport, build, check, close_journal, folder_of,
+    keep_previous, load, stage, sweep_stale_temps, sweep_stranded, write_atomic,
 };

@@ -136,6 +136,7 @@ fn temp_builder<'a>(prefix: &'a str) -> tempfile::Builder<'a, 'static> {
 /// Writes `bytes` to a synced temporary file beside `path`, to be renamed
 /// over it (`persist`); dropped unpersisted, it is removed.
 pub fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFile> {
+    journal::record(folder_of(path));
     let prefix = format!("{TEMP_PREFIX}{}-", std::process::id());
     let mut builder = temp_builder(&prefix);
     // tempfile creates 0600 files; an output gets the usual 0644 (less the
@@ -155,6 +156,7 @@ pub fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<tempfile::NamedTempFi
 /// Keeps the current content of `path` under a temporary name beside it (a
 /// hard link, else a copy), so that a multi-file commit can be undone.
 pub fn keep_previous(path: &Path) -> std::io::Result<std::path::PathBuf> {
+    journal::record(folder_of(path));
     let prefix = format!("{TEMP_PREFIX}{}-", std::process::id());
     let tmp = temp_builder(&prefix).tempfile_in(folder_of(path))?;
     let (file, name) = tmp.keep().map_err(|e| e.error)?;
@@ -165,6 +167,101 @@ pub fn keep_previous(path: &Path) -> std::io::Result<std::path::PathBuf> {
         std::fs::copy(path, &name)?;
     }
     Ok(name)
+}
+
+/// Where a run's temporary files may be, so that any later run can remove
+/// those a killed one stranded, wherever they are: before a run stages a
+/// file in a folder it appends the folder's absolute path to its own
+/// journal, `<temp dir>/fts-staging-<uid>/<pid>`, and removes the journal
+/// when it ends; every run starts by sweeping the folders of the journals
+/// whose process is gone ([`sweep_stranded`]).
+mod journal {
+    use std::io::Write;
+    use std::path::{Path, PathBuf};
+    use std::sync::Mutex;
+
+    /// Folders this run has journalled.
+    static RECORDED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+    fn folder() -> PathBuf {
+        #[cfg(unix)]
+        // SAFETY: getuid has no preconditions and cannot fail.
+        let user = unsafe { libc::getuid() }.to_string();
+        #[cfg(not(unix))]
+        let user = std::env::var("USERNAME").unwrap_or_default();
+        std::env::temp_dir().join(format!("fts-staging-{user}"))
+    }
+
+    fn own() -> PathBuf {
+        folder().join(std::process::id().to_string())
+    }
+
+    /// Journals `dir` (once per run). Best effort: a journal that cannot be
+    /// written leaves the folder to the sweep of the runs that write there.
+    pub fn record(dir: &Path) {
+        let Ok(dir) = std::path::absolute(dir) else {
+            return;
+        };
+        let Ok(mut recorded) = RECORDED.lock() else {
+            return;
+        };
+        if recorded.contains(&dir) {
+            return;
+        }
+        let _ = std::fs::create_dir_all(folder());
+        let line = format!("{}\n", dir.display());
+        let written = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(own())
+            .and_then(|mut f| f.write_all(line.as_bytes()).and_then(|()| f.sync_all()));
+        if written.is_ok() {
+            recorded.push(dir);
+        }
+    }
+
+    /// Removes this run's journal (its temporary files are gone).
+    pub fn close() {
+        let _ = std::fs::remove_file(own());
+    }
+
+    /// The folders of the journals of ended runs, each journal removed.
+    pub fn stranded() -> Vec<PathBuf> {
+        let Ok(entries) = std::fs::read_dir(folder()) else {
+            return Vec::new();
+        };
+        let mut dirs = Vec::new();
+        for entry in entries.flatten() {
+            let pid = entry
+                .file_name()
+                .to_str()
+                .and_then(|n| n.parse::<u32>().ok());
+            let ended = pid.is_some_and(|p| p != std::process::id() && !super::alive(p));
+            if !ended {
+                continue;
+            }
+            if let Ok(text) = std::fs::read_to_string(entry.path()) {
+                dirs.extend(text.lines().map(PathBuf::from));
+            }
+            let _ = std::fs::remove_file(entry.path());
+        }
+        dirs.sort();
+        dirs.dedup();
+        dirs
+    }
+}
+
+/// Removes the temporary files of every killed run, in whatever folder it
+/// staged them (from the runs' journals).
+pub fn sweep_stranded() {
+    for dir in journal::stranded() {
+        sweep_stale_temps(&dir);
+    }
+}
+
+/// Ends this run's journal: call when its temporary files are gone.
+pub fn close_journal() {
+    journal::close();
 }
 
 /// Whether process `pid` still runs (a zombie counts as running).

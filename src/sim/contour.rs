@@ -180,6 +180,17 @@ pub const KARAGOZ18_PLANTS: [(&[f64], &[f64]); 3] = [
     (&[355600.0, 5468000.0], &[1.0, 607.5, 344.0, 2643.0]),
 ];
 
+/// Command limits of the controllers fts builds (PIDs, state-space
+/// systems); a controller file's block keeps its own. `None`: unlimited,
+/// as \[Karagoz18\] simulates.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CommandLimits {
+    /// Lowest command.
+    pub min: Option<f64>,
+    /// Highest command.
+    pub max: Option<f64>,
+}
+
 /// One axis before discretisation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisSetup {
@@ -202,6 +213,8 @@ pub struct MultiAxisLoop {
     disturbances: [Vec<Sine>; 3],
     /// Each axis's own closed loop, judged by its poles.
     pub axis_loops: [AxisLoop; 3],
+    limits: CommandLimits,
+    limited_samples: usize,
 }
 
 /// An axis's own closed loop (plant and controller, unity feedback).
@@ -234,7 +247,12 @@ fn discrete(
 /// The discrete controller block of `c` at `ts`: a PID or a state-space
 /// system by Tustin (a state-space block without limits), a file's block
 /// as it is.
-fn controller_block(c: &AxisController, ts: f64, what: &str) -> Result<Feedback, ContourError> {
+fn controller_block(
+    c: &AxisController,
+    ts: f64,
+    limits: CommandLimits,
+    what: &str,
+) -> Result<Feedback, ContourError> {
     let setup = |e: String| ContourError::Setup(format!("{what}: {e}"));
     let (k, how) = match c {
         AxisController::Block { feedback, ts: t } => {
@@ -268,7 +286,15 @@ fn controller_block(c: &AxisController, ts: f64, what: &str) -> Result<Feedback,
         }
     };
     let mut block = StateSpaceBlock::from_discrete(&k, ts, &how).map_err(setup)?;
-    block.anti_windup = SsAntiWindup::None;
+    block.output_min = limits.min;
+    block.output_max = limits.max;
+    // Clamped commands hold the states (the runtime's conditional update),
+    // as a limited PID stops integrating.
+    block.anti_windup = if limits == CommandLimits::default() {
+        SsAntiWindup::None
+    } else {
+        SsAntiWindup::ConditionalUpdate
+    };
     Ok(Feedback::StateSpace(block))
 }
 
@@ -302,17 +328,15 @@ pub fn controller_file(
     axes: [&AxisController; 3],
     cross: Option<&AxisController>,
     ts: f64,
+    limits: CommandLimits,
 ) -> Result<MultiAxisControllerFile, ContourError> {
     let mut blocks = Vec::with_capacity(3);
     for (i, c) in axes.iter().enumerate() {
-        blocks.push(controller_block(
-            c,
-            ts,
-            &format!("axis {} controller", AXES[i]),
-        )?);
+        let what = format!("axis {} controller", AXES[i]);
+        blocks.push(controller_block(c, ts, limits, &what)?);
     }
     let cross = cross
-        .map(|c| controller_block(c, ts, "cross-coupling controller"))
+        .map(|c| controller_block(c, ts, limits, "cross-coupling controller"))
         .transpose()?;
     Ok(MultiAxisControllerFile {
         ts,
@@ -381,11 +405,14 @@ impl MultiAxisLoop {
         axes: &[AxisSetup; 3],
         cross: Option<&AxisController>,
         ts: f64,
+        limits: CommandLimits,
     ) -> Result<Self, ContourError> {
         let controllers = [0, 1, 2].map(|i| &axes[i].controller);
-        let file = controller_file(controllers, cross, ts)?;
+        let file = controller_file(controllers, cross, ts, limits)?;
         let plants = [0, 1, 2].map(|i| (axes[i].plant.clone(), axes[i].disturbance.clone()));
-        Self::from_file(plants, file)
+        let mut lp = Self::from_file(plants, file)?;
+        lp.limits = limits;
+        Ok(lp)
     }
 
     /// The loop of `plants` (each with its output disturbance) under the
@@ -432,6 +459,8 @@ impl MultiAxisLoop {
             file,
             disturbances: plants.map(|(_, d)| d),
             axis_loops,
+            limits: CommandLimits::default(),
+            limited_samples: 0,
         })
     }
 
@@ -460,6 +489,12 @@ impl MultiAxisLoop {
         let t = k as f64 * self.ts;
         let y: Vec3 = std::array::from_fn(|i| self.plants[i].output(0.0) + self.disturbance(i, t));
         let u = self.controllers.step(&reference, &tangent, &y);
+        let (lo, hi) = (self.limits.min, self.limits.max);
+        if u.iter()
+            .any(|u| lo.is_some_and(|lo| *u <= lo) || hi.is_some_and(|hi| *u >= hi))
+        {
+            self.limited_samples += 1;
+        }
         for (plant, u) in self.plants.iter_mut().zip(u) {
             plant.update(u);
         }
@@ -514,6 +549,9 @@ pub struct ContourMetrics {
     pub max_estimate: f64,
     /// Samples evaluated.
     pub samples: usize,
+    /// Samples at which an axis command was at or beyond a command limit
+    /// (`CommandLimits`; 0 without limits).
+    pub limited_samples: usize,
 }
 
 /// A thinned record of a run, for plots and CSV.
@@ -576,6 +614,7 @@ impl Accumulator {
             rms_estimate: (self.sq_estimate / n).sqrt(),
             max_estimate: self.max_estimate,
             samples: self.n,
+            limited_samples: 0,
         }
     }
 }
@@ -615,8 +654,10 @@ pub fn run(
             trace.estimate.push(estimate);
         }
     }
+    let mut metrics = acc.metrics();
+    metrics.limited_samples = lp.limited_samples;
     Ok(ContourRun {
-        metrics: acc.metrics(),
+        metrics,
         trace,
         stride,
     })
@@ -669,7 +710,8 @@ mod tests {
         // One straight side at cruise: e = v / Kp along the path, and no
         // contour error with equal axes (the error is along the tangent).
         let traj = square_traj();
-        let mut lp = MultiAxisLoop::new(&axes([20.0; 3]), None, 1e-4).unwrap();
+        let mut lp =
+            MultiAxisLoop::new(&axes([20.0; 3]), None, 1e-4, CommandLimits::default()).unwrap();
         let run = run(&mut lp, &traj, 0.0, 1000).unwrap();
         let m = run.metrics;
         // At cruise on side 1 (along x): e_x = 0.5 / 20 = 0.025.
@@ -692,11 +734,23 @@ mod tests {
             n: 100.0,
         });
         let uncoupled = {
-            let mut lp = MultiAxisLoop::new(&axes([10.0, 30.0, 10.0]), None, 1e-4).unwrap();
+            let mut lp = MultiAxisLoop::new(
+                &axes([10.0, 30.0, 10.0]),
+                None,
+                1e-4,
+                CommandLimits::default(),
+            )
+            .unwrap();
             run(&mut lp, &traj, 0.0, 100).unwrap().metrics
         };
         let coupled = {
-            let mut lp = MultiAxisLoop::new(&axes([10.0, 30.0, 10.0]), Some(&cc), 1e-4).unwrap();
+            let mut lp = MultiAxisLoop::new(
+                &axes([10.0, 30.0, 10.0]),
+                Some(&cc),
+                1e-4,
+                CommandLimits::default(),
+            )
+            .unwrap();
             run(&mut lp, &traj, 0.0, 100).unwrap().metrics
         };
         assert!(uncoupled.rms_contour > 1e-3, "{uncoupled:?}");
@@ -756,11 +810,11 @@ mod tests {
             d: 0.0,
             n: 100.0,
         });
-        let e = MultiAxisLoop::new(&a, None, 1e-3).unwrap_err();
+        let e = MultiAxisLoop::new(&a, None, 1e-3, CommandLimits::default()).unwrap_err();
         assert!(matches!(e, ContourError::Unstable { axis: "y", .. }), "{e}");
         let mut a = axes([1.0; 3]);
         a[2].plant = StateSpace::from_tf(&[1.0, 2.0], &[1.0, 3.0], None).unwrap();
-        let e = MultiAxisLoop::new(&a, None, 1e-3).unwrap_err();
+        let e = MultiAxisLoop::new(&a, None, 1e-3, CommandLimits::default()).unwrap_err();
         assert!(e.to_string().contains("strictly proper"), "{e}");
     }
 }

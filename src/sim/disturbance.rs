@@ -47,11 +47,16 @@ pub enum Disturbance {
         /// Relative amplitudes of harmonics 1, 2, ..
         harmonics: Vec<f64>,
     },
-    /// Recorded samples, one per controller sample from the run's start,
-    /// 0 past their end.
+    /// Recorded samples, 0 past their end: one per controller sample from
+    /// the run's start, or at the times `time_s` (linearly interpolated at
+    /// the controller's samples, the first time being the run's start).
     Samples {
         /// The values.
         values: Vec<f64>,
+        /// Their times, s (increasing, one per value); `None`: one value
+        /// per controller sample.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        time_s: Option<Vec<f64>>,
     },
 }
 
@@ -159,12 +164,15 @@ impl Disturbance {
                     return bad("spindle harmonics must be finite and not all zero");
                 }
             }
-            Self::Samples { values } => {
+            Self::Samples { values, time_s } => {
                 if let Some(i) = values.iter().position(|v| !v.is_finite()) {
                     return Err(DisturbanceError(format!(
                         "disturbance sample {} is not finite",
                         i + 1
                     )));
+                }
+                if let Some(t) = time_s {
+                    check_times(t, values.len())?;
                 }
             }
         }
@@ -209,11 +217,59 @@ impl Disturbance {
                 let scale = if peak > 0.0 { amplitude / peak } else { 0.0 };
                 (0..n).map(|k| scale * shape(k as f64 * ts)).collect()
             }
-            Self::Samples { values } => (0..n)
+            Self::Samples {
+                values,
+                time_s: None,
+            } => (0..n)
                 .map(|k| values.get(k).copied().unwrap_or(0.0))
                 .collect(),
+            Self::Samples {
+                values,
+                time_s: Some(t),
+            } => interpolate(t, values, n, ts),
         }
     }
+}
+
+/// `time_s` increasing, finite, one per value (at least two).
+fn check_times(t: &[f64], values: usize) -> Result<(), DisturbanceError> {
+    if t.len() != values || t.len() < 2 {
+        return Err(DisturbanceError(format!(
+            "{} times for {values} disturbance samples: one time per sample, at least two",
+            t.len()
+        )));
+    }
+    if let Some(i) = (1..t.len()).find(|&i| !(t[i].is_finite() && t[i] > t[i - 1])) {
+        return Err(DisturbanceError(format!(
+            "disturbance time {} ({}) does not follow {} ({}): times must increase",
+            i + 1,
+            t[i],
+            i,
+            t[i - 1]
+        )));
+    }
+    Ok(())
+}
+
+/// `d(k ts)` for `k < n`, `t` measured from `t[0]`: linear between the two
+/// recorded samples around it, 0 past the last.
+fn interpolate(t: &[f64], values: &[f64], n: usize, ts: f64) -> Vec<f64> {
+    let mut j = 0;
+    (0..n)
+        .map(|k| {
+            let tk = t[0] + k as f64 * ts;
+            // The last time counts when it falls on the grid within rounding.
+            let last = t[t.len() - 1];
+            if tk > last + 1e-9 * ts {
+                return 0.0;
+            }
+            while j + 2 < t.len() && t[j + 1] < tk {
+                j += 1;
+            }
+            let w = ((tk - t[j]) / (t[j + 1] - t[j])).clamp(0.0, 1.0);
+            values[j] + w * (values[j + 1] - values[j])
+        })
+        .collect()
 }
 
 /// A plant with disturbances: `input[k]` is added to the command applied
@@ -311,5 +367,41 @@ mod tests {
         assert_eq!(p.true_output(), 12.5);
         p.advance(10.0); // past both ends
         assert_eq!(p.measure(), 10.0);
+    }
+
+    /// A recorded 8 Hz sine at 1 ms, played at 0.1 ms, stays 8 Hz: each
+    /// sample is the linear interpolant of the record (a chord of the sine,
+    /// within h^2/8 max|d''| of it), and the run is 0 past the last time.
+    #[test]
+    fn timed_samples_keep_their_frequency() {
+        let w = 2.0 * PI * 8.0;
+        let t: Vec<f64> = (0..=100).map(|k| 2.0 + k as f64 * 1e-3).collect();
+        let values: Vec<f64> = t.iter().map(|t| (w * (t - 2.0)).sin()).collect();
+        let d = Disturbance::Samples {
+            values,
+            time_s: Some(t),
+        };
+        d.validate().unwrap();
+        let s = d.samples(1200, 1e-4);
+        let chord = 1e-6 / 8.0 * w * w;
+        for (k, v) in s.iter().enumerate().take(1001) {
+            let exact = (w * k as f64 * 1e-4).sin();
+            assert!(
+                (v - exact).abs() <= chord * (1.0 + 1e-9),
+                "{k}: {v} vs {exact}"
+            );
+        }
+        assert!(s[1001..].iter().all(|v| *v == 0.0));
+        for (time, why) in [
+            (vec![0.0, 1e-3], "one time per sample"),
+            (vec![0.0, 1e-3, 1e-3], "must increase"),
+            (vec![0.0, f64::NAN, 2e-3], "must increase"),
+        ] {
+            let d = Disturbance::Samples {
+                values: vec![1.0; 3],
+                time_s: Some(time),
+            };
+            assert!(d.validate().unwrap_err().0.contains(why));
+        }
     }
 }

@@ -11,8 +11,8 @@ use crate::io::controller_file::MultiAxisControllerFile;
 use crate::io::plot::{Panel, PlotError, PlotFormat, Series, render};
 use crate::lti::ss::StateSpace;
 use crate::sim::contour::{
-    AXES, AxisController, AxisLoop, AxisSetup, ContourError, ContourMetrics, ContourRun,
-    KARAGOZ18_AXIS_PID, KARAGOZ18_CC_PID, KARAGOZ18_PLANTS, MultiAxisLoop, run,
+    AXES, AxisController, AxisLoop, AxisSetup, CommandLimits, ContourError, ContourMetrics,
+    ContourRun, KARAGOZ18_AXIS_PID, KARAGOZ18_CC_PID, KARAGOZ18_PLANTS, MultiAxisLoop, run,
 };
 use crate::sim::disturbance::{Disturbance, Sine};
 use crate::sim::path::{MotionLimits, Path, Shape, Trajectory};
@@ -430,6 +430,12 @@ pub struct Contour {
     pub baseline: bool,
     /// Sines added at every plant output, um; default 100 um at 75 rad/s.
     pub output_disturbance: Option<Disturbance>,
+    /// Lowest command of every controller fts builds here (the PIDs and
+    /// `--x`/`--y`/`--z`/`--cc` systems; a controller file's block keeps
+    /// its own limits); default none, as \[Karagoz18\] simulates.
+    pub output_min: Option<f64>,
+    /// Highest command of those controllers; default none.
+    pub output_max: Option<f64>,
     /// Points kept in the trace for plots and CSV; default 20000.
     #[serde(deserialize_with = "whole_number")]
     pub trace_points: usize,
@@ -447,6 +453,8 @@ impl Default for Contour {
             cross_coupling: Some(gains_of(KARAGOZ18_CC_PID)),
             baseline: true,
             output_disturbance: Some(karagoz18_disturbance()),
+            output_min: None,
+            output_max: None,
             trace_points: 20_000,
         }
     }
@@ -514,6 +522,7 @@ impl Validate for Contour {
         if let Some(g) = self.cross_coupling {
             check_pid("cross_coupling", g)?;
         }
+        command_limits(self.output_min, self.output_max)?;
         self.sines()?;
         let traj = self.trajectory.plan()?;
         let n = (traj.duration() + self.settle) / self.ts;
@@ -535,6 +544,31 @@ impl Validate for Contour {
         }
         Ok(())
     }
+}
+
+/// The command limits `output_min` < `output_max`, each finite.
+fn command_limits(min: Option<f64>, max: Option<f64>) -> Result<CommandLimits, StepError> {
+    for (field, v) in [("output_min", min), ("output_max", max)] {
+        if let Some(v) = v.filter(|v| !v.is_finite()) {
+            return Err(StepError::setting(
+                field,
+                format!("expected a finite command, got {}", super::fmt_value(v)),
+            ));
+        }
+    }
+    if let (Some(lo), Some(hi)) = (min, max)
+        && lo >= hi
+    {
+        return Err(StepError::setting(
+            "output_max",
+            format!(
+                "`output_max` ({}) must exceed `output_min` ({})",
+                super::fmt_value(hi),
+                super::fmt_value(lo)
+            ),
+        ));
+    }
+    Ok(CommandLimits { min, max })
 }
 
 /// `PID P + I/s + D N s/(s + N)`.
@@ -613,7 +647,8 @@ impl Contour {
         cc: Option<&AxisController>,
         traj: &Trajectory,
     ) -> Result<AxesRun, StepError> {
-        let mut lp = MultiAxisLoop::new(axes, cc, self.ts).map_err(contour_error)?;
+        let limits = command_limits(self.output_min, self.output_max)?;
+        let mut lp = MultiAxisLoop::new(axes, cc, self.ts, limits).map_err(contour_error)?;
         let run = run(&mut lp, traj, self.settle, self.trace_points).map_err(contour_error)?;
         Ok(AxesRun {
             run,
@@ -650,6 +685,7 @@ impl Contour {
             controllers,
             cross_coupling: cross_name,
             disturbance: self.sines()?,
+            limits: command_limits(self.output_min, self.output_max)?,
             main,
             baseline,
             seconds: started.elapsed().as_secs_f64(),
@@ -675,6 +711,10 @@ pub struct BuildMultiAxis {
     pub cross_coupling: PidGains4,
     /// Write the coupling (false: uncoupled axes); default true.
     pub coupled: bool,
+    /// Lowest command of every controller written; default none.
+    pub output_min: Option<f64>,
+    /// Highest command of every controller written; default none.
+    pub output_max: Option<f64>,
 }
 
 impl Default for BuildMultiAxis {
@@ -687,6 +727,8 @@ impl Default for BuildMultiAxis {
             pid_z: c.pid_z,
             cross_coupling: gains_of(KARAGOZ18_CC_PID),
             coupled: true,
+            output_min: None,
+            output_max: None,
         }
     }
 }
@@ -697,7 +739,8 @@ impl Validate for BuildMultiAxis {
         check_pid("pid_x", self.pid_x)?;
         check_pid("pid_y", self.pid_y)?;
         check_pid("pid_z", self.pid_z)?;
-        check_pid("cross_coupling", self.cross_coupling)
+        check_pid("cross_coupling", self.cross_coupling)?;
+        command_limits(self.output_min, self.output_max).map(|_| ())
     }
 }
 
@@ -724,6 +767,7 @@ impl BuildMultiAxis {
             [&axes[0], &axes[1], &axes[2]],
             cross.as_ref(),
             self.ts,
+            command_limits(self.output_min, self.output_max)?,
         )
         .map_err(contour_error)?;
         file.provenance = provenance;
@@ -744,6 +788,8 @@ pub struct ContourReport {
     pub cross_coupling: Option<String>,
     /// The output disturbance of every axis.
     pub disturbance: Vec<Sine>,
+    /// The command limits of the controllers fts built.
+    pub limits: CommandLimits,
     /// The run (with cross-coupling when set).
     pub main: AxesRun,
     /// The same axes without cross-coupling.
@@ -759,10 +805,36 @@ fn metrics_json(m: &ContourMetrics) -> Value {
         "max": {"x": m.max_axis[0], "y": m.max_axis[1], "z": m.max_axis[2],
             "contour": m.max_contour, "contour_estimate": m.max_estimate},
         "samples": m.samples,
+        "limited_samples": m.limited_samples,
     })
 }
 
 impl ContourReport {
+    /// The command limits and how often the run met them; the axes'
+    /// stability above is that of the linear loops.
+    fn write_limits(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let CommandLimits { min, max } = self.limits;
+        if min.is_none() && max.is_none() {
+            return Ok(());
+        }
+        let bound = |v: Option<f64>| v.map_or("none".to_owned(), |v| v.to_string());
+        let m = &self.main.run.metrics;
+        writeln!(
+            f,
+            "command limits {} .. {} on every controller fts built: {} of {} samples ({:.2} %) at or beyond a limit{}",
+            bound(min),
+            bound(max),
+            m.limited_samples,
+            m.samples,
+            100.0 * m.limited_samples as f64 / m.samples.max(1) as f64,
+            if m.limited_samples > 0 {
+                " (the stability above is the linear loops'; the run is the limited one)"
+            } else {
+                ""
+            }
+        )
+    }
+
     /// Baseline contour RMS over the run's (exact and estimate), when both exist.
     pub fn improvement(&self) -> Option<(f64, f64)> {
         let (b, m) = (&self.baseline.as_ref()?.metrics, &self.main.run.metrics);
@@ -797,6 +869,8 @@ impl Serialize for ContourReport {
             "axes": self.axes_json(),
             "cross_coupling": self.cross_coupling,
             "disturbance_um": self.disturbance,
+            "output_min": self.limits.min,
+            "output_max": self.limits.max,
             "errors_um": metrics_json(&self.main.run.metrics),
             "baseline_errors_um": self.baseline.as_ref().map(|b| metrics_json(&b.metrics)),
             "improvement": improvement,
@@ -860,6 +934,7 @@ impl fmt::Display for ContourReport {
         if let Some(cc) = &self.cross_coupling {
             writeln!(f, "cross-coupling: {cc}")?;
         }
+        self.write_limits(f)?;
         let label = match self.cross_coupling {
             Some(_) => "with CCC",
             None => "no cross-coupling",
@@ -1136,7 +1211,10 @@ mod tests {
             })
         ));
         let bad = Contour {
-            output_disturbance: Some(Disturbance::Samples { values: vec![1.0] }),
+            output_disturbance: Some(Disturbance::Samples {
+                values: vec![1.0],
+                time_s: None,
+            }),
             ..Contour::default()
         };
         assert!(matches!(

@@ -208,7 +208,7 @@ impl Validate for SsController {
         {
             return Err(StepError::setting(
                 "output_max",
-                format!("output_max ({hi}) must exceed output_min ({lo})"),
+                format!("`output_max` ({hi}) must exceed `output_min` ({lo})"),
             ));
         }
         Ok(())

@@ -185,7 +185,7 @@ impl Validate for VirtualSweep {
             return Err(StepError::setting(
                 "output_max",
                 format!(
-                    "output_max ({}) must exceed output_min ({})",
+                    "`output_max` ({}) must exceed `output_min` ({})",
                     self.output_max, self.output_min
                 ),
             ));

@@ -298,6 +298,7 @@ impl Hinf {
     /// Synthesises the controller for the generalised plant `p` (`source`
     /// names it in messages).
     pub fn run(&self, p: &StateSpace, source: &str) -> Result<HinfReport, StepError> {
+        check_synthesis_states(p.nx(), source, "hinf")?;
         let result =
             hinfsyn(p, self.nmeas, self.ncon, self.options()?).map_err(|e| synth_err(source, e))?;
         Ok(HinfReport {
@@ -528,6 +529,7 @@ impl H2 {
     /// Synthesises the controller for the generalised plant `p`.
     pub fn run(&self, p: &StateSpace, source: &str) -> Result<H2Report, StepError> {
         self.validate()?;
+        check_synthesis_states(p.nx(), source, "h2")?;
         let result = h2syn(p, self.nmeas, self.ncon, self.eps).map_err(|e| synth_err(source, e))?;
         Ok(H2Report {
             result,
@@ -713,6 +715,15 @@ impl Mixsyn {
         if let Some(wt) = inputs.wt {
             check_weight("wt", wt, ny)?;
         }
+        let weights = [Some(inputs.ws), inputs.wu, inputs.wt];
+        let states = inputs.plant.nx()
+            + weights
+                .iter()
+                .flatten()
+                .map(|w| w.system.nx())
+                .sum::<usize>();
+        let what = format!("{} (with its weights, the augmented plant)", inputs.source);
+        check_synthesis_states(states, &what, "mixsyn")?;
         let hinf = self.hinf();
         let (augmented, result) = mixsyn(
             inputs.plant,
@@ -740,6 +751,23 @@ impl Mixsyn {
         }
         Ok(report)
     }
+}
+
+/// The most states of a generalised plant `fts hinf`, `fts h2` and `fts
+/// mixsyn` take: their Riccati solutions, gamma bisection and closed-loop
+/// checks cost O(n^3) per step over many steps; measured on a random
+/// plant in the test build, `hinf` takes 25 s at 64 states and 175 s at
+/// 128, `h2` 3 s and 20 s (docs/formats.md, Bounds).
+pub const MAX_SYNTHESIS_STATES: usize = 64;
+
+/// Refuses a generalised plant beyond [`MAX_SYNTHESIS_STATES`] before any work.
+fn check_synthesis_states(states: usize, source: &str, command: &str) -> Result<(), StepError> {
+    if states > MAX_SYNTHESIS_STATES {
+        return Err(StepError::input(format!(
+            "{source}: {states} states; `fts {command}` takes at most {MAX_SYNTHESIS_STATES} states (docs/formats.md, Bounds)"
+        )));
+    }
+    Ok(())
 }
 
 impl Validate for Mixsyn {

@@ -421,7 +421,7 @@ impl Simulate {
         {
             return Err(StepError::setting(
                 "output_max",
-                format!("output_max ({hi}) must exceed output_min ({lo})"),
+                format!("`output_max` ({hi}) must exceed `output_min` ({lo})"),
             ));
         }
         Ok(())

@@ -193,6 +193,22 @@ case("build -f m.toml", 2, ["m.toml", "v4.mat", "MATLAB v4"],
 case("build -f m.toml", 2, ["m.toml line 3", "step.c.delay"],
      manifest('[step.c]\nkind = "ct"\ndelay = -1\ndata = "data.csv"\nnp = 2\nnz = 0\nout = "g.json"\n'))
 
+# Contour command limits (docs/contouring.md "The loop").
+for args, expect in [
+    ("contour circle --output-min 1 --output-max -1", ["--output-max (-1) must exceed --output-min (1)"]),
+    ("contour circle --output-min 2 --output-max 2", ["--output-max (2) must exceed --output-min (2)"]),
+    ("contour circle --output-min nan", ["--output-min", "NaN"]),
+    ("contour circle --output-max inf", ["--output-max", "inf"]),
+    ("contour circle --controller k3.json --output-min -1", ["--output-min", "--controller"]),
+]:
+    case(args, 2, expect)
+case("build -f m.toml", 2, ["m.toml", "step.m.output_max", "must exceed", "'output_min'"],
+     manifest(MA + 'output_min = 3\noutput_max = 1\n'))
+# Disturbance files: a time column is read, never played as data.
+case("simulate --output-disturbance file:t.csv", 2, ["t.csv", "column 2"], {"t.csv": "t\n0\n1\n"})
+case("simulate --output-disturbance file:d.csv", 2, ["d.csv", "line 3"], {"d.csv": "t,d\n0,1\n0,2\n"})
+case("simulate --input-disturbance file:d.csv", 2, ["d.csv"], {"d.csv": "time_ms,d\n0,1\n-1,2\n"})
+
 out = ["# Time bases, units and settings read, never assumed; contradictions",
        "# refused (issue #27 item 6): --plot extensions, reference and record",
        "# files (binary, MATLAB v4, time columns), frequency-response rows,",

@@ -61,6 +61,25 @@ for fname, spec, n in [("big.json", ss_text(65), 65), ("big.json", ss_text(65, "
              "Gramians, Hamiltonian bisections and zero pencils: at most 64 states." if first else None)
         first = False
 
+# 2b. Synthesis: a generalised plant (with mixsyn's weights) of at most 64 states.
+def gp_text(n):
+    row = lambda i: "[" + ",".join("-1" if i == j else "0" for j in range(n)) + "]"
+    a = ",".join(row(i) for i in range(n))
+    ones = ",".join(["1"] * n)
+    zeros = ",".join(["0"] * n)
+    return "'" + '{"format":"fts.ss/1","a":[%s],"b":[%s],"c":[[%s],[%s],[%s]],"d":[[0,0],[0,1],[1,0]]}' % (
+        a, ",".join(["[1,1]"] * n), ones, zeros, ones) + "'"
+first = True
+for n in [65, 128]:
+    for args in ["hinf --generalized big.json --nmeas 1 --ncon 1 -o k.json",
+                 "h2 --generalized big.json --nmeas 1 --ncon 1 -o k.json"]:
+        case(args, 2, ["big.json", f"{n} states", "at most 64 states"], {"big.json": gp_text(n)},
+             "Synthesis (Riccati equations, gamma bisection): a generalised plant of at most 64 states." if first else None)
+        first = False
+for n, total in [(64, 65), (100, 101)]:
+    case("mixsyn --plant big.json --ws ws.json -o k.json", 2,
+         ["big.json", "augmented plant", f"{total} states", "at most 64 states"], {"big.json": ctf_text(n)})
+
 # 3. identify ct / ct-frd orders and SRIVC work.
 frd = "'''\nfreq_hz,re,im\n" + "".join(f"{f},{1/(1+(f/10)**2):.6f},{-(f/10)/(1+(f/10)**2):.6f}\n" for f in range(1, 41)) + "'''"
 first = True
@@ -92,8 +111,8 @@ for args, expect in [
     ("loop --plant tf.json --kp 0.1 --points-per-decade 100000000", ["--points-per-decade", "100000000", "100000"]),
     ("loop --plant ctf.json --kp 0.1 --points-per-decade 100001", ["--points-per-decade", "100001", "100000"]),
     ("trajectory circle --size 1000 --velocity 1e-6 -o t.csv", ["--velocity", "at most 10000000"]),
-    ("trajectory circle --size 1000 --ts 1e-9 -o t.csv", ["--velocity", "at most 10000000"]),
-    ("trajectory square --size 1e6 --ts 1e-6 -o t.csv", ["--velocity", "at most 10000000"]),
+    ("trajectory circle --size 1000 --ts 1e-9 -o t.csv", ["--ts", "at most 10000000"]),
+    ("trajectory square --size 1e6 --ts 1e-6 -o t.csv", ["--ts", "at most 10000000"]),
     ("contour circle --size 100 --ts 1e-9", ["--ts", "at most 1e9"]),
     ("contour square --size 1e9 --ts 1e-4", ["samples"]),
     ("repetitive --tf tf.json --period 1e12", ["--period", "1e12", "16374"]),
@@ -147,5 +166,6 @@ for args, expect in [
     case(args, 2, expect, files, "Output-path conflicts: refused before anything is written." if first else None)
     first = False
 
-open("/work/wt-bounds/tests/data/bad_input/cases-bounds.toml", "w").write("\n".join(out))
+import os
+open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "cases-bounds.toml"), "w").write("\n".join(out))
 print(len(out) - 1, "cases")
