@@ -233,10 +233,15 @@ impl Disturbance {
 
 /// `time_s` increasing, finite, one per value (at least two).
 fn check_times(t: &[f64], values: usize) -> Result<(), DisturbanceError> {
-    if t.len() != values || t.len() < 2 {
+    if t.len() != values {
         return Err(DisturbanceError(format!(
-            "{} times for {values} disturbance samples: one time per sample, at least two",
+            "{} times for {values} disturbance samples: one time per sample",
             t.len()
+        )));
+    }
+    if values < 2 {
+        return Err(DisturbanceError(format!(
+            "a timed disturbance needs at least two samples, found {values}"
         )));
     }
     if let Some(i) = (1..t.len()).find(|&i| !(t[i].is_finite() && t[i] > t[i - 1])) {
@@ -394,6 +399,7 @@ mod tests {
         assert!(s[1001..].iter().all(|v| *v == 0.0));
         for (time, why) in [
             (vec![0.0, 1e-3], "one time per sample"),
+            (vec![0.0], "one time per sample"),
             (vec![0.0, 1e-3, 1e-3], "must increase"),
             (vec![0.0, f64::NAN, 2e-3], "must increase"),
         ] {
@@ -403,5 +409,10 @@ mod tests {
             };
             assert!(d.validate().unwrap_err().0.contains(why));
         }
+        let one = Disturbance::Samples {
+            values: vec![1.0],
+            time_s: Some(vec![0.0]),
+        };
+        assert!(one.validate().unwrap_err().0.contains("at least two"));
     }
 }

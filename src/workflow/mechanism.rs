@@ -332,7 +332,7 @@ impl Puu3Study {
             slider_um: [0, 1, 2].map(|i| to_um(s[i] - home[i])),
             workspace_um: ws.extent.map(|[a, b]| [to_um(a), to_um(b)]),
             reachable: ws.points.len(),
-            paper_workspace_um: [[-85.0, 85.0], [-80.0, 80.0], [0.0, 120.0]],
+            paper_workspace_um: [[-80.0, 80.0], [-85.0, 85.0], [0.0, 120.0]],
             points: ws.points.iter().map(|p| p.map(to_um)).collect(),
         })
     }
