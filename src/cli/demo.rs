@@ -475,6 +475,21 @@ fn print_models(
         check.max_phase_error_rad,
         check.dc_gain
     );
+    // [Li21] Eq. 8 gives the zeros it cannot cancel phase cancellation
+    // only: |G_z G_c| = |B_u|^2/B_u(1)^2, not 1.
+    let eq8 = &m.zpetc_eq8;
+    let tf = &m.closed_loop.tf;
+    let gain = |f: f64| {
+        let w = 2.0 * std::f64::consts::PI * f * tf.ts();
+        (eq8.response_at_omega(w) * tf.response_at_omega(w)).norm()
+    };
+    say!(
+        "   Li21 Eq. 8 on the same model (the Eq.8 column): {} zeros cancelled, {} left to phase cancellation; |G_z G_c| = {:.4} at 500 Hz, {:.4} at 1000 Hz (1 when inverted exactly)",
+        eq8.cancelled_zeros().count(),
+        eq8.uncancelled_zeros().count(),
+        gain(500.0),
+        gain(1000.0)
+    );
     Ok(())
 }
 
@@ -494,13 +509,16 @@ fn print_table(
         .as_ref()
         .map(|l| format!(" {:>9}", format!("+ILC({})", l.trials_run())))
         .unwrap_or_default();
-    say!("4. max tracking error (um), 5 um sines; fts (virtual FTS) | Li21 (paper):");
     say!(
-        "   {:>8} | {:>8} {:>8} {:>11}{} | {:>8} {:>8} {:>11}",
+        "4. max tracking error (um), 5 um sines; fts (virtual FTS) | Li21 (paper); ZPEC: fts's exact inversion, Eq.8: Li21's filter (phase cancellation of the zeros it cannot cancel) on the same model:"
+    );
+    say!(
+        "   {:>8} | {:>8} {:>8} {:>11} {:>8}{} | {:>8} {:>8} {:>11}",
         "freq",
         "PID",
         "PID+HC",
         "PID+HC+ZPEC",
+        "Eq.8",
         ilc_header,
         "PID",
         "PID+HC",
@@ -515,11 +533,12 @@ fn print_table(
             .map(|_| format!(" {:>9.4}", get(LEARNED_STAGES)))
             .unwrap_or_default();
         say!(
-            "   {:>6} Hz | {:>8.4} {:>8.4} {:>11.4}{} | {:>8.4} {:>8.4} {:>11.4}",
+            "   {:>6} Hz | {:>8.4} {:>8.4} {:>11.4} {:>8.4}{} | {:>8.4} {:>8.4} {:>11.4}",
             f,
             get("pid"),
             get("pid+hc"),
             get("pid+hc+zpec"),
+            get(experiment::EQ8_STAGES),
             ilc,
             p_pid,
             p_hc,
@@ -532,7 +551,7 @@ fn print_table(
         .filter(|r| !r.reference.starts_with("sine"))
     {
         say!(
-            "   {:<26} {:<15} max {:.4} um ({:.2} % of amplitude), rms {:.4} um{}",
+            "   {:<26} {:<16} max {:.4} um ({:.2} % of amplitude), rms {:.4} um{}",
             row.reference,
             row.controller,
             row.metrics.max_abs_error,

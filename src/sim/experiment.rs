@@ -210,6 +210,12 @@ pub struct IdentifiedModels {
     pub closed_loop: ClosedLoopModel,
     /// The ZPETC.
     pub zpetc: Zpetc,
+    /// \[Li21\] Eq. 8's filter on the same model: Tomizuka's ZPETC, whose
+    /// zeros that it may not cancel (outside the unit circle, or poorly
+    /// damped) get phase cancellation only, where [`Self::zpetc`] inverts
+    /// those outside the unit circle exactly. Tracked beside it for the
+    /// comparison with the paper; not used by the controller files.
+    pub zpetc_eq8: Zpetc,
     /// The learning model, when step 5 is asked for.
     pub learning: Option<LearningModel>,
 }
@@ -561,6 +567,12 @@ pub fn identify_models(
     if !failures.is_empty() {
         return Err(step_err("ZPETC self-check")(failures.join("; ")));
     }
+    let eq8 = ZpetcParams {
+        stable_inversion: None,
+        ..params.zpetc
+    };
+    let zpetc_eq8 = zpetc::design(&closed_loop.tf, &eq8)
+        .map_err(|e| step_err("ZPETC (Li21 Eq. 8)")(e.to_string()))?;
     let learning = match &params.learning {
         Some(lp) => Some(learning_model(params, lp, &inverse, observer)?),
         None => None,
@@ -571,6 +583,7 @@ pub fn identify_models(
         sweep: (r, y),
         closed_loop,
         zpetc,
+        zpetc_eq8,
         learning,
     })
 }
@@ -661,6 +674,10 @@ pub fn fit_closed_loop(
     })
 }
 
+/// The tracking table's name for PID + HC with \[Li21\] Eq. 8's filter
+/// ([`IdentifiedModels::zpetc_eq8`]).
+pub const EQ8_STAGES: &str = "pid+hc+zpec(eq8)";
+
 /// Runs the whole experiment: [`identify_models`], then the tracking table.
 pub fn run(
     params: &ExperimentParams,
@@ -718,16 +735,37 @@ pub fn run(
         reference::five_leaf(params.five_leaf_scale, params.offset, 1.0, &timing)
             .map_err(|e| step_err("five-leaf reference")(e.to_string()))?,
     );
-    let total = references.len() * controllers.len();
+    let eq8 = build_controller(
+        Stages::parse("pid+hc+zpec").expect("valid"),
+        ts,
+        params.pid,
+        Some(&inverse.model),
+        Some(&models.zpetc_eq8),
+        Provenance::default(),
+    )
+    .map_err(step_err("controllers"))?;
+    let runs: Vec<(&str, &ControllerFile)> = controllers
+        .iter()
+        .map(|(stages, c)| (stages.name(), c))
+        .chain([(EQ8_STAGES, &eq8)])
+        .collect();
+    let total = references.len() * runs.len();
     let mut table = Vec::with_capacity(total);
     let mut run_id = 10;
-    for reference in &references {
-        for (stages, controller) in &controllers {
-            let (_, metrics) = track(params, run_id, controller, reference)?;
-            run_id += 1;
+    for (i, reference) in references.iter().enumerate() {
+        for &(name, controller) in &runs {
+            // The Eq. 8 runs draw their own noise, so the other runs keep
+            // theirs whether or not the comparison is made.
+            let id = if name == EQ8_STAGES {
+                1000 + i as u64
+            } else {
+                run_id += 1;
+                run_id - 1
+            };
+            let (_, metrics) = track(params, id, controller, reference)?;
             table.push(TrackingRow {
                 reference: reference.label.clone(),
-                controller: stages.name(),
+                controller: name,
                 metrics,
             });
             observer(Progress::Tracking {
