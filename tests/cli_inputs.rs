@@ -32,6 +32,13 @@ fn refused(cmd: &mut Command, code: i32, want: &[&str]) -> String {
     err
 }
 
+/// The `--json` summary of a run that must succeed.
+fn success_json(out: std::process::Output) -> Value {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 /// A CSV column by name.
 fn column(csv: &str, name: &str) -> Vec<f64> {
     let mut lines = csv.lines();
@@ -313,12 +320,7 @@ fn contour_command_limits_are_applied_written_and_replayed() {
             .args(extra)
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice(&out.stdout).unwrap()
+        success_json(out)
     };
     let free = run(&[]);
     let limited = run(&["--output-min", "-5", "--output-max", "5", "-o", "k3.json"]);
@@ -385,13 +387,7 @@ fn a_disturbance_file_plays_at_its_own_time_base() {
             .args(["--output-disturbance", spec])
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-        v["max_abs_error"].as_f64().unwrap()
+        success_json(out)["max_abs_error"].as_f64().unwrap()
     };
     let (file, sines) = (max_error("file:d.csv"), max_error("sines:1@8"));
     assert!((file - sines).abs() < 2e-3 * sines, "{file} vs {sines}");

@@ -41,11 +41,7 @@ mod transcript {
                 while j < lines.len() && !lines[j].trim_start().starts_with("```") {
                     j += 1;
                 }
-                let body = lines[start..j]
-                    .iter()
-                    .map(|l| strip_indent(l, indent))
-                    .collect();
-                blocks.push((start + 1, body));
+                blocks.push((start + 1, dedent(&lines[start..j], indent)));
                 i = j + 1;
             } else if is_indented_dollar(lines[i]) {
                 let indent = lines[i].len() - trimmed.len();
@@ -57,11 +53,7 @@ mod transcript {
                     }
                     j += 1;
                 }
-                let body = lines[start..j]
-                    .iter()
-                    .map(|l| strip_indent(l, indent))
-                    .collect();
-                blocks.push((start + 1, body));
+                blocks.push((start + 1, dedent(&lines[start..j], indent)));
                 i = j;
             } else {
                 i += 1;
@@ -75,9 +67,15 @@ mod transcript {
         line.len() - trimmed.len() >= 4 && trimmed.starts_with("$ ")
     }
 
-    fn strip_indent(line: &str, indent: usize) -> String {
-        let n = line.len() - line.trim_start().len();
-        line[n.min(indent)..].to_owned()
+    /// The lines with up to `indent` leading blanks removed.
+    fn dedent(lines: &[&str], indent: usize) -> Vec<String> {
+        lines
+            .iter()
+            .map(|line| {
+                let n = line.len() - line.trim_start().len();
+                line[n.min(indent)..].to_owned()
+            })
+            .collect()
     }
 
     /// The transcripts of a page: blocks whose first line is `$ fts ...`
