@@ -141,7 +141,7 @@ mod transcript {
     /// A piece of a line: one character of text, a number with the
     /// half-unit of its last printed digit, or (expected only) `...`.
     #[derive(Debug, Clone, PartialEq)]
-    enum Atom {
+    pub enum Atom {
         Char(char),
         Num { value: f64, half_unit: f64 },
         Any,
@@ -149,7 +149,7 @@ mod transcript {
 
     /// The atoms of a line, whitespace runs collapsed to one space and
     /// ends trimmed; `...` becomes [`Atom::Any`] when `elide`.
-    fn atoms(line: &str, elide: bool) -> Vec<Atom> {
+    pub fn atoms(line: &str, elide: bool) -> Vec<Atom> {
         let chars: Vec<char> = line
             .split_whitespace()
             .collect::<Vec<_>>()
@@ -225,7 +225,7 @@ mod transcript {
 
     /// Whether an expected atom accepts an actual one: text equal, a
     /// number equal to the quoted one at the quoted digits.
-    fn accepts(expected: &Atom, actual: &Atom) -> bool {
+    pub fn accepts(expected: &Atom, actual: &Atom) -> bool {
         match (expected, actual) {
             (Atom::Char(a), Atom::Char(b)) => a == b,
             (
@@ -293,7 +293,10 @@ mod transcript {
     }
 }
 
-use transcript::{Transcript, line_matches, output_matches, parse, split_words};
+use std::collections::HashMap;
+use transcript::{
+    Atom, Transcript, accepts, atoms, line_matches, output_matches, parse, split_words,
+};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -370,9 +373,50 @@ fn check(t: &Transcript, success: bool, actual: &[String]) -> Result<(), String>
     ))
 }
 
+/// The numbers of the `fts` column of docs/reference-values.md's verdict
+/// table that the linked page's transcripts do not print (`printed`: every
+/// output line of each page's transcripts, by file name).
+fn unprinted_verdict_figures(printed: &HashMap<String, Vec<String>>) -> Vec<String> {
+    let page = std::fs::read_to_string(repo().join("docs/reference-values.md")).unwrap();
+    let mut missing = Vec::new();
+    let mut rows = 0;
+    for (n, line) in page.lines().enumerate() {
+        let cells: Vec<&str> = line.split(" | ").collect();
+        if !line.starts_with("| [") || cells.len() != 6 {
+            continue;
+        }
+        let link = cells[4]
+            .split_once("](")
+            .and_then(|(_, rest)| rest.split_once(')'));
+        let Some((target, _)) = link.filter(|(t, _)| t.ends_with(".md")) else {
+            continue;
+        };
+        rows += 1;
+        let lines = printed.get(target).map(Vec::as_slice).unwrap_or_default();
+        let numbers: Vec<Atom> = lines
+            .iter()
+            .flat_map(|l| atoms(l, false))
+            .filter(|a| matches!(a, Atom::Num { .. }))
+            .collect();
+        for figure in atoms(cells[3], false) {
+            let is_number = matches!(figure, Atom::Num { .. });
+            if is_number && !numbers.iter().any(|a| accepts(&figure, a)) {
+                missing.push(format!(
+                    "docs/reference-values.md line {}: {figure:?} of `{}` is not printed by {target}'s transcripts",
+                    n + 1,
+                    cells[3]
+                ));
+            }
+        }
+    }
+    assert!(rows >= 15, "only {rows} verdict rows with a page");
+    missing
+}
+
 #[test]
 fn every_transcript_in_the_docs_prints_what_the_page_quotes() {
     let mut failures = Vec::new();
+    let mut printed: HashMap<String, Vec<String>> = HashMap::new();
     let mut count = 0;
     let started = Instant::now();
     for page in pages() {
@@ -393,6 +437,8 @@ fn every_transcript_in_the_docs_prints_what_the_page_quotes() {
                     t.args.join(" ")
                 ));
             }
+            let file = page.file_name().unwrap().to_string_lossy().into_owned();
+            printed.entry(file).or_default().extend(actual);
         }
     }
     eprintln!(
@@ -401,6 +447,7 @@ fn every_transcript_in_the_docs_prints_what_the_page_quotes() {
         failures.len()
     );
     assert!(count >= 10, "only {count} transcripts found");
+    failures.extend(unprinted_verdict_figures(&printed));
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
 }
 
