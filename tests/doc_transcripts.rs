@@ -320,7 +320,7 @@ fn pages() -> Vec<PathBuf> {
 fn workdir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     for name in [
-        "fixtures", "tests", "examples", "assets", "docs", "crates", "benches",
+        "fixtures", "tests", "examples", "assets", "docs", "crates", "benches", "data",
     ] {
         let target = repo().join(name);
         if target.exists() {
