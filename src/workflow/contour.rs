@@ -817,7 +817,7 @@ impl ContourReport {
         if min.is_none() && max.is_none() {
             return Ok(());
         }
-        let bound = |v: Option<f64>| v.map_or("none".to_owned(), |v| v.to_string());
+        let bound = |v: Option<f64>| v.map_or("none".to_owned(), super::fmt_value);
         let m = &self.main.run.metrics;
         writeln!(
             f,

@@ -208,7 +208,11 @@ impl Validate for SsController {
         {
             return Err(StepError::setting(
                 "output_max",
-                format!("`output_max` ({hi}) must exceed `output_min` ({lo})"),
+                format!(
+                    "`output_max` ({}) must exceed `output_min` ({})",
+                    super::fmt_value(hi),
+                    super::fmt_value(lo)
+                ),
             ));
         }
         Ok(())

@@ -186,7 +186,8 @@ impl Validate for VirtualSweep {
                 "output_max",
                 format!(
                     "`output_max` ({}) must exceed `output_min` ({})",
-                    self.output_max, self.output_min
+                    super::fmt_value(self.output_max),
+                    super::fmt_value(self.output_min)
                 ),
             ));
         }
