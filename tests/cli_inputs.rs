@@ -69,12 +69,9 @@ fn a_reference_file_plays_at_its_own_time_base() {
             "ref.csv",
         ])
         .args(["-o", "trace.csv", "--json"])
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let v: Value = serde_json::from_slice(&out).unwrap();
+        .output()
+        .unwrap();
+    let v = success_json(out);
     assert_eq!(v["evaluated_samples"], 2501, "0.25 s at 0.1 ms");
     let start = v["evaluated_from_s"].as_f64().unwrap();
     let trace = std::fs::read_to_string(dir.path().join("trace.csv")).unwrap();
@@ -123,12 +120,9 @@ fn a_continuous_delay_survives_the_model_file_and_loop_honours_it() {
     std::fs::write(dir.path().join("g.json"), doc).unwrap();
     let out = fts(dir.path())
         .args(["loop", "--plant", "g.json", "--kp", "1", "--json"])
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let v: Value = serde_json::from_slice(&out).unwrap();
+        .output()
+        .unwrap();
+    let v = success_json(out);
     let pm = v["phase_margin"]["phase_margin_deg"].as_f64().unwrap();
     assert!((pm - delayed_phase_margin(tau)).abs() < 1e-6, "{pm}");
     assert!((pm - delayed_phase_margin(0.0)).abs() > 50.0);
@@ -347,8 +341,7 @@ fn contour_command_limits_are_applied_written_and_replayed() {
         ])
         .output()
         .unwrap();
-    assert!(replay.status.success());
-    let replay: Value = serde_json::from_slice(&replay.stdout).unwrap();
+    let replay = success_json(replay);
     assert_eq!(rms(&replay), rms(&limited));
     let mut cmd = fts(dir.path());
     cmd.args([

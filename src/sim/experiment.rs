@@ -695,22 +695,25 @@ pub fn run(
     let timing = timing.with_preview(zpetc.preview);
 
     // 4. Tracking table.
+    let build = |stages: Stages, zpetc: &Zpetc| {
+        let inverse = Some(&inverse.model);
+        build_controller(
+            stages,
+            ts,
+            params.pid,
+            inverse,
+            Some(zpetc),
+            Provenance::default(),
+        )
+        .map_err(step_err("controllers"))
+    };
     let controllers: Vec<(Stages, ControllerFile)> = ["pid", "pid+hc", "pid+hc+zpec"]
         .iter()
         .map(|s| {
             let stages = Stages::parse(s).expect("valid");
-            build_controller(
-                stages,
-                ts,
-                params.pid,
-                Some(&inverse.model),
-                Some(zpetc),
-                Provenance::default(),
-            )
-            .map(|c| (stages, c))
+            build(stages, zpetc).map(|c| (stages, c))
         })
-        .collect::<Result<_, _>>()
-        .map_err(step_err("controllers"))?;
+        .collect::<Result<_, _>>()?;
     let mut references = Vec::new();
     for &f in &params.sine_freqs_hz {
         // At least 0.2 s and 20 periods.
@@ -735,15 +738,10 @@ pub fn run(
         reference::five_leaf(params.five_leaf_scale, params.offset, 1.0, &timing)
             .map_err(|e| step_err("five-leaf reference")(e.to_string()))?,
     );
-    let eq8 = build_controller(
+    let eq8 = build(
         Stages::parse("pid+hc+zpec").expect("valid"),
-        ts,
-        params.pid,
-        Some(&inverse.model),
-        Some(&models.zpetc_eq8),
-        Provenance::default(),
-    )
-    .map_err(step_err("controllers"))?;
+        &models.zpetc_eq8,
+    )?;
     let runs: Vec<(&str, &ControllerFile)> = controllers
         .iter()
         .map(|(stages, c)| (stages.name(), c))

@@ -548,26 +548,7 @@ impl Validate for Contour {
 
 /// The command limits `output_min` < `output_max`, each finite.
 fn command_limits(min: Option<f64>, max: Option<f64>) -> Result<CommandLimits, StepError> {
-    for (field, v) in [("output_min", min), ("output_max", max)] {
-        if let Some(v) = v.filter(|v| !v.is_finite()) {
-            return Err(StepError::setting(
-                field,
-                format!("expected a finite command, got {}", super::fmt_value(v)),
-            ));
-        }
-    }
-    if let (Some(lo), Some(hi)) = (min, max)
-        && lo >= hi
-    {
-        return Err(StepError::setting(
-            "output_max",
-            format!(
-                "`output_max` ({}) must exceed `output_min` ({})",
-                super::fmt_value(hi),
-                super::fmt_value(lo)
-            ),
-        ));
-    }
+    super::check_command_limits(min, max, "a finite command")?;
     Ok(CommandLimits { min, max })
 }
 

@@ -203,19 +203,7 @@ impl Validate for SsController {
                 "applies to the tustin discretisation only",
             ));
         }
-        if let (Some(lo), Some(hi)) = (self.output_min, self.output_max)
-            && lo >= hi
-        {
-            return Err(StepError::setting(
-                "output_max",
-                format!(
-                    "`output_max` ({}) must exceed `output_min` ({})",
-                    super::fmt_value(hi),
-                    super::fmt_value(lo)
-                ),
-            ));
-        }
-        Ok(())
+        super::check_limit_order(self.output_min, self.output_max)
     }
 }
 

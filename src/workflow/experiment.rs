@@ -181,16 +181,7 @@ impl Validate for VirtualSweep {
                 ));
             }
         }
-        if self.output_min >= self.output_max {
-            return Err(StepError::setting(
-                "output_max",
-                format!(
-                    "`output_max` ({}) must exceed `output_min` ({})",
-                    super::fmt_value(self.output_max),
-                    super::fmt_value(self.output_min)
-                ),
-            ));
-        }
+        super::check_limit_order(Some(self.output_min), Some(self.output_max))?;
         positive("amplitude", self.amplitude)?;
         positive("duration", self.duration)?;
         positive("f1", self.f1).map(|_| ())

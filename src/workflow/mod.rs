@@ -256,6 +256,41 @@ pub(crate) fn positive(field: &'static str, x: f64) -> Result<f64, StepError> {
     }
 }
 
+/// Command limits `output_min`, `output_max` (either may be absent): each
+/// given one finite (`expected` says what, e.g. "a finite command in V"),
+/// and the lower below the upper. The one check of every step that clamps
+/// a controller's command.
+pub(crate) fn check_command_limits(
+    min: Option<f64>,
+    max: Option<f64>,
+    expected: &str,
+) -> Result<(), StepError> {
+    for (field, v) in [("output_min", min), ("output_max", max)] {
+        if let Some(v) = v.filter(|v| !v.is_finite()) {
+            return Err(StepError::setting(
+                field,
+                format!("expected {expected}, got {}", fmt_value(v)),
+            ));
+        }
+    }
+    check_limit_order(min, max)
+}
+
+/// `output_min` below `output_max` when both are given.
+pub(crate) fn check_limit_order(min: Option<f64>, max: Option<f64>) -> Result<(), StepError> {
+    match (min, max) {
+        (Some(lo), Some(hi)) if lo >= hi => Err(StepError::setting(
+            "output_max",
+            format!(
+                "`output_max` ({}) must exceed `output_min` ({})",
+                fmt_value(hi),
+                fmt_value(lo)
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -180,18 +180,21 @@ impl Response {
             .flatten()
             .filter(|g| g.n > grid.n)
             .and_then(|g| response::time_response(sys, self.kind, &g).ok());
-        let info = match self.kind {
-            ResponseKind::Step => Some(response::step_info_of(sys, resp)?),
-            ResponseKind::Impulse => None,
+        let step_info = |r: &TimeResponse| match self.kind {
+            ResponseKind::Step => response::step_info_of(sys, r).map(Some),
+            ResponseKind::Impulse => Ok(None),
+        };
+        let info = step_info(resp)?;
+        // The longer run's figures, once for every channel.
+        let far = match &longer {
+            Some(l) => Some((l, step_info(l)?)),
+            None => None,
         };
         for (i, j) in report.channels() {
             let here = sampled_peak(&resp.grid.times(), &resp.y[i][j]);
-            let (far_info, far_peak) = match &longer {
-                Some(l) => (
-                    match self.kind {
-                        ResponseKind::Step => Some(response::step_info_of(sys, l)?[i][j].clone()),
-                        ResponseKind::Impulse => None,
-                    },
+            let (far_info, far_peak) = match &far {
+                Some((l, far_info)) => (
+                    far_info.as_ref().map(|m| m[i][j].clone()),
                     sampled_peak(&l.grid.times(), &l.y[i][j]),
                 ),
                 None => (info.as_ref().map(|m| m[i][j].clone()), here),

@@ -403,32 +403,7 @@ impl Simulate {
 
     /// The command limits, each finite when given, the lower below the upper.
     fn check_limits(&self) -> Result<(), StepError> {
-        for (name, value) in [
-            ("output_min", self.output_min),
-            ("output_max", self.output_max),
-        ] {
-            if let Some(v) = value
-                && !v.is_finite()
-            {
-                return Err(StepError::setting(
-                    name,
-                    format!("expected a finite command in V, got {v}"),
-                ));
-            }
-        }
-        if let (Some(lo), Some(hi)) = (self.output_min, self.output_max)
-            && lo >= hi
-        {
-            return Err(StepError::setting(
-                "output_max",
-                format!(
-                    "`output_max` ({}) must exceed `output_min` ({})",
-                    super::fmt_value(hi),
-                    super::fmt_value(lo)
-                ),
-            ));
-        }
-        Ok(())
+        super::check_command_limits(self.output_min, self.output_max, "a finite command in V")
     }
 
     /// The PID gains, each finite, limited to `output_min`..`output_max`
