@@ -104,6 +104,9 @@ fn lever_and_bridge_answer_tang17s_ratio() {
     let f = |k: &str| l[k].as_f64().unwrap();
     assert!((f("ideal") - 3.87).abs() < 1e-12);
     assert!(f("compliant") < f("ideal") && f("compliant") > 3.5);
+    // The pivot's rotational stiffness is the profile's in series, not
+    // [Li21] Eq. 2's sum (4.4996 against 35.1830 N m/rad).
+    assert!((f("pivot_k_rot_nm_per_rad") - 4.4996).abs() < 1e-4);
     assert!((f("output_arm_for_target_ideal_mm") - 19.35).abs() < 1e-12);
     let k_in = f("input_stiffness_n_per_um");
     assert!((f("delivered_input_um") - 10.0 * 200.0 / (200.0 + k_in)).abs() < 1e-12);
@@ -125,6 +128,99 @@ fn bad_lever_and_bridge_inputs_exit_2_naming_the_flag() {
     ] {
         fts()
             .arg("mechanism")
+            .args(&args)
+            .assert()
+            .code(2)
+            .stderr(predicates::str::contains(flag))
+            .stderr(predicates::str::contains("panicked").not());
+    }
+}
+
+/// The amplifier chain: the angle its inverse prints gives the target back
+/// when run; the lever loads the bridge (loaded ratio below the free one);
+/// the overall ratio is the loaded bridge times the lever; [Li21] Eq. 1
+/// scales the elongation by `kp/(kp + k_in)`.
+#[test]
+fn amplifier_chain_inverse_and_loading() {
+    let geometry = [
+        "mechanism",
+        "amplifier",
+        "--link-mm",
+        "12",
+        "--hinge-width-mm",
+        "8",
+        "--hinge-length-mm",
+        "1",
+        "--hinge-thickness-mm",
+        "0.3",
+        "--hinge-radius-mm",
+        "0.5",
+        "--input-arm-mm",
+        "5",
+        "--output-arm-mm",
+        "10",
+        "--kp",
+        "200",
+        "--json",
+    ];
+    let inverse = json_of(fts().args(geometry));
+    let angle = inverse["angle_for_target_deg"].as_f64().unwrap();
+    assert!(inverse["overall"].is_null());
+    let at = json_of(
+        fts()
+            .args(geometry)
+            .args(["--angle-deg", &format!("{angle:.12}")]),
+    );
+    let f = |k: &str| at[k].as_f64().unwrap();
+    assert!((f("overall") - 3.87).abs() < 1e-8, "{}", f("overall"));
+    assert!(f("bridge_loaded") < f("bridge_free") && f("bridge_free") < f("bridge_ideal"));
+    assert!((f("overall") - f("bridge_loaded") * f("lever")).abs() < 1e-12);
+    let k_in = f("input_stiffness_n_per_um");
+    assert!((f("delivered_input_um") - 10.0 * 200.0 / (200.0 + k_in)).abs() < 1e-12);
+    assert!(f("peak_ratio") > 3.87 && f("peak_angle_deg") < angle);
+    for (args, flag) in [
+        (
+            vec![
+                "--link-mm",
+                "12",
+                "--input-arm-mm",
+                "5",
+                "--output-arm-mm",
+                "10",
+            ],
+            "--hinge-width-mm",
+        ),
+        (
+            vec![
+                "--link-mm",
+                "0",
+                "--input-arm-mm",
+                "5",
+                "--output-arm-mm",
+                "10",
+                "--hinge-width-mm",
+                "8",
+            ],
+            "--link-mm",
+        ),
+        (
+            vec![
+                "--link-mm",
+                "12",
+                "--input-arm-mm",
+                "5",
+                "--output-arm-mm",
+                "10",
+                "--hinge-width-mm",
+                "8",
+                "--angle-deg",
+                "95",
+            ],
+            "--angle-deg",
+        ),
+    ] {
+        fts()
+            .args(["mechanism", "amplifier"])
             .args(&args)
             .assert()
             .code(2)

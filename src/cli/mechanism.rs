@@ -1,4 +1,4 @@
-//! `fts mechanism flexure-loss|hinge|3puu|lever|bridge`: the mechanism design formulas
+//! `fts mechanism flexure-loss|hinge|3puu|lever|bridge|amplifier`: the mechanism design formulas
 //! (docs/mechanism.md). The steps are the library's
 //! ([`crate::workflow::mechanism`]); this file turns flags into them,
 //! renders the reports and draws the workspace.
@@ -7,7 +7,7 @@ use super::common::{bad, print_report, step_error, write_plot};
 use crate::io::plot::{Panel, PlotFormat, Series, Style, render};
 use crate::workflow::Validate;
 use crate::workflow::mechanism::{
-    Bridge, FlexureLoss, Hinge, Lever, Puu3Report, Puu3Study, TANG17_AMPLIFICATION,
+    Amplifier, Bridge, FlexureLoss, Hinge, Lever, Puu3Report, Puu3Study, TANG17_AMPLIFICATION,
 };
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
@@ -25,13 +25,15 @@ pub enum MechanismCommand {
     Lever(LeverArgs),
     /// Bridge-type amplifier: cot(angle), with compliant hinges, and the angle for a target ratio.
     Bridge(BridgeArgs),
+    /// A bridge driving a lever by compliance matrices: each stage's ratio, the overall ratio, the angle for a target.
+    Amplifier(AmplifierArgs),
 }
 
 /// A leaf hinge (all optional: without --hinge-width-mm there is no hinge).
 /// Each flag's id is the hinge's setting, so the hinge's errors name it.
 #[derive(Debug, Args)]
 pub struct HingeFlags {
-    /// Hinge width b, mm: gives the pivot/hinges their compliance ([Li21] Eq. 2 and E b t/l).
+    /// Hinge width b, mm: gives the pivot/hinges their compliance (the profile's, segments in series).
     #[arg(id = "width_mm", long = "hinge-width-mm")]
     hinge_width_mm: Option<f64>,
     /// Hinge length l, mm.
@@ -102,6 +104,37 @@ pub struct BridgeArgs {
     #[command(flatten)]
     hinge: HingeFlags,
     /// Target ratio of the inverse ([Tang17]'s measured 3.87).
+    #[arg(long, default_value_t = TANG17_AMPLIFICATION)]
+    target_ratio: f64,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct AmplifierArgs {
+    /// Bridge link angle to the input axis, deg (without it: only the angle for --target-ratio).
+    #[arg(long)]
+    angle_deg: Option<f64>,
+    /// Bridge: distance between the hinge centres, mm.
+    #[arg(long)]
+    link_mm: f64,
+    /// Lever: pivot to input (driven by the bridge), mm.
+    #[arg(long)]
+    input_arm_mm: f64,
+    /// Lever: pivot to output (the tool), mm.
+    #[arg(long)]
+    output_arm_mm: f64,
+    /// The bridge's hinges, also the lever's pivot (--hinge-width-mm required).
+    #[command(flatten)]
+    hinge: HingeFlags,
+    /// Actuator stiffness, N/um ([Li21] Eq. 1 against the chain's input stiffness).
+    #[arg(long)]
+    kp: Option<f64>,
+    /// Actuator free stroke, um.
+    #[arg(long, default_value_t = Amplifier::default().dl0)]
+    dl0: f64,
+    /// Overall ratio the inverse aims at ([Tang17]'s measured 3.87).
     #[arg(long, default_value_t = TANG17_AMPLIFICATION)]
     target_ratio: f64,
     /// Print one JSON object on stdout instead of the summary.
@@ -207,6 +240,26 @@ pub fn run(cmd: MechanismCommand) -> anyhow::Result<()> {
                 input_arm_mm: Some(a.input_arm_mm),
                 output_arm_mm: a.output_arm_mm,
                 hinge: a.hinge.hinge()?,
+                kp: a.kp,
+                dl0: a.dl0,
+                target_ratio: a.target_ratio,
+            };
+            print_report(&step.run().map_err(step_error)?, a.json)
+        }
+        MechanismCommand::Amplifier(a) => {
+            let hinge = a.hinge.hinge()?;
+            if hinge.is_none() {
+                return Err(bad(
+                    "--hinge-width-mm: missing: the chain's hinges need a width",
+                ));
+            }
+            let step = Amplifier {
+                angle_deg: a.angle_deg,
+                link_mm: Some(a.link_mm),
+                hinge,
+                input_arm_mm: Some(a.input_arm_mm),
+                output_arm_mm: Some(a.output_arm_mm),
+                pivot: None,
                 kp: a.kp,
                 dl0: a.dl0,
                 target_ratio: a.target_ratio,

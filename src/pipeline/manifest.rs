@@ -9,7 +9,7 @@ use crate::io::timeseries::{
 };
 use crate::workflow::identify_ct::IdentifyCt;
 use crate::workflow::learning::DesignRepetitive;
-use crate::workflow::mechanism::{Bridge, FlexureLoss, Hinge, Lever, Puu3Study};
+use crate::workflow::mechanism::{Amplifier, Bridge, FlexureLoss, Hinge, Lever, Puu3Study};
 use crate::workflow::{
     BuildController, C2d, DesignZpetc, H2, Hinf, IdentifyArx, IdentifyHysteresis, IdentifyOe,
     Mixsyn, StepError, Validate, VirtualSweep, VirtualTriangles, Weight,
@@ -75,6 +75,7 @@ pub enum MechanismSpec {
     Lever(Lever),
     /// `calculator = "bridge"`.
     Bridge(Bridge),
+    Amplifier(Amplifier),
 }
 
 /// What a step does.
@@ -768,6 +769,7 @@ fn mechanism(f: &mut Fields<'_>) -> Result<Action, InputError> {
         Puu3,
         Lever,
         Bridge,
+        Amplifier,
     }
     let which = f
         .choice(
@@ -778,13 +780,14 @@ fn mechanism(f: &mut Fields<'_>) -> Result<Action, InputError> {
                 ("3puu", Which::Puu3),
                 ("lever", Which::Lever),
                 ("bridge", Which::Bridge),
+                ("amplifier", Which::Amplifier),
             ],
         )?
         .ok_or_else(|| {
             f.err(
                 "calculator",
                 f.line,
-                "missing: one of \"flexure-loss\", \"hinge\", \"3puu\", \"lever\", \"bridge\"",
+                "missing: one of \"flexure-loss\", \"hinge\", \"3puu\", \"lever\", \"bridge\", \"amplifier\"",
             )
         })?;
     files(f, &[], &[("out", true)])?;
@@ -794,6 +797,7 @@ fn mechanism(f: &mut Fields<'_>) -> Result<Action, InputError> {
         Which::Puu3 => MechanismSpec::Puu3(f.typed()?),
         Which::Lever => MechanismSpec::Lever(f.typed()?),
         Which::Bridge => MechanismSpec::Bridge(f.typed()?),
+        Which::Amplifier => MechanismSpec::Amplifier(f.typed()?),
     };
     Ok(Action::Mechanism(Box::new(spec)))
 }

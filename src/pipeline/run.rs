@@ -873,6 +873,7 @@ fn mechanism(spec: &MechanismSpec) -> Result<Vec<u8>, StepError> {
         MechanismSpec::Puu3(s) => json(&s.run()?),
         MechanismSpec::Lever(s) => json(&s.run()?),
         MechanismSpec::Bridge(s) => json(&s.run()?),
+        MechanismSpec::Amplifier(s) => json(&s.run()?),
     })
 }
 

@@ -1,6 +1,7 @@
 //! Controller and feedforward synthesis.
 
 pub mod budget;
+pub mod compliance;
 pub mod composite;
 pub mod dhinf;
 pub mod ding22;

@@ -5,10 +5,13 @@
 //! the angle that give \[Tang17\]'s measured 3.87).
 
 use super::{StepError, Validate, positive};
+use crate::synth::compliance::{
+    BridgeChain, ChainAmplification, LeverChain, Mat3, TwoPort, chain_amplification,
+    hinge_compliance,
+};
 use crate::synth::mechanism::{
     Amplification, BridgeLimb, HingeGeometry, Lever as LeverModel, Puu3, WorkspaceParams,
-    condition_number, flexure_displacement, hinge_stiffness, ideal_bridge_angle,
-    leaf_axial_stiffness, workspace,
+    condition_number, flexure_displacement, hinge_stiffness, ideal_bridge_angle, workspace,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -149,8 +152,15 @@ pub struct HingeReport {
     pub beam_nm_per_rad: f64,
     /// `E b R^2/(12 f)`, N m/rad.
     pub fillets_nm_per_rad: f64,
-    /// The sum, N m/rad.
+    /// The sum, N m/rad (Eq. 2 as printed).
     pub stiffness_nm_per_rad: f64,
+    /// The beam and the fillets in series, `1/C_thetatheta` of the profile
+    /// (beam theory; what the lever and bridge use), N m/rad.
+    pub series_nm_per_rad: f64,
+    /// Axial stiffness of the whole profile, `1/C_xx`, N/um.
+    pub axial_n_per_um: f64,
+    /// Transverse stiffness at the free end (rotation free), `1/C_yy`, N/um.
+    pub transverse_n_per_um: f64,
 }
 
 impl Hinge {
@@ -158,6 +168,7 @@ impl Hinge {
     pub fn run(&self) -> Result<HingeReport, StepError> {
         self.validate()?;
         let k = hinge_stiffness(&self.geometry());
+        let c = self.compliance();
         Ok(HingeReport {
             inputs: self.clone(),
             s: k.s,
@@ -165,6 +176,9 @@ impl Hinge {
             beam_nm_per_rad: k.beam,
             fillets_nm_per_rad: k.fillets,
             stiffness_nm_per_rad: k.total,
+            series_nm_per_rad: 1.0 / c[2][2],
+            axial_n_per_um: 1e-6 / c[0][0],
+            transverse_n_per_um: 1e-6 / c[1][1],
         })
     }
 }
@@ -184,8 +198,18 @@ impl fmt::Display for HingeReport {
         writeln!(f, "  s = R/t = {:.4}, f(s) = {:.6}", self.s, self.f)?;
         writeln!(
             f,
-            "  beam {:.4} + fillets {:.4} = {:.4} N m/rad",
+            "  beam {:.4} + fillets {:.4} = {:.4} N m/rad (Eq. 2 as printed: stiffnesses added)",
             self.beam_nm_per_rad, self.fillets_nm_per_rad, self.stiffness_nm_per_rad
+        )?;
+        writeln!(
+            f,
+            "  in series (beam theory: compliances added): {:.4} N m/rad",
+            self.series_nm_per_rad
+        )?;
+        writeln!(
+            f,
+            "  whole profile: axial {:.3} N/um, transverse {:.5} N/um at the free end",
+            self.axial_n_per_um, self.transverse_n_per_um
         )
     }
 }
@@ -395,11 +419,16 @@ impl Hinge {
         }
     }
 
-    /// Rotational (\[Li21\] Eq. 2, N m/rad) and axial (`E b t / l`, N/m)
-    /// stiffness.
+    /// The profile's compliance at its free end (`synth::compliance`).
+    fn compliance(&self) -> Mat3 {
+        hinge_compliance(&self.geometry())
+    }
+
+    /// Rotational (N m/rad) and axial (N/m) stiffness of the whole profile,
+    /// its segments in series: `1/C_thetatheta`, `1/C_xx`.
     fn stiffnesses(&self) -> (f64, f64) {
-        let g = self.geometry();
-        (hinge_stiffness(&g).total, leaf_axial_stiffness(&g))
+        let c = self.compliance();
+        (1.0 / c[2][2], 1.0 / c[0][0])
     }
 }
 
@@ -427,8 +456,8 @@ pub struct Lever {
     pub input_arm_mm: Option<f64>,
     /// Pivot to output point, mm; without it only the inverse is answered.
     pub output_arm_mm: Option<f64>,
-    /// The pivot hinge (\[Li21\] Eq. 2 for its rotational stiffness, `E b t/l`
-    /// along the force); without it the pivot is a pin (ideal lever).
+    /// The pivot hinge (its profile's rotational and axial stiffness, the
+    /// segments in series); without it the pivot is a pin (ideal lever).
     pub hinge: Option<Hinge>,
     /// Actuator stiffness, N/um: with it, \[Li21\] Eq. 1 gives the stroke the
     /// lever's input stiffness lets through.
@@ -487,6 +516,9 @@ pub struct LeverReport {
     pub ideal: Option<f64>,
     /// With the compliant pivot (with the output arm and the hinge).
     pub compliant: Option<f64>,
+    /// By the compliance-matrix method (the pivot's full in-plane
+    /// compliance: its length's bending and shear-free transverse terms).
+    pub compliance_matrix: Option<f64>,
     /// Pivot stiffnesses: rotational N m/rad, along the force N/um.
     pub pivot_k_rot_nm_per_rad: Option<f64>,
     pub pivot_k_trans_n_per_um: Option<f64>,
@@ -526,10 +558,16 @@ impl Lever {
             .zip(input_stiffness)
             .map(|(kp, k)| flexure_displacement(kp, k, self.dl0).0);
         let compliant = amp.map(|a| a.compliant);
+        let chain = self
+            .hinge
+            .as_ref()
+            .zip(self.output_arm_mm)
+            .and_then(|(h, lo)| lever_chain(h, li, lo).map(|p| p.ratio()));
         Ok(LeverReport {
             inputs: self.clone(),
             ideal: self.output_arm_mm.map(|lo| lo / li),
             compliant,
+            compliance_matrix: chain,
             pivot_k_rot_nm_per_rad: model.map(|m| m.k_rot),
             pivot_k_trans_n_per_um: model.map(|m| m.k_trans * 1e-6),
             input_stiffness_n_per_um: input_stiffness,
@@ -558,7 +596,7 @@ impl fmt::Display for LeverReport {
         if let (Some(kr), Some(kt)) = (self.pivot_k_rot_nm_per_rad, self.pivot_k_trans_n_per_um) {
             writeln!(
                 f,
-                "  pivot: {kr:.4} N m/rad ([Li21] Eq. 2), {kt:.3} N/um along the force (E b t/l)"
+                "  pivot: {kr:.4} N m/rad, {kt:.3} N/um along the force (the profile in series)"
             )?;
         }
         writeln!(
@@ -568,6 +606,9 @@ impl fmt::Display for LeverReport {
             opt(self.compliant, 4),
             opt(self.input_stiffness_n_per_um, 4)
         )?;
+        if let Some(c) = self.compliance_matrix {
+            writeln!(f, "  compliance-matrix method: ratio {c:.4}")?;
+        }
         if let (Some(d), Some(o)) = (self.delivered_input_um, self.output_stroke_um) {
             writeln!(
                 f,
@@ -645,6 +686,9 @@ pub struct BridgeReport {
     pub ideal: Option<f64>,
     /// With the hinges' compliance (with the angle and the hinge).
     pub compliant: Option<f64>,
+    /// By the compliance-matrix method (leaf hinges along the link, their
+    /// full in-plane compliance).
+    pub compliance_matrix: Option<f64>,
     /// Hinge stiffnesses: rotational N m/rad, axial N/um.
     pub hinge_k_rot_nm_per_rad: Option<f64>,
     pub hinge_k_axial_n_per_um: Option<f64>,
@@ -675,10 +719,14 @@ impl Bridge {
         });
         let amp = limb.filter(|_| angle.is_some()).map(|l| l.amplification());
         let deg = |(a, b): (f64, f64)| (a.to_degrees(), b.to_degrees());
+        let chain = self.hinge.as_ref().zip(angle).and_then(|(h, a)| {
+            bridge_chain(h, a, self.link_mm.unwrap_or_default()).map(|p| p.ratio())
+        });
         Ok(BridgeReport {
             inputs: self.clone(),
             ideal: angle.map(|a| 1.0 / a.tan()),
             compliant: amp.map(|a| a.compliant),
+            compliance_matrix: chain,
             hinge_k_rot_nm_per_rad: limb.map(|l| l.k_rot),
             hinge_k_axial_n_per_um: limb.map(|l| l.k_axial * 1e-6),
             input_stiffness_n_per_um: amp.map(|a| a.input_stiffness * 1e-6),
@@ -704,7 +752,7 @@ impl fmt::Display for BridgeReport {
         if let (Some(kr), Some(ka)) = (self.hinge_k_rot_nm_per_rad, self.hinge_k_axial_n_per_um) {
             writeln!(
                 f,
-                "  hinge: {kr:.4} N m/rad ([Li21] Eq. 2), {ka:.3} N/um axial (E b t/l)"
+                "  hinge: {kr:.4} N m/rad, {ka:.3} N/um axial (the profile in series)"
             )?;
         }
         writeln!(
@@ -714,6 +762,9 @@ impl fmt::Display for BridgeReport {
             opt(self.compliant, 4),
             opt(self.input_stiffness_n_per_um, 4)
         )?;
+        if let Some(c) = self.compliance_matrix {
+            writeln!(f, "  compliance-matrix method: ratio {c:.4}")?;
+        }
         if let (Some(p), Some(a)) = (self.peak_ratio, self.peak_angle_deg) {
             writeln!(f, "  compliant limb: at most {p:.4}, at {a:.3} deg")?;
         }
@@ -726,6 +777,320 @@ impl fmt::Display for BridgeReport {
             f,
             "  for a ratio of {}: angle {:.3} deg ideal (acot), {compliant}",
             i.target_ratio, self.angle_for_target_ideal_deg
+        )
+    }
+}
+
+/// The lever as a compliance-matrix two-port (arms in mm).
+fn lever_chain(pivot: &Hinge, input_arm_mm: f64, output_arm_mm: f64) -> Option<TwoPort> {
+    LeverChain {
+        input_arm: input_arm_mm * 1e-3,
+        output_arm: output_arm_mm * 1e-3,
+        hinge: pivot.compliance(),
+    }
+    .two_port()
+}
+
+/// The bridge as a compliance-matrix two-port (angle in rad, link in mm).
+fn bridge_chain(hinge: &Hinge, angle: f64, link_mm: f64) -> Option<TwoPort> {
+    BridgeChain {
+        angle,
+        link: link_mm * 1e-3,
+        hinge: hinge.compliance(),
+        hinge_length: hinge.geometry().profile_length(),
+    }
+    .two_port()
+}
+
+/// A bridge-type amplifier driving a lever, by the compliance-matrix
+/// method (docs/mechanism.md "The amplifier chain"): each stage a two-port,
+/// the bridge loaded by the lever's input stiffness.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Amplifier {
+    /// Bridge link angle to the input axis, deg; without it only the
+    /// inverse is answered.
+    pub angle_deg: Option<f64>,
+    /// Bridge: distance between the hinge centres, mm; required.
+    pub link_mm: Option<f64>,
+    /// The bridge's hinges; required.
+    pub hinge: Option<Hinge>,
+    /// Lever: pivot to input (where the bridge drives it), mm; required.
+    pub input_arm_mm: Option<f64>,
+    /// Lever: pivot to output (the tool), mm; required.
+    pub output_arm_mm: Option<f64>,
+    /// The lever's pivot hinge; default: the bridge's hinge.
+    pub pivot: Option<Hinge>,
+    /// Actuator stiffness, N/um: with it, \[Li21\] Eq. 1 gives the
+    /// elongation the chain's input stiffness lets through.
+    pub kp: Option<f64>,
+    /// Actuator free stroke, um; default 10.
+    pub dl0: f64,
+    /// Overall ratio the inverse aims at; default 3.87 (\[Tang17\], measured).
+    pub target_ratio: f64,
+}
+
+impl Default for Amplifier {
+    fn default() -> Self {
+        Amplifier {
+            angle_deg: None,
+            link_mm: None,
+            hinge: None,
+            input_arm_mm: None,
+            output_arm_mm: None,
+            pivot: None,
+            kp: None,
+            dl0: 10.0,
+            target_ratio: TANG17_AMPLIFICATION,
+        }
+    }
+}
+
+fn required(name: &'static str, x: Option<f64>, what: &str) -> Result<f64, StepError> {
+    let v = x.ok_or_else(|| StepError::setting(name, format!("missing: {what}")))?;
+    positive(name, v)
+}
+
+impl Validate for Amplifier {
+    fn validate(&self) -> Result<(), StepError> {
+        if let Some(a) = self.angle_deg
+            && !(a > 0.0 && a < 90.0)
+        {
+            return Err(StepError::setting(
+                "angle_deg",
+                format!("expected an angle strictly between 0 and 90 deg, got {a}"),
+            ));
+        }
+        required(
+            "link_mm",
+            self.link_mm,
+            "the bridge's hinge-to-hinge length in mm",
+        )?;
+        required(
+            "input_arm_mm",
+            self.input_arm_mm,
+            "the lever's pivot-to-input distance in mm",
+        )?;
+        required(
+            "output_arm_mm",
+            self.output_arm_mm,
+            "the lever's pivot-to-output distance in mm",
+        )?;
+        let hinge = self.hinge.as_ref().ok_or_else(|| {
+            StepError::setting(
+                "hinge",
+                "missing: the bridge's hinges (width, length, thickness, radius)",
+            )
+        })?;
+        check_hinge(hinge)?;
+        if let Some(p) = &self.pivot {
+            check_hinge(p).map_err(|e| rename(e, "hinge", "pivot"))?;
+        }
+        if let Some(kp) = self.kp {
+            positive("kp", kp)?;
+        }
+        positive("dl0", self.dl0)?;
+        target_ratio(self.target_ratio).map(|_| ())
+    }
+}
+
+fn rename(e: StepError, from: &str, to: &'static str) -> StepError {
+    match e {
+        StepError::Input {
+            field: Some(f),
+            message,
+        } if f == from => StepError::setting(to, message),
+        other => other,
+    }
+}
+
+/// What [`Amplifier`] reports (ratios dimensionless, stiffnesses N/um).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AmplifierReport {
+    /// The inputs.
+    pub inputs: Amplifier,
+    /// Bridge: `cot(angle)`, the pseudo-rigid-body limb, the compliance
+    /// matrices (free output).
+    pub bridge_ideal: Option<f64>,
+    pub bridge_prb: Option<f64>,
+    pub bridge_free: Option<f64>,
+    /// Bridge ratio loaded by the lever's input stiffness.
+    pub bridge_loaded: Option<f64>,
+    /// Lever: `L_out/L_in` and the compliance matrices (output free).
+    pub lever_ideal: f64,
+    pub lever: f64,
+    /// Bridge loaded times lever.
+    pub overall: Option<f64>,
+    /// Stiffness the actuator sees through the chain, N/um.
+    pub input_stiffness_n_per_um: Option<f64>,
+    /// \[Li21\] Eq. 1 with `kp`: delivered elongation and tool stroke, um.
+    pub delivered_input_um: Option<f64>,
+    pub output_stroke_um: Option<f64>,
+    /// The chain's largest overall ratio over the bridge angle, and where, deg.
+    pub peak_ratio: f64,
+    pub peak_angle_deg: f64,
+    /// The bridge angle above the peak giving `target_ratio`, deg.
+    pub angle_for_target_deg: Option<f64>,
+}
+
+impl Amplifier {
+    fn chain_at(&self, angle: f64, lever: &TwoPort) -> Option<ChainAmplification> {
+        let hinge = self.hinge.as_ref()?;
+        let bridge = bridge_chain(hinge, angle, self.link_mm.unwrap_or_default())?;
+        Some(chain_amplification(&bridge, lever))
+    }
+
+    /// Evaluates the chain and the inverse.
+    pub fn run(&self) -> Result<AmplifierReport, StepError> {
+        self.validate()?;
+        let (li, lo) = (
+            self.input_arm_mm.unwrap_or_default(),
+            self.output_arm_mm.unwrap_or_default(),
+        );
+        let hinge = self.hinge.clone().unwrap_or_default();
+        let pivot = self.pivot.as_ref().unwrap_or(&hinge);
+        let lever = lever_chain(pivot, li, lo).ok_or_else(singular)?;
+        let angle = self.angle_deg.map(f64::to_radians);
+        let chain = match angle {
+            Some(a) => Some(self.chain_at(a, &lever).ok_or_else(singular)?),
+            None => None,
+        };
+        let prb = angle.map(|a| {
+            let (k_rot, k_axial) = hinge.stiffnesses();
+            let link = self.link_mm.unwrap_or_default() * 1e-3;
+            BridgeLimb {
+                angle: a,
+                link,
+                k_axial,
+                k_rot,
+            }
+            .amplification()
+            .compliant
+        });
+        let overall_at = |a: f64| self.chain_at(a, &lever).map_or(0.0, |c| c.overall);
+        let (peak_angle, peak) = peak_over_angle(overall_at);
+        let input_stiffness = chain.map(|c| c.input_stiffness * 1e-6);
+        let delivered = self
+            .kp
+            .zip(input_stiffness)
+            .map(|(kp, k)| flexure_displacement(kp, k, self.dl0).0);
+        Ok(AmplifierReport {
+            inputs: self.clone(),
+            bridge_ideal: angle.map(|a| 1.0 / a.tan()),
+            bridge_prb: prb,
+            bridge_free: chain.map(|c| c.bridge),
+            bridge_loaded: chain.map(|c| c.bridge_loaded),
+            lever_ideal: lo / li,
+            lever: lever.ratio(),
+            overall: chain.map(|c| c.overall),
+            input_stiffness_n_per_um: input_stiffness,
+            delivered_input_um: delivered,
+            output_stroke_um: delivered.zip(chain).map(|(d, c)| d * c.overall),
+            peak_ratio: peak,
+            peak_angle_deg: peak_angle.to_degrees(),
+            angle_for_target_deg: angle_above_peak(overall_at, peak_angle, peak, self.target_ratio)
+                .map(f64::to_degrees),
+        })
+    }
+}
+
+fn singular() -> StepError {
+    StepError::computation("the amplifier's compliance matrix is singular for this geometry")
+}
+
+/// The largest value of `ratio(angle)` on a 0.05 deg grid over (0, 89] deg,
+/// refined by golden-section search: `(angle, ratio)` in rad.
+fn peak_over_angle(ratio: impl Fn(f64) -> f64) -> (f64, f64) {
+    let step = 0.05f64.to_radians();
+    let grid = (1..=1780).map(|i| i as f64 * step);
+    let best = grid.fold(step, |b, a| if ratio(a) > ratio(b) { a } else { b });
+    let (mut lo, mut hi) = ((best - step).max(1e-6), best + step);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..60 {
+        let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        if ratio(a) > ratio(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    let at = 0.5 * (lo + hi);
+    (at, ratio(at))
+}
+
+/// The angle above the peak where `ratio` falls to `target` (bisection:
+/// the ratio decreases from the peak towards 90 deg), or `None`.
+fn angle_above_peak(
+    ratio: impl Fn(f64) -> f64,
+    peak_at: f64,
+    peak: f64,
+    target: f64,
+) -> Option<f64> {
+    let mut hi = 89.0f64.to_radians();
+    if target > peak || ratio(hi) > target {
+        return None;
+    }
+    let mut lo = peak_at;
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if ratio(mid) > target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(0.5 * (lo + hi))
+}
+
+impl fmt::Display for AmplifierReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let i = &self.inputs;
+        writeln!(
+            f,
+            "Bridge into lever (compliance matrices): angle {} deg, link {} mm; lever {} : {} mm",
+            opt(i.angle_deg, 3),
+            opt(i.link_mm, 3),
+            opt(i.input_arm_mm, 3),
+            opt(i.output_arm_mm, 3)
+        )?;
+        writeln!(
+            f,
+            "  bridge: ideal {}, pseudo-rigid-body {}, compliance matrices {} free, {} loaded by the lever",
+            opt(self.bridge_ideal, 4),
+            opt(self.bridge_prb, 4),
+            opt(self.bridge_free, 4),
+            opt(self.bridge_loaded, 4)
+        )?;
+        writeln!(
+            f,
+            "  lever: ideal {:.4}, compliance matrices {:.4}",
+            self.lever_ideal, self.lever
+        )?;
+        writeln!(
+            f,
+            "  overall {}; input stiffness {} N/um",
+            opt(self.overall, 4),
+            opt(self.input_stiffness_n_per_um, 4)
+        )?;
+        if let (Some(d), Some(o)) = (self.delivered_input_um, self.output_stroke_um) {
+            writeln!(
+                f,
+                "  [Li21] Eq. 1, kp = {} N/um, free stroke {} um: elongation {d:.4} um, tool {o:.4} um",
+                i.kp.unwrap_or_default(),
+                i.dl0
+            )?;
+        }
+        writeln!(
+            f,
+            "  over the bridge angle: at most {:.4}, at {:.3} deg",
+            self.peak_ratio, self.peak_angle_deg
+        )?;
+        writeln!(
+            f,
+            "  for an overall ratio of {}: angle {} deg",
+            i.target_ratio,
+            self.angle_for_target_deg
+                .map_or("unreachable".into(), |a| format!("{a:.3}"))
         )
     }
 }
