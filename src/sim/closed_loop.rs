@@ -229,6 +229,56 @@ pub fn metrics(
     }
 }
 
+/// One harmonic of a periodic tracking error.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ErrorHarmonic {
+    /// Multiple of the fundamental (1 = the fundamental).
+    pub order: usize,
+    /// Frequency, Hz.
+    pub freq: f64,
+    /// Peak amplitude, reference units.
+    pub amplitude: f64,
+}
+
+/// The error's first `orders` harmonics of `fundamental_hz`: each the
+/// amplitude `2/N |sum e_k e^{-j w k ts}|` over the longest part of `window`
+/// that spans a whole number of the fundamental's periods (to the nearest
+/// sample), where the harmonics are orthogonal to each other and to a
+/// constant. `None` when the window holds less than one period.
+pub fn error_harmonics(
+    trace: &Trace,
+    window: std::ops::Range<usize>,
+    fundamental_hz: f64,
+    orders: usize,
+) -> Option<Vec<ErrorHarmonic>> {
+    let ts = trace.ts;
+    let periods = ((window.len() as f64) * fundamental_hz * ts).floor();
+    let n = (periods / (fundamental_hz * ts)).round() as usize;
+    if periods < 1.0 || n == 0 || n > window.len() {
+        return None;
+    }
+    let start = window.start;
+    let error: Vec<f64> = (start..start + n)
+        .map(|k| trace.reference[k] - trace.measurement[k])
+        .collect();
+    Some(
+        (1..=orders)
+            .map(|order| {
+                let w = 2.0 * std::f64::consts::PI * fundamental_hz * order as f64 * ts;
+                let (c, s) = error.iter().enumerate().fold((0.0, 0.0), |(c, s), (i, e)| {
+                    let phase = w * (start + i) as f64;
+                    (c + e * phase.cos(), s + e * phase.sin())
+                });
+                ErrorHarmonic {
+                    order,
+                    freq: fundamental_hz * order as f64,
+                    amplitude: 2.0 * c.hypot(s) / n as f64,
+                }
+            })
+            .collect(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,5 +331,36 @@ mod tests {
         let mut plant = ModelPlant::new(&g, None, (0.0, 10.0), 0.0, 1).unwrap();
         let trace = run(&mut plant, &mut pid(), &reference).unwrap();
         assert_eq!(trace.measurement.len(), 5000);
+    }
+
+    /// A constant plus three harmonics of 100 Hz at 10 kHz come back to
+    /// rounding: the window spans whole periods, where they are orthogonal.
+    #[test]
+    fn error_harmonics_recover_a_known_periodic_error() {
+        let ts = 1e-4;
+        let w = 2.0 * std::f64::consts::PI * 100.0 * ts;
+        let n = 1234;
+        let measurement: Vec<f64> = (0..n)
+            .map(|k| {
+                let p = w * k as f64;
+                -(0.2 + 0.3 * p.sin() + 0.1 * (2.0 * p).cos() + 0.05 * (3.0 * p + 1.0).sin())
+            })
+            .collect();
+        let trace = Trace {
+            ts,
+            reference: vec![0.0; n],
+            filtered_reference: vec![0.0; n],
+            correction: vec![0.0; n],
+            feedforward: vec![0.0; n],
+            command: vec![0.0; n],
+            position: measurement.clone(),
+            measurement,
+        };
+        let h = error_harmonics(&trace, 17..n, 100.0, 4).unwrap();
+        for (got, want) in h.iter().zip([0.3, 0.1, 0.05, 0.0]) {
+            assert!((got.amplitude - want).abs() < 1e-12, "{got:?} vs {want}");
+        }
+        assert_eq!(h[2].freq, 300.0);
+        assert!(error_harmonics(&trace, 0..50, 100.0, 3).is_none());
     }
 }

@@ -277,13 +277,18 @@ impl Simulate {
         let step = (!prepared.reference_from_file)
             .then(|| self.step_figures(&trace, &prepared.reference))
             .flatten();
-        Ok(SimulateReport::new(
+        let mut report = SimulateReport::new(
             prepared.file,
             prepared.models,
             prepared.reference,
             trace,
             step,
-        ))
+        );
+        if matches!(self.reference, ReferenceShape::Sine) && !prepared.reference_from_file {
+            let window = report.reference.evaluated();
+            report.harmonics = closed_loop::error_harmonics(&report.trace, window, self.freq, 3);
+        }
+        Ok(report)
     }
 
     /// Everything a run needs, resolved once: the coefficient file (built
@@ -821,6 +826,9 @@ pub struct SimulateReport {
     /// from there on, through the lead-in) to the end of the evaluated
     /// window, how its error contracts.
     pub periods: Option<Vec<f64>>,
+    /// For a sine reference: the tracking error's fundamental and its 2nd
+    /// and 3rd harmonics over the evaluated window (whole periods).
+    pub harmonics: Option<Vec<closed_loop::ErrorHarmonic>>,
 }
 
 impl SimulateReport {
@@ -845,6 +853,7 @@ impl SimulateReport {
             metrics,
             step,
             periods,
+            harmonics: None,
         }
     }
 
@@ -899,6 +908,7 @@ impl Serialize for SimulateReport {
             "ts": self.trace.ts,
             "models": self.models,
             "max_error_per_period": self.periods,
+            "error_harmonics": self.harmonics,
         })
         .serialize(s)
     }
@@ -933,6 +943,13 @@ impl fmt::Display for SimulateReport {
                 "tracking error: max {:.4} um, rms {:.4} um (the reference is constant: no % of its amplitude)",
                 m.max_abs_error, m.rms_error
             )?;
+        }
+        if let Some(h) = &self.harmonics {
+            let parts: Vec<String> = h
+                .iter()
+                .map(|h| format!("{:.4} um at {} Hz", h.amplitude, fmt_hz(h.freq)))
+                .collect();
+            writeln!(f, "error harmonics: {}", parts.join(", "))?;
         }
         match &self.step {
             Some(Ok(s)) => write_step(f, s)?,
@@ -989,6 +1006,12 @@ fn write_step(f: &mut fmt::Formatter<'_>, s: &StepTracking) -> fmt::Result {
         i.undershoot,
         s.steady_state_error
     )
+}
+
+/// A frequency as `100` or `33.5` (no trailing zeros).
+fn fmt_hz(f: f64) -> String {
+    let s = format!("{f:.3}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 #[cfg(test)]
