@@ -31,6 +31,10 @@ pub const TANG17_3PUU_JSON: &str = include_str!("../../fixtures/tang17-3puu.json
 /// profile's first pose over the first half, then hold.
 pub const LEAD_IN_S: f64 = 1.0;
 
+/// Samples of a run at most (lead-in included): the trace keeps 16
+/// numbers a sample.
+pub const MAX_SAMPLES: usize = 2_000_000;
+
 /// How the three loops are closed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -328,7 +332,7 @@ enum Law {
 }
 
 impl Law {
-    /// The three commands (V) and whether one sat on its limit.
+    /// The three joint commands, V.
     fn step(&mut self, q_ref: [f64; 3], q: [f64; 3], p_ref: [f64; 3], p: [f64; 3]) -> [f64; 3] {
         match self {
             Law::Joint { spec, state } => [0, 1, 2]
@@ -370,13 +374,27 @@ impl Puu3Track {
         })?;
         let params = self.plant_params();
         let ts = params.ts;
-        let n = ((LEAD_IN_S + self.duration) / ts).round() as usize + 1;
-        if n > 10_000_000 {
+        if self.freq > 0.5 / ts {
             return Err(StepError::setting(
-                "duration",
-                format!("{n} samples at Ts {ts} s: at most 1e7"),
+                "freq",
+                format!(
+                    "{} Hz is above Nyquist ({} Hz at Ts {ts} s)",
+                    self.freq,
+                    0.5 / ts
+                ),
             ));
         }
+        let samples = (LEAD_IN_S + self.duration) / ts;
+        if samples > MAX_SAMPLES as f64 {
+            return Err(StepError::setting(
+                "duration",
+                format!(
+                    "{} s is {samples:.0} samples at Ts {ts} s (with the 1 s lead-in): at most 2e6",
+                    self.duration
+                ),
+            ));
+        }
+        let n = samples.round() as usize + 1;
         let (task, joints) = self.references(&kin, ts, n)?;
         let trace = self.simulate(&kin, &params, task, joints)?;
         Ok(self.report(trace, &params))
