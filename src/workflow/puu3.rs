@@ -35,6 +35,9 @@ pub const LEAD_IN_S: f64 = 1.0;
 /// numbers a sample.
 pub const MAX_SAMPLES: usize = 2_000_000;
 
+/// One `(x, y, z)` or slider triple per sample.
+type Points = Vec<[f64; 3]>;
+
 /// How the three loops are closed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -407,7 +410,7 @@ impl Puu3Track {
         kin: &Kinematics,
         ts: f64,
         n: usize,
-    ) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>), StepError> {
+    ) -> Result<(Points, Points), StepError> {
         let mut task = Vec::with_capacity(n);
         let mut joints = Vec::with_capacity(n);
         for k in 0..n {
