@@ -9,6 +9,7 @@ use crate::workflow::Validate;
 use crate::workflow::mechanism::{
     Amplifier, Bridge, FlexureLoss, Hinge, Lever, Puu3Report, Puu3Study, TANG17_AMPLIFICATION,
 };
+use crate::workflow::puu3::{ControlMode, JointModel, Puu3Track};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -21,6 +22,9 @@ pub enum MechanismCommand {
     /// [Tang17] 3-PUU parallel FTS: inverse kinematics, Jacobian, conditioning, Monte-Carlo workspace.
     #[command(name = "3puu")]
     Puu3(Puu3Args),
+    /// [Tang17] 3-PUU three-axis control: task reference -> inverse kinematics -> three joint loops (joint or task space) -> forward kinematics.
+    #[command(name = "3puu-track")]
+    Puu3Track(Puu3TrackArgs),
     /// Lever amplifier: L_out/L_in, with a leaf-hinge pivot, and the output arm for a target ratio.
     Lever(LeverArgs),
     /// Bridge-type amplifier: cot(angle), with compliant hinges, and the angle for a target ratio.
@@ -214,6 +218,73 @@ pub struct Puu3Args {
     json: bool,
 }
 
+/// How the three loops are closed.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum ModeArg {
+    /// Decoupled per-joint PIDs on the slider errors.
+    Joint,
+    /// PIDs on the task-space errors, mapped to the joint commands by J = dS/dp.
+    Task,
+}
+
+/// What each joint is.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum JointsArg {
+    /// The joint plant (--plant) under the PID.
+    Plant,
+    /// Ideal (unit) joint loops: each slider is at its reference (--mode joint).
+    Ideal,
+}
+
+#[derive(Debug, Args)]
+pub struct Puu3TrackArgs {
+    /// Where the loops are closed.
+    #[arg(long, value_enum, default_value = "joint")]
+    mode: ModeArg,
+    /// The joints: the plant under the PID, or ideal (unit) loops.
+    #[arg(long, value_enum, default_value = "plant")]
+    joints: JointsArg,
+    /// Joint plant (`fts.virtual-fts/1`; default: [Tang17]'s, fixtures/tang17-3puu.json).
+    #[arg(long, value_name = "FTS.json")]
+    plant: Option<PathBuf>,
+    /// PID proportional gain, V/um (default: [Tang17]'s Kp 0.01).
+    #[arg(long, default_value_t = Puu3Track::default().kp, allow_hyphen_values = true)]
+    kp: f64,
+    /// PID integral gain per sample, V/um ([Tang17]'s Ki 60 /s at Ts 1 ms).
+    #[arg(long, default_value_t = Puu3Track::default().ki, allow_hyphen_values = true)]
+    ki: f64,
+    /// PID derivative gain per sample, V/um, on the measurement ([Tang17]'s Kd 1e-5 s at Ts 1 ms).
+    #[arg(long, default_value_t = Puu3Track::default().kd, allow_hyphen_values = true)]
+    kd: f64,
+    /// Centre of the profile from home, um: x,y,z.
+    #[arg(long, value_delimiter = ',', default_values_t = Puu3Track::default().center_um, allow_hyphen_values = true)]
+    center_um: Vec<f64>,
+    /// Amplitudes ax,ay,az, um: x = cx + ax cos(2 pi f t), y = cy + ay sin, z = cz + az sin.
+    #[arg(long, value_delimiter = ',', default_values_t = Puu3Track::default().amplitude_um, allow_hyphen_values = true)]
+    amplitude_um: Vec<f64>,
+    /// Profile frequency, Hz.
+    #[arg(long, default_value_t = Puu3Track::default().freq)]
+    freq: f64,
+    /// Profile length, s.
+    #[arg(long, default_value_t = Puu3Track::default().duration)]
+    duration: f64,
+    /// Errors are evaluated from this long into the profile, s.
+    #[arg(long, default_value_t = Puu3Track::default().settle)]
+    settle: f64,
+    /// Slider displacement at home, um.
+    #[arg(long, default_value_t = Puu3Track::default().home_um)]
+    home_um: f64,
+    /// Slider travel allowed either side of home, um.
+    #[arg(long, default_value_t = Puu3Track::default().travel_um)]
+    travel_um: f64,
+    /// Write the trace (t, task reference and pose, slider references and measurements, commands) here.
+    #[arg(short = 'o', long = "out", value_name = "TRACE.csv")]
+    output: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
 pub fn run(cmd: MechanismCommand) -> anyhow::Result<()> {
     match cmd {
         MechanismCommand::FlexureLoss(a) => {
@@ -235,6 +306,7 @@ pub fn run(cmd: MechanismCommand) -> anyhow::Result<()> {
             print_report(&step.run().map_err(step_error)?, a.json)
         }
         MechanismCommand::Puu3(a) => run_puu3(a),
+        MechanismCommand::Puu3Track(a) => run_puu3_track(a),
         MechanismCommand::Lever(a) => {
             let step = Lever {
                 input_arm_mm: Some(a.input_arm_mm),
@@ -338,4 +410,53 @@ fn workspace_plot(r: &Puu3Report, format: PlotFormat) -> anyhow::Result<Vec<u8>>
         ..Panel::default()
     };
     render(&[top, side], format).map_err(|e| bad(format!("--plot: {e}")))
+}
+
+/// The three values x,y,z of `option`.
+fn three(option: &str, v: &[f64]) -> anyhow::Result<[f64; 3]> {
+    match v {
+        [x, y, z] => Ok([*x, *y, *z]),
+        _ => Err(bad(format!(
+            "{option}: expected three values x,y,z, got {}",
+            v.len()
+        ))),
+    }
+}
+
+fn run_puu3_track(a: Puu3TrackArgs) -> anyhow::Result<()> {
+    let plant = match &a.plant {
+        Some(path) => Some(super::simulate::read_virtual_params(path)?),
+        None => None,
+    };
+    let step = Puu3Track {
+        mode: match a.mode {
+            ModeArg::Joint => ControlMode::Joint,
+            ModeArg::Task => ControlMode::Task,
+        },
+        joints: match a.joints {
+            JointsArg::Plant => JointModel::Plant,
+            JointsArg::Ideal => JointModel::Ideal,
+        },
+        plant,
+        kp: a.kp,
+        ki: a.ki,
+        kd: a.kd,
+        center_um: three("--center-um", &a.center_um)?,
+        amplitude_um: three("--amplitude-um", &a.amplitude_um)?,
+        freq: a.freq,
+        duration: a.duration,
+        settle: a.settle,
+        home_um: a.home_um,
+        travel_um: a.travel_um,
+        ..Puu3Track::default()
+    };
+    let report = step.run().map_err(step_error)?;
+    if let Some(path) = &a.output {
+        super::common::write_atomic(path, report.trace_csv().as_bytes())?;
+    }
+    print_report(&report, a.json)?;
+    if let (false, Some(path)) = (a.json, &a.output) {
+        say!("wrote {}", path.display());
+    }
+    Ok(())
 }

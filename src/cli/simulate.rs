@@ -237,9 +237,15 @@ fn read_hysteresis(path: &Path) -> anyhow::Result<HysteresisModel> {
 }
 
 fn virtual_params(args: &LoopArgs) -> anyhow::Result<VirtualFtsParams> {
-    let Some(path) = &args.plant else {
-        return Ok(VirtualFtsParams::default_plant());
-    };
+    match &args.plant {
+        Some(path) => read_virtual_params(path),
+        None => Ok(VirtualFtsParams::default_plant()),
+    }
+}
+
+/// A virtual FTS parameter file (`fts.virtual-fts/1`), checked; errors
+/// name the file and the field.
+pub(super) fn read_virtual_params(path: &std::path::Path) -> anyhow::Result<VirtualFtsParams> {
     let source = path.display().to_string();
     let p: VirtualFtsParams = serde_json::from_str(&read_input(path)?)
         .map_err(|e| bad(format!("{source} line {}: {e}", e.line())))?;

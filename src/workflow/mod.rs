@@ -21,6 +21,7 @@ mod identify_hysteresis;
 pub mod ilc;
 pub mod learning;
 pub mod mechanism;
+pub mod puu3;
 pub mod response;
 pub mod robust;
 pub mod simulate;

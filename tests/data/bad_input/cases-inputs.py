@@ -141,6 +141,28 @@ case("mechanism 3puu --rod-mm -1", 2, ["--rod-mm", "-1"])
 case("mechanism hinge --e-gpa 200", 2, ["--width-mm"])
 case("mechanism lever --input-arm-mm 0", 2, ["--input-arm-mm", "0"])
 case("mechanism flexure-loss --kp -1", 2, ["--kp", "-1"])
+# Three-axis control of the 3-PUU stage: a pose outside the workspace,
+# three values x,y,z, times, the plant file, the laws.
+case("mechanism 3puu-track --amplitude-um 0,0,60", 2, ["leaves the workspace", "115.045", "--travel-um", "--amplitude-um"])
+case("mechanism 3puu-track --center-um 100000,0,0 --amplitude-um 0,0,0", 2, ["leaves the workspace", "a rod cannot reach"])
+case("mechanism 3puu-track --center-um 1,2", 2, ["--center-um", "three values", "got 2"])
+case("mechanism 3puu-track --amplitude-um 1,2,3,4", 2, ["--amplitude-um", "got 4"])
+case("mechanism 3puu-track --amplitude-um nan,0,0", 2, ["--amplitude-um", "NaN"])
+case("mechanism 3puu-track --freq 0", 2, ["--freq", "0"])
+case("mechanism 3puu-track --freq 600", 2, ["--freq", "600", "Nyquist"])
+case("mechanism 3puu-track --duration 601", 2, ["--duration", "601"])
+case("mechanism 3puu-track --settle 3", 2, ["--settle", "3"])
+case("mechanism 3puu-track --travel-um 0", 2, ["--travel-um", "0"])
+case("mechanism 3puu-track --home-um -1", 2, ["--home-um", "-1"])
+case("mechanism 3puu-track --kp inf", 2, ["--kp", "inf"])
+case("mechanism 3puu-track --mode task --joints ideal", 2, ["--joints", "--mode"])
+case("mechanism 3puu-track --mode both", 2, ["--mode", "both"])
+case("mechanism 3puu-track --plant missing.json", 2, ["missing.json"])
+case("mechanism 3puu-track --plant tf.json", 2, ["tf.json"])
+case("mechanism 3puu-track --plant p.json", 2, ["p.json", "mode_hz"],
+     {"p.json": json.dumps({**json.load(open(__file__.replace("cases-inputs.py", "../../../fixtures/tang17-3puu.json"))),
+                            "flexure": {"piezo_stiffness_n_per_um": 200.0, "flexure_stiffness_n_per_um": 11.6,
+                                        "mode_hz": 0.0, "damping_ratio": 0.05}})})
 
 # ---------------------------------------------------------------- excite
 case("excite sine --freq -1", 2, ["--freq", "-1"])
