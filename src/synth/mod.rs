@@ -4,6 +4,7 @@ pub mod budget;
 pub mod composite;
 pub mod dhinf;
 pub mod ding22;
+pub mod dob;
 pub mod genplant;
 pub mod h2;
 pub mod hinf;
