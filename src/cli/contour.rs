@@ -208,19 +208,29 @@ pub struct ContourArgs {
     #[arg(long, value_parser = choice::<AxisKind>(), conflicts_with = "controller")]
     axis_controller: Option<AxisKind>,
     /// Q cut-off of the disturbance observer, Hz [1000].
-    #[arg(long, value_name = "HZ")]
+    #[arg(id = "dob.q_hz", long = "dob-q-hz", value_name = "HZ")]
     dob_q_hz: Option<f64>,
     /// Q order (binomial low-pass) [2].
-    #[arg(long, value_name = "R")]
+    #[arg(id = "dob.q_order", long = "dob-q-order", value_name = "R")]
     dob_q_order: Option<usize>,
     /// Coulomb friction feedforward Fc of dob axes, command units [0].
-    #[arg(long, value_name = "FC", allow_hyphen_values = true)]
+    #[arg(
+        id = "dob.coulomb",
+        long = "dob-coulomb",
+        value_name = "FC",
+        allow_hyphen_values = true
+    )]
     dob_coulomb: Option<f64>,
     /// Viscous friction feedforward Fv of dob axes, command per um/s [0].
-    #[arg(long, value_name = "FV", allow_hyphen_values = true)]
+    #[arg(
+        id = "dob.viscous",
+        long = "dob-viscous",
+        value_name = "FV",
+        allow_hyphen_values = true
+    )]
     dob_viscous: Option<f64>,
     /// Smoothing velocity of the feedforward's sign v/(|v| + v_eps), um/s [10].
-    #[arg(long, value_name = "UM/S")]
+    #[arg(id = "dob.smoothing", long = "dob-smoothing", value_name = "UM/S")]
     dob_smoothing: Option<f64>,
     /// Coulomb friction Fc at every plant input (u - Fc sign(v) - Fv v), command units [0].
     #[arg(long, value_name = "FC", allow_hyphen_values = true)]
