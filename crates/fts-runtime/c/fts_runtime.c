@@ -451,6 +451,7 @@ static void reset_feedback(fts_feedback *f)
     zero(f->dob_diffs, FTS_MAX_DOB_LEN);
     zero(f->dob_commands, FTS_MAX_DOB_DELAY);
     f->dob_head = 0;
+    f->dob_last_friction = 0.0;
     f->dob_previous_reference = 0.0;
     f->dob_started = 0;
 }
@@ -701,7 +702,7 @@ static double dob_step(fts_feedback *c, double reference, double measurement,
                        double feedforward)
 {
     double previous = c->dob_started ? c->dob_previous_reference : reference;
-    double velocity, oldest, w, estimate, abs_v, ff, command;
+    double velocity, oldest, w, estimate, abs_v, friction, ff, command;
     c->dob_previous_reference = reference;
     c->dob_started = 1;
     velocity = (reference - previous) * c->dob_rate;
@@ -711,10 +712,11 @@ static double dob_step(fts_feedback *c, double reference, double measurement,
         oldest;
     estimate = small_filter_step(c->dob_qb, c->dob_qa, c->dob_qs, c->dob_q_order, w);
     abs_v = velocity < 0.0 ? -velocity : velocity;
-    ff = feedforward - estimate +
-         (c->dob_coulomb * (velocity / (abs_v + c->dob_smoothing)) + c->dob_viscous * velocity);
+    friction = c->dob_coulomb * (velocity / (abs_v + c->dob_smoothing)) + c->dob_viscous * velocity;
+    ff = feedforward - estimate + friction;
     command = ss_step(c, reference - measurement, ff);
-    c->dob_commands[c->dob_head] = command;
+    c->dob_last_friction = friction;
+    c->dob_commands[c->dob_head] = command - friction;
     c->dob_head = (c->dob_head + 1) % c->dob_delay;
     return command;
 }
@@ -953,7 +955,8 @@ void fts_multiaxis_step(fts_multiaxis *m, const double reference[3], const doubl
         for (i = 0; i < 3; ++i) {
             fts_feedback *f = &m->axes[i];
             if (f->kind == FTS_FEEDBACK_DOB) {
-                f->dob_commands[(f->dob_head + f->dob_delay - 1) % f->dob_delay] = command[i];
+                f->dob_commands[(f->dob_head + f->dob_delay - 1) % f->dob_delay] =
+                    command[i] - f->dob_last_friction;
             }
         }
     }

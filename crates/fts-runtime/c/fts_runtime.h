@@ -162,10 +162,11 @@ typedef struct fts_ss_spec {
  * with friction feedforward ([Karagoz18]; Ohnishi; Umeno & Hori); Rust DobSpec:
  *   A[x](k) = sum_j inverse_num[j] (Delta^j x)(k), Delta^j x(k) = Delta^(j-1) x(k) - Delta^(j-1) x(k-1)
  *             (inverse_num in ascending powers of the backward difference 1 - z^-1)
- *   w = (1/inverse_den)[A[x]](k) - u(k - delay)
+ *   w = (1/inverse_den)[A[x]](k) - (u - u_f)(k - delay), u_f the friction term below
  *   d_hat = (q_num/q_den)[w](k)
  *   v = (r(k) - r(k-1))/ts (0 at the first sample)
- *   u = K step (ss_step) with feedforward u_ff - d_hat + coulomb v/(|v| + smoothing) + viscous v
+ *   u_f = coulomb v/(|v| + smoothing) + viscous v
+ *   u = K step (ss_step) with feedforward (u_ff - d_hat) + u_f
  * u(k - delay) is the command applied (fts_multiaxis_step stores the sum with
  * the coupling's command). Filters ascending z^-1, den[0] != 0, at most
  * FTS_MAX_DOB_LEN coefficients; 1 <= delay <= FTS_MAX_DOB_DELAY; smoothing, ts > 0. */
@@ -247,6 +248,7 @@ typedef struct fts_feedback {
     size_t dob_delay;
     double dob_commands[FTS_MAX_DOB_DELAY];
     size_t dob_head;
+    double dob_last_friction;
     double dob_coulomb;
     double dob_viscous;
     double dob_smoothing;

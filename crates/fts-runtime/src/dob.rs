@@ -15,8 +15,10 @@
 //! rounding), while the `a_j` (products and sums of the `1 - p_i` and
 //! `p_i`) keep their relative accuracy.
 //!
-//! * `w(k) = (A/B)[y](k) - u(k - d)`, the input-equivalent disturbance
-//!   seen `d` samples late;
+//! * `w(k) = (A/B)[y](k) - (u - u_f)(k - d)`, the input-equivalent
+//!   disturbance seen `d` samples late, less the friction feedforward `u_f`
+//!   already sent against it (so that matched feedforward leaves the
+//!   observer nothing to estimate);
 //! * `d_hat(k) = Q[w](k)`, its low-pass estimate;
 //! * `v_ref(k) = (r(k) - r(k-1))/ts` (0 at the first sample), the
 //!   reference velocity;
@@ -141,9 +143,12 @@ pub(crate) struct DobBlock {
     /// `1/B`.
     inverse: SmallFilter,
     delay: usize,
-    /// The last `delay` commands, `commands[head]` the oldest.
+    /// The last `delay` commands less their friction feedforward,
+    /// `commands[head]` the oldest.
     commands: [f64; MAX_DOB_DELAY],
     head: usize,
+    /// The last step's friction feedforward.
+    last_friction: f64,
     coulomb: f64,
     viscous: f64,
     smoothing: f64,
@@ -199,6 +204,7 @@ impl DobBlock {
             delay: s.delay,
             commands: [0.0; MAX_DOB_DELAY],
             head: 0,
+            last_friction: 0.0,
             coulomb: s.coulomb,
             viscous: s.viscous,
             smoothing: s.smoothing,
@@ -216,6 +222,7 @@ impl DobBlock {
         self.differences = [0.0; MAX_DOB_LEN];
         self.commands = [0.0; MAX_DOB_DELAY];
         self.head = 0;
+        self.last_friction = 0.0;
         self.previous_reference = 0.0;
         self.started = false;
     }
@@ -261,9 +268,11 @@ impl DobBlock {
         let a_y = self.difference_step(measurement);
         let w = self.inverse.step(a_y) - oldest;
         let estimate = self.q.step(w);
-        let ff = feedforward - estimate + self.friction(velocity);
+        let friction = self.friction(velocity);
+        let ff = feedforward - estimate + friction;
         let command = ss_step(&mut self.outer, reference - measurement, ff);
-        self.commands[self.head] = command;
+        self.last_friction = friction;
+        self.commands[self.head] = command - friction;
         self.head = (self.head + 1) % self.delay;
         command
     }
@@ -273,6 +282,78 @@ impl DobBlock {
     #[inline]
     pub(crate) fn applied(&mut self, command: f64) {
         let last = (self.head + self.delay - 1) % self.delay;
-        self.commands[last] = command;
+        self.commands[last] = command - self.last_friction;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{FeedbackSpec, RuntimeController, RuntimeSpec, SsAntiWindup};
+
+    const NO_GAIN: StateSpaceSpec<'static> = StateSpaceSpec {
+        a: &[],
+        b: &[],
+        c: &[],
+        d: 0.0,
+        output_min: f64::NEG_INFINITY,
+        output_max: f64::INFINITY,
+        anti_windup: SsAntiWindup::None,
+    };
+
+    fn spec(delay: usize, smoothing: f64, q_den: &[f64]) -> DobSpec<'_> {
+        DobSpec {
+            outer: NO_GAIN,
+            q_num: &[0.5],
+            q_den,
+            inverse_num: &[0.05, 0.95],
+            inverse_den: &[0.2],
+            delay,
+            coulomb: 0.0,
+            viscous: 0.0,
+            smoothing,
+            ts: 1e-3,
+        }
+    }
+
+    fn load(s: DobSpec<'_>) -> Result<RuntimeController, RuntimeError> {
+        RuntimeController::new(&RuntimeSpec {
+            zpetc: None,
+            hysteresis: None,
+            feedback: FeedbackSpec::Dob(s),
+            repetitive: None,
+        })
+    }
+
+    #[test]
+    fn bad_specs_are_refused_naming_the_field() {
+        let q = [1.0, -0.5];
+        assert!(load(spec(1, 1.0, &q)).is_ok());
+        let field = |s| match load(s) {
+            Err(RuntimeError::Invalid { field }) => field,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(field(spec(0, 1.0, &q)), "dob.delay");
+        assert_eq!(field(spec(MAX_DOB_DELAY + 1, 1.0, &q)), "dob.delay");
+        assert_eq!(field(spec(1, 0.0, &q)), "dob.smoothing");
+        assert_eq!(field(spec(1, 1.0, &[0.0, 1.0])), "dob.q_den");
+    }
+
+    /// With a delay of 2 the observer compares `(A/B) y` with the command
+    /// of two samples before, and the one it is told was applied.
+    #[test]
+    fn the_observer_uses_the_command_applied_delay_samples_late() {
+        // Q = 1 (q_num = q_den = [1]): d_hat = (A/B) y - u(k - 2).
+        let mut s = spec(2, 1.0, &[1.0]);
+        s.q_num = &[1.0];
+        s.inverse_num = &[1.0];
+        s.inverse_den = &[1.0];
+        let mut c = load(s).unwrap();
+        // u = -d_hat = u(k - 2) - y.
+        assert_eq!(c.step(0.0, 1.0), -1.0);
+        assert_eq!(c.step(0.0, 2.0), -2.0);
+        c.feedback.applied(5.0); // the plant got 5, not -2
+        assert_eq!(c.step(0.0, 0.0), -1.0); // u(k-2) = -1
+        assert_eq!(c.step(0.0, 0.0), 5.0); // u(k-2) = 5
     }
 }
