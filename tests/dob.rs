@@ -214,3 +214,34 @@ fn dob_with_friction_feedforward_beats_pid_cc_on_the_circle_and_the_square() {
         );
     }
 }
+
+/// The manifest's `multiaxis` step writes `dob` axes on request, whose
+/// file reads back to the same controllers.
+#[test]
+fn the_multiaxis_step_writes_dob_axes() {
+    use fts::io::controller_file::{Feedback, parse_multiaxis};
+    use fts::workflow::contour::BuildMultiAxis;
+    let step = BuildMultiAxis {
+        axis_controller: AxisKind::Dob,
+        ..BuildMultiAxis::default()
+    };
+    let file = step
+        .run([None, None, None], None, Default::default())
+        .unwrap();
+    assert!(file.axes.iter().all(|a| matches!(a, Feedback::Dob(_))));
+    assert!(matches!(file.cross_coupling, Some(Feedback::StateSpace(_))));
+    let back = parse_multiaxis(&file.to_json_string(), "k.json").unwrap();
+    assert_eq!(back, file);
+    let bad = BuildMultiAxis {
+        axis_controller: AxisKind::Dob,
+        dob: DobSettings {
+            q_hz: 1e9,
+            ..DobSettings::default()
+        },
+        ..BuildMultiAxis::default()
+    };
+    assert!(
+        bad.run([None, None, None], None, Default::default())
+            .is_err()
+    );
+}

@@ -835,6 +835,12 @@ pub struct BuildMultiAxis {
     pub output_min: Option<f64>,
     /// Highest command of every controller written; default none.
     pub output_max: Option<f64>,
+    /// What the PID gains are written as: `pid` or `dob` (with the
+    /// \[Karagoz18\] Eq. 2-4 plants as the observers' nominal models);
+    /// default pid.
+    pub axis_controller: AxisKind,
+    /// The observer and friction feedforward of `dob` axes.
+    pub dob: DobSettings,
 }
 
 impl Default for BuildMultiAxis {
@@ -849,6 +855,8 @@ impl Default for BuildMultiAxis {
             coupled: true,
             output_min: None,
             output_max: None,
+            axis_controller: AxisKind::Pid,
+            dob: DobSettings::default(),
         }
     }
 }
@@ -860,6 +868,9 @@ impl Validate for BuildMultiAxis {
         check_pid("pid_y", self.pid_y)?;
         check_pid("pid_z", self.pid_z)?;
         check_pid("cross_coupling", self.cross_coupling)?;
+        if self.axis_controller == AxisKind::Dob {
+            self.dob.validate(self.ts)?;
+        }
         command_limits(self.output_min, self.output_max).map(|_| ())
     }
 }
@@ -875,10 +886,16 @@ impl BuildMultiAxis {
     ) -> Result<MultiAxisControllerFile, StepError> {
         self.validate()?;
         let pids = [self.pid_x, self.pid_y, self.pid_z];
+        let plants = karagoz18_plants();
+        let as_contour = Contour {
+            axis_controller: self.axis_controller,
+            dob: self.dob.clone(),
+            ..Contour::default()
+        };
         let axes: [AxisController; 3] = std::array::from_fn(|i| {
             controllers[i]
                 .clone()
-                .unwrap_or_else(|| AxisController::Pid(pid_of(pids[i])))
+                .unwrap_or_else(|| as_contour.pid_axis(pids[i], &plants[i], &mut String::new()))
         });
         let cross = self
             .coupled
