@@ -12,6 +12,11 @@
 //! controllers run in the runtime's allocation-free
 //! [`crate::runtime::CrossCoupledStep`], the code a real-time loop would run.
 //!
+//! With friction ([`Friction`]) the plant receives
+//! `u_i - Fc sign(v_i) - Fv v_i`, `v_i` the backward difference of the
+//! plant's own output over the last sample. A DOB axis ([`DobAxis`],
+//! `synth::dob`) is the PID's Tustin block inside a disturbance observer.
+//!
 //! Nothing is stored per sample but a thinned trace for plots: the metrics
 //! accumulate on the fly, so a 1 MHz loop over seconds needs little memory.
 
