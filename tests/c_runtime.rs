@@ -15,8 +15,8 @@
 mod cc;
 
 use fts::io::controller_file::{
-    ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, ParallelPid, RepetitiveBlock,
-    StateSpaceBlock, ZpetcBlock, parse_controller, to_c_files,
+    ControllerFile, DobBlock, Feedback, FeedforwardTableBlock, HysteresisBlock, ParallelPid,
+    RepetitiveBlock, StateSpaceBlock, ZpetcBlock, parse_controller, to_c_files,
 };
 use fts::runtime::{PlayForm, RuntimeController, SsAntiWindup};
 use std::path::{Path, PathBuf};
@@ -334,6 +334,35 @@ fn assert_bit_identical(name: &str, file: &ControllerFile, limits_hit_at_least: 
     eprintln!(
         "{name}: {SAMPLES} samples bit-identical ({at_limit} at the limits, {corrected} corrected)"
     );
+}
+
+/// The 8-state controller inside a disturbance observer (delay 2, a
+/// second-order `Q`, a third-order nominal inverse) with friction
+/// feedforward and the ZPETC.
+fn dob_controller() -> ControllerFile {
+    let mut f = state_space_controller();
+    let Feedback::StateSpace(outer) = f.feedback.clone() else {
+        unreachable!("a state-space controller")
+    };
+    let (q_num, q_den) = fts::synth::dob::q_filter(500.0, 2, f.ts).unwrap();
+    f.feedback = Feedback::Dob(DobBlock {
+        outer,
+        q_num,
+        q_den,
+        inverse_num: vec![1e-4, 0.03, 0.9, 0.05],
+        inverse_den: vec![0.3, -0.1],
+        delay: 2,
+        coulomb: 0.05,
+        viscous: 1e-4,
+        smoothing: 5.0,
+        design: "test".into(),
+    });
+    f
+}
+
+#[test]
+fn dob_with_zpetc_is_bit_identical_in_c() {
+    assert_bit_identical("DOB (state space 8)+ZPETC", &dob_controller(), 0);
 }
 
 #[test]

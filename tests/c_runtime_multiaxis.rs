@@ -24,8 +24,8 @@ use fts::io::controller_file::{
 use fts::lti::ss::StateSpace;
 use fts::runtime::PidSpec;
 use fts::sim::contour::{
-    AxisController, KARAGOZ18_AXIS_PID, KARAGOZ18_PLANTS, LoopSample, MultiAxisLoop,
-    controller_file, record,
+    AxisController, DobAxis, KARAGOZ18_AXIS_PID, KARAGOZ18_CC_PID, KARAGOZ18_PLANTS, LoopSample,
+    MultiAxisLoop, controller_file, record,
 };
 use fts::sim::disturbance::Sine;
 use fts::sim::path::{MotionLimits, Path as Geometry, Shape, Trajectory};
@@ -72,6 +72,32 @@ fn file() -> MultiAxisControllerFile {
         0.4, 0.005, 0.0005, 100.0, 1e3,
     )));
     controller_file([&x, &y, &z], Some(&cc), TS, Default::default()).unwrap()
+}
+
+/// Three DOB axes (the Table 2 PIDs inside observers with friction
+/// feedforward; Q at 2 kHz, so that its dynamics matter within the run)
+/// and the Table 2 coupling.
+fn dob_file() -> MultiAxisControllerFile {
+    let axes = [0, 1, 2].map(|i| {
+        let (num, den) = KARAGOZ18_PLANTS[i];
+        AxisController::Dob(Box::new(DobAxis {
+            pid: KARAGOZ18_AXIS_PID[i],
+            nominal: StateSpace::from_tf(num, den, None).unwrap(),
+            q_hz: 2000.0,
+            q_order: 2,
+            coulomb: 0.01,
+            viscous: 1e-6,
+            smoothing: 10.0,
+        }))
+    });
+    let cc = AxisController::Pid(KARAGOZ18_CC_PID);
+    controller_file(
+        [&axes[0], &axes[1], &axes[2]],
+        Some(&cc),
+        TS,
+        Default::default(),
+    )
+    .unwrap()
 }
 
 fn simulate(file: &MultiAxisControllerFile) -> Vec<LoopSample> {
@@ -177,19 +203,34 @@ fn the_file_the_rust_step_and_the_c_step_give_the_simulations_commands() {
         saturated > 1000 && SAMPLES - saturated > 1000,
         "{saturated} of {SAMPLES} samples at the X limits: both branches must be run"
     );
+    everywhere(&file, &rec);
+    eprintln!("{SAMPLES} samples, {saturated} at the X limits");
+}
+
+#[test]
+fn a_dob_file_gives_the_simulations_commands_in_rust_and_c() {
+    let file = dob_file();
+    assert!(file.axes.iter().all(|a| matches!(a, Feedback::Dob(_))));
+    let rec = simulate(&file);
+    everywhere(&file, &rec);
+}
+
+/// The file through JSON, the Rust step, `fts emit` and the C step: every
+/// command has the simulation's bits.
+fn everywhere(file: &MultiAxisControllerFile, rec: &[LoopSample]) {
     assert!(rec.iter().all(|s| s.command.iter().all(|u| u.is_finite())));
 
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("controller-3axis.json");
     std::fs::write(&json, file.to_json_string()).unwrap();
     let back = parse_multiaxis(&std::fs::read_to_string(&json).unwrap(), "k.json").unwrap();
-    assert_eq!(back, file);
+    assert_eq!(&back, file);
     let mut step = back.runtime_step().unwrap();
     let replayed: Vec<[f64; 3]> = rec
         .iter()
         .map(|s| step.step(&s.reference, &s.tangent, &s.measurement))
         .collect();
-    assert_same_bits("the file's Rust step", &replayed, &rec);
+    assert_same_bits("the file's Rust step", &replayed, rec);
 
     // fts emit: the same header as the library writes, and the JSON again byte for byte.
     let header = Fts::cargo_bin("fts")
@@ -201,7 +242,7 @@ fn the_file_the_rust_step_and_the_c_step_give_the_simulations_commands() {
     assert!(header.status.success());
     assert_eq!(
         String::from_utf8(header.stdout).unwrap(),
-        to_multiaxis_c_header(&file)
+        to_multiaxis_c_header(file)
     );
     let again = Fts::cargo_bin("fts")
         .unwrap()
@@ -225,11 +266,9 @@ fn the_file_the_rust_step_and_the_c_step_give_the_simulations_commands() {
         .output()
         .unwrap();
     assert!(emitted.status.success(), "{emitted:?}");
-    let c = c_commands(&cc, &c_dir, &rec);
-    assert_same_bits("the C step", &c, &rec);
-    eprintln!(
-        "{SAMPLES} samples, {saturated} at the X limits: C, Rust and the simulation agree bit for bit"
-    );
+    let c = c_commands(&cc, &c_dir, rec);
+    assert_same_bits("the C step", &c, rec);
+    eprintln!("{SAMPLES} samples: C, Rust and the simulation agree bit for bit");
 }
 
 #[test]

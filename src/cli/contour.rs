@@ -10,7 +10,8 @@ use crate::sim::contour::AxisController;
 use crate::sim::disturbance::Disturbance;
 use crate::workflow::Validate;
 use crate::workflow::contour::{
-    Contour, ContourInputs, MakeTrajectory, PathShape, PidGains4, TrajectorySettings,
+    AxisKind, Contour, ContourInputs, DobSettings, MakeTrajectory, PathShape, PidGains4,
+    TrajectorySettings,
 };
 use clap::Args;
 use std::path::PathBuf;
@@ -202,6 +203,41 @@ pub struct ContourArgs {
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
     json: bool,
+    /// What the axis PIDs run as: `pid` alone, or `dob`, inside a
+    /// disturbance observer with friction feedforward ([Karagoz18] ARC).
+    #[arg(long, value_parser = choice::<AxisKind>(), conflicts_with = "controller")]
+    axis_controller: Option<AxisKind>,
+    /// Q cut-off of the disturbance observer, Hz [1000].
+    #[arg(id = "dob.q_hz", long = "dob-q-hz", value_name = "HZ")]
+    dob_q_hz: Option<f64>,
+    /// Q order (binomial low-pass) [2].
+    #[arg(id = "dob.q_order", long = "dob-q-order", value_name = "R")]
+    dob_q_order: Option<usize>,
+    /// Coulomb friction feedforward Fc of dob axes, command units [0].
+    #[arg(
+        id = "dob.coulomb",
+        long = "dob-coulomb",
+        value_name = "FC",
+        allow_hyphen_values = true
+    )]
+    dob_coulomb: Option<f64>,
+    /// Viscous friction feedforward Fv of dob axes, command per um/s [0].
+    #[arg(
+        id = "dob.viscous",
+        long = "dob-viscous",
+        value_name = "FV",
+        allow_hyphen_values = true
+    )]
+    dob_viscous: Option<f64>,
+    /// Smoothing velocity of the feedforward's sign v/(|v| + v_eps), um/s [10].
+    #[arg(id = "dob.smoothing", long = "dob-smoothing", value_name = "UM/S")]
+    dob_smoothing: Option<f64>,
+    /// Coulomb friction Fc at every plant input (u - Fc sign(v) - Fv v), command units [0].
+    #[arg(long, value_name = "FC", allow_hyphen_values = true)]
+    friction_coulomb: Option<f64>,
+    /// Viscous friction Fv at every plant input, command per um/s [0].
+    #[arg(long, value_name = "FV", allow_hyphen_values = true)]
+    friction_viscous: Option<f64>,
 }
 
 /// `P,I,D,N` of the option of setting `field` (four numbers), or the default.
@@ -250,6 +286,16 @@ impl ContourArgs {
             output_min: self.output_min,
             output_max: self.output_max,
             trace_points: d.trace_points,
+            axis_controller: self.axis_controller.unwrap_or(d.axis_controller),
+            dob: DobSettings {
+                q_hz: self.dob_q_hz.unwrap_or(d.dob.q_hz),
+                q_order: self.dob_q_order.unwrap_or(d.dob.q_order),
+                coulomb: self.dob_coulomb.unwrap_or(d.dob.coulomb),
+                viscous: self.dob_viscous.unwrap_or(d.dob.viscous),
+                smoothing: self.dob_smoothing.unwrap_or(d.dob.smoothing),
+            },
+            friction_coulomb: self.friction_coulomb.unwrap_or(d.friction_coulomb),
+            friction_viscous: self.friction_viscous.unwrap_or(d.friction_viscous),
         })
     }
 

@@ -243,6 +243,66 @@ impl StateSpaceBlock {
     }
 }
 
+/// The disturbance-observer block (`type: "dob"`, \[Karagoz18\]'s
+/// adaptive robust axis controller; `fts_runtime::DobSpec`,
+/// `synth::dob`): the outer controller on the error as a state-space block
+/// (e.g. a PID by Tustin; its limits are the block's), the observer's `Q`
+/// and nominal inverse `A/B` (`A` in powers of `1 - z^-1`) with the
+/// nominal delay `d`, and the friction feedforward `Fc v/(|v| + v_eps) + Fv v`
+/// on the reference velocity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DobBlock {
+    /// The outer controller.
+    pub outer: StateSpaceBlock,
+    /// `Q` numerator, ascending `z^-1`.
+    pub q_num: Vec<f64>,
+    /// `Q` denominator.
+    pub q_den: Vec<f64>,
+    /// Nominal inverse numerator `A` (the nominal plant's denominator),
+    /// ascending powers of `1 - z^-1`.
+    pub inverse_num: Vec<f64>,
+    /// Nominal inverse denominator `B` (the nominal plant's numerator
+    /// without its delay), ascending `z^-1`.
+    pub inverse_den: Vec<f64>,
+    /// The nominal plant's delay `d`, samples.
+    pub delay: usize,
+    /// Coulomb friction feedforward `Fc`, command units.
+    pub coulomb: f64,
+    /// Viscous friction feedforward `Fv`, command per (reference unit/s).
+    pub viscous: f64,
+    /// Smoothing velocity `v_eps` of the sign, reference units/s.
+    pub smoothing: f64,
+    /// How the filters were made, for people; not used by the loop.
+    pub design: String,
+}
+
+impl DobBlock {
+    /// The runtime's coefficients at `ts` (absent limits infinite).
+    pub fn runtime_spec(&self, ts: f64) -> crate::runtime::DobSpec<'_> {
+        let k = &self.outer;
+        crate::runtime::DobSpec {
+            outer: StateSpaceSpec {
+                a: &k.a,
+                b: &k.b,
+                c: &k.c,
+                d: k.d,
+                output_min: k.output_min.unwrap_or(f64::NEG_INFINITY),
+                output_max: k.output_max.unwrap_or(f64::INFINITY),
+                anti_windup: k.anti_windup,
+            },
+            q_num: &self.q_num,
+            q_den: &self.q_den,
+            inverse_num: &self.inverse_num,
+            inverse_den: &self.inverse_den,
+            delay: self.delay,
+            coulomb: self.coulomb,
+            viscous: self.viscous,
+            smoothing: self.smoothing,
+            ts,
+        }
+    }
+}
+
 /// A PID given in the continuous parallel form
 /// `C(s) = Kp + Ki/s + Kd s` or, with a derivative filter,
 /// `Kp + Ki/s + Kd N s/(s + N)` (MATLAB `pid(Kp, Ki, Kd, 1/N)`), run by the
@@ -345,6 +405,8 @@ pub enum Feedback {
     ParallelPid(ParallelPid),
     /// A discrete state-space controller.
     StateSpace(StateSpaceBlock),
+    /// A PID with a disturbance observer and friction feedforward.
+    Dob(DobBlock),
 }
 
 impl Feedback {
@@ -364,6 +426,7 @@ impl Feedback {
                 output_max: k.output_max.unwrap_or(f64::INFINITY),
                 anti_windup: k.anti_windup,
             }),
+            Feedback::Dob(d) => FeedbackSpec::Dob(d.runtime_spec(ts)),
         }
     }
 }
@@ -570,7 +633,8 @@ impl ControllerFile {
         crate::synth::composite::Stages {
             feedback: match self.feedback {
                 Feedback::None => FeedbackKind::None,
-                Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
+                // The DOB's outer controller is a PID.
+                Feedback::Pid(_) | Feedback::ParallelPid(_) | Feedback::Dob(_) => FeedbackKind::Pid,
                 Feedback::StateSpace(_) => FeedbackKind::StateSpace,
             },
             hysteresis_compensation: self.hysteresis.is_some(),
@@ -607,6 +671,7 @@ impl ControllerFile {
             Feedback::None => "no_feedback",
             Feedback::Pid(_) | Feedback::ParallelPid(_) => "pid",
             Feedback::StateSpace(_) => "state_space",
+            Feedback::Dob(_) => "dob",
         });
         v
     }

@@ -12,13 +12,18 @@
 //! controllers run in the runtime's allocation-free
 //! [`crate::runtime::CrossCoupledStep`], the code a real-time loop would run.
 //!
+//! With friction ([`Friction`]) the plant receives
+//! `u_i - Fc sign(v_i) - Fv v_i`, `v_i` the backward difference of the
+//! plant's own output over the last sample. A DOB axis ([`DobAxis`],
+//! `synth::dob`) is the PID's Tustin block inside a disturbance observer.
+//!
 //! Nothing is stored per sample but a thinned trace for plots: the metrics
 //! accumulate on the fly, so a 1 MHz loop over seconds needs little memory.
 
 use super::disturbance::Sine;
 use super::path::{Trajectory, Vec3, contour_estimate, length};
 use crate::io::controller_file::{
-    Feedback, MultiAxisControllerFile, Provenance, StateSpaceBlock, Units,
+    DobBlock, Feedback, MultiAxisControllerFile, Provenance, StateSpaceBlock, Units,
 };
 use crate::lti::c2d::{C2dMethod, c2d};
 use crate::lti::ss::StateSpace;
@@ -132,6 +137,9 @@ pub enum AxisController {
     Pid(ParallelPid),
     /// A state-space controller (`u = K e`); continuous ones by Tustin.
     StateSpace(Box<StateSpace>),
+    /// The PID with a disturbance observer and friction feedforward
+    /// (\[Karagoz18\]'s adaptive robust controller, `synth::dob`).
+    Dob(Box<DobAxis>),
     /// A block of a controller file, discrete at `ts` (which must be the
     /// loop's) and run as written (limits included).
     Block {
@@ -140,6 +148,73 @@ pub enum AxisController {
         /// Its file's sample time, s.
         ts: f64,
     },
+}
+
+/// A DOB axis controller before discretisation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DobAxis {
+    /// The outer PID `P + I/s + D N s/(s + N)` (backward Euler).
+    pub pid: ParallelPid,
+    /// The nominal plant (continuous: ZOH at the loop's `ts`).
+    pub nominal: StateSpace,
+    /// `Q` cut-off, Hz.
+    pub q_hz: f64,
+    /// `Q` order.
+    pub q_order: usize,
+    /// Coulomb friction feedforward, command units.
+    pub coulomb: f64,
+    /// Viscous friction feedforward, command per um/s.
+    pub viscous: f64,
+    /// Smoothing velocity of the sign, um/s.
+    pub smoothing: f64,
+}
+
+/// Coulomb and viscous friction at a plant's input:
+/// `u_eff = u - Fc sign(v) - Fv v`, `v` the axis velocity.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Friction {
+    /// `Fc`, command units.
+    pub coulomb: f64,
+    /// `Fv`, command per um/s.
+    pub viscous: f64,
+}
+
+/// The discrete DOB block of `d` at `ts`: the PID by Tustin (as a PID
+/// axis runs it) inside the observer.
+fn dob_block(
+    d: &DobAxis,
+    ts: f64,
+    limits: CommandLimits,
+    what: &str,
+) -> Result<Feedback, ContourError> {
+    let setup = |e: String| ContourError::Setup(format!("{what}: {e}"));
+    let Feedback::StateSpace(outer) =
+        controller_block(&AxisController::Pid(d.pid), ts, limits, what)?
+    else {
+        unreachable!("a PID axis is a state-space block");
+    };
+    let g = discrete(
+        &d.nominal,
+        ts,
+        C2dMethod::Zoh,
+        &format!("{what}: the nominal model"),
+    )?;
+    let f = crate::synth::dob::design(&g, d.q_hz, d.q_order, ts).map_err(setup)?;
+    Ok(Feedback::Dob(DobBlock {
+        outer,
+        q_num: f.q_num,
+        q_den: f.q_den,
+        inverse_num: f.inverse_num,
+        inverse_den: f.inverse_den,
+        delay: f.delay,
+        coulomb: d.coulomb,
+        viscous: d.viscous,
+        smoothing: d.smoothing,
+        design: format!(
+            "Q binomial order {} at {} Hz; nominal inverse of the ZOH model",
+            d.q_order, d.q_hz
+        ),
+    }))
 }
 
 /// The \[Karagoz18\] Table 2 axis gains `(P, I, D, N)` for X, Y, Z.
@@ -200,6 +275,8 @@ pub struct AxisSetup {
     pub controller: AxisController,
     /// Sines added to the plant output (position units, Hz, degrees).
     pub disturbance: Vec<Sine>,
+    /// Friction at the plant input.
+    pub friction: Friction,
 }
 
 /// The discretised loop, ready to run.
@@ -215,6 +292,8 @@ pub struct MultiAxisLoop {
     pub axis_loops: [AxisLoop; 3],
     limits: CommandLimits,
     limited_samples: usize,
+    friction: [Friction; 3],
+    previous_position: Vec3,
 }
 
 /// An axis's own closed loop (plant and controller, unity feedback).
@@ -263,6 +342,7 @@ fn controller_block(
             }
             return Ok((**feedback).clone());
         }
+        AxisController::Dob(d) => return dob_block(d, ts, limits, what),
         AxisController::Pid(pid) => {
             let tf = if pid.i == 0.0 {
                 pd_tustin(pid, ts)
@@ -310,8 +390,14 @@ fn linear_controller(f: &Feedback, ts: f64) -> Result<StateSpace, String> {
         },
         FeedbackSpec::Pid(p) => (p.kp, p.ki, p.kd, 0.0),
         FeedbackSpec::PidFiltered(p) => (p.kp, p.ki, p.kd, p.derivative_pole),
+        FeedbackSpec::Dob(d) => return crate::synth::dob::linear_controller(&d, ts),
         FeedbackSpec::None => return Err("an axis needs a feedback controller".into()),
     };
+    pid_linear([kp, ki, kd, pole], ts)
+}
+
+/// The runtime PID `[kp, ki, kd, pole]` on the measurement as a system.
+fn pid_linear([kp, ki, kd, pole]: [f64; 4], ts: f64) -> Result<StateSpace, String> {
     // Over the common denominator (1 - z^-1)(1 - pole z^-1).
     let num = [
         kp + ki + kd,
@@ -381,6 +467,11 @@ fn axis_loop(
     let one = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 1.0), g.ts);
     let cl = k.series(g).and_then(|l| l.feedback(&one)).map_err(setup)?;
     let poles = cl.poles().map_err(setup)?;
+    Ok(loop_info(&poles, ts))
+}
+
+/// The figures of closed-loop poles `poles` at `ts`.
+fn loop_info(poles: &[crate::lti::c64], ts: f64) -> AxisLoop {
     let mut info = AxisLoop {
         pole_radius: poles.iter().map(|p| p.norm()).fold(0.0, f64::max),
         least_damping: f64::INFINITY,
@@ -394,7 +485,46 @@ fn axis_loop(
             info.least_damped_hz = s.norm() / (2.0 * PI);
         }
     }
-    Ok(info)
+    info
+}
+
+/// The closed loop of a DOB axis. With the plant as the nominal model
+/// (`(A, B, d)` of `g` equal to the block's to 1e-9), `1 - Q z^-d + (C + Q A/B) P`
+/// times its denominators is `D_Q B (A D_c + N_c B z^-d)`: the poles are the
+/// PID loop's, `Q`'s and the plant's zeros, each found where it is well
+/// conditioned (the realisation of the whole, with poles and zeros within
+/// 1e-6 of `z = 1` at fast sampling, is not). Otherwise the loop of the
+/// block's linear part as a whole ([`crate::synth::dob::linear_controller`]).
+fn dob_loop(g: &StateSpace, d: &DobBlock, ts: f64, axis: &str) -> Result<AxisLoop, ContourError> {
+    let setup = |e: String| ContourError::Setup(format!("axis {axis} controller: {e}"));
+    let spec = d.runtime_spec(ts);
+    let same = |a: &[f64], b: &[f64]| {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1e-300))
+    };
+    let nominal_is_plant = crate::synth::dob::nominal_inverse(g).is_ok_and(|(a, b, delay)| {
+        delay == d.delay && same(&a, &d.inverse_num) && same(&b, &d.inverse_den)
+    });
+    if !nominal_is_plant {
+        let k = crate::synth::dob::linear_controller(&spec, ts).map_err(setup)?;
+        return axis_loop(g, &k, ts, axis);
+    }
+    let k = d.outer.to_state_space(ts).map_err(setup)?;
+    let cl = k
+        .series(g)
+        .and_then(|l| {
+            l.feedback(&StateSpace::gain(
+                faer::Mat::from_fn(1, 1, |_, _| 1.0),
+                g.ts,
+            ))
+        })
+        .map_err(|e| setup(e.to_string()))?;
+    let mut poles = cl.poles().map_err(|e| setup(e.to_string()))?;
+    poles.extend(crate::lti::roots_descending(&d.q_den).map_err(|e| setup(e.to_string()))?);
+    poles.extend(crate::lti::roots_descending(&d.inverse_den).map_err(|e| setup(e.to_string()))?);
+    Ok(loop_info(&poles, ts))
 }
 
 impl MultiAxisLoop {
@@ -412,6 +542,7 @@ impl MultiAxisLoop {
         let plants = [0, 1, 2].map(|i| (axes[i].plant.clone(), axes[i].disturbance.clone()));
         let mut lp = Self::from_file(plants, file)?;
         lp.limits = limits;
+        lp.friction = [0, 1, 2].map(|i| axes[i].friction);
         Ok(lp)
     }
 
@@ -429,9 +560,14 @@ impl MultiAxisLoop {
             let name = AXES[i];
             let what = format!("axis {name} plant");
             let g = discrete(plant, ts, C2dMethod::Zoh, &what)?;
-            let k = linear_controller(&file.axes[i], ts)
-                .map_err(|e| ContourError::Setup(format!("axis {name} controller: {e}")))?;
-            axis_loops[i] = axis_loop(&g, &k, ts, name)?;
+            axis_loops[i] = match &file.axes[i] {
+                Feedback::Dob(d) => dob_loop(&g, d, ts, name)?,
+                other => {
+                    let k = linear_controller(other, ts)
+                        .map_err(|e| ContourError::Setup(format!("axis {name} controller: {e}")))?;
+                    axis_loop(&g, &k, ts, name)?
+                }
+            };
             let radius = axis_loops[i].pole_radius;
             if radius.is_nan() || radius >= 1.0 {
                 return Err(ContourError::Unstable {
@@ -461,6 +597,8 @@ impl MultiAxisLoop {
             axis_loops,
             limits: CommandLimits::default(),
             limited_samples: 0,
+            friction: [Friction::default(); 3],
+            previous_position: [0.0; 3],
         })
     }
 
@@ -483,11 +621,30 @@ impl MultiAxisLoop {
         (sample.measurement, e, contour_estimate(e, tangent))
     }
 
+    /// The friction at axis `i`'s input, `Fc sign(v) + Fv v`, with `v` the
+    /// backward difference of the plant's own output (the disturbance
+    /// excluded) over the last sample.
+    fn friction_force(&mut self, i: usize, position: f64) -> f64 {
+        let f = self.friction[i];
+        let v = (position - self.previous_position[i]) / self.ts;
+        self.previous_position[i] = position;
+        let sign = if v > 0.0 {
+            1.0
+        } else if v < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        f.coulomb * sign + f.viscous * v
+    }
+
     /// One sample `k`: read the positions, step the controllers, apply
-    /// the commands to the plants.
+    /// the commands (less any friction) to the plants.
     pub fn sample(&mut self, k: usize, reference: Vec3, tangent: Vec3) -> LoopSample {
         let t = k as f64 * self.ts;
-        let y: Vec3 = std::array::from_fn(|i| self.plants[i].output(0.0) + self.disturbance(i, t));
+        let position: Vec3 = std::array::from_fn(|i| self.plants[i].output(0.0));
+        let y: Vec3 = std::array::from_fn(|i| position[i] + self.disturbance(i, t));
+        let friction: Vec3 = std::array::from_fn(|i| self.friction_force(i, position[i]));
         let u = self.controllers.step(&reference, &tangent, &y);
         let (lo, hi) = (self.limits.min, self.limits.max);
         if u.iter()
@@ -495,8 +652,8 @@ impl MultiAxisLoop {
         {
             self.limited_samples += 1;
         }
-        for (plant, u) in self.plants.iter_mut().zip(u) {
-            plant.update(u);
+        for ((plant, u), f) in self.plants.iter_mut().zip(u).zip(friction) {
+            plant.update(u - f);
         }
         LoopSample {
             reference,
@@ -675,6 +832,7 @@ mod tests {
     fn axes(gains: [f64; 3]) -> [AxisSetup; 3] {
         // Integrating plants 1/s with proportional control: e_ss = v / Kp on a ramp.
         gains.map(|p| AxisSetup {
+            friction: Friction::default(),
             plant: first_order(None, 1.0, 0.0),
             controller: AxisController::Pid(ParallelPid {
                 p,

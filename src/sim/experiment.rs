@@ -368,7 +368,7 @@ pub fn build_controller(
     let feedback = feedback.into();
     let kind = match feedback {
         Feedback::None => FeedbackKind::None,
-        Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
+        Feedback::Pid(_) | Feedback::ParallelPid(_) | Feedback::Dob(_) => FeedbackKind::Pid,
         Feedback::StateSpace(_) => FeedbackKind::StateSpace,
     };
     if kind != stages.feedback {

@@ -5,6 +5,7 @@ pub mod compliance;
 pub mod composite;
 pub mod dhinf;
 pub mod ding22;
+pub mod dob;
 pub mod genplant;
 pub mod h2;
 pub mod hinf;

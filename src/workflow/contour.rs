@@ -12,7 +12,8 @@ use crate::io::plot::{Panel, PlotError, PlotFormat, Series, render};
 use crate::lti::ss::StateSpace;
 use crate::sim::contour::{
     AXES, AxisController, AxisLoop, AxisSetup, CommandLimits, ContourError, ContourMetrics,
-    ContourRun, KARAGOZ18_AXIS_PID, KARAGOZ18_CC_PID, KARAGOZ18_PLANTS, MultiAxisLoop, run,
+    ContourRun, DobAxis, Friction, KARAGOZ18_AXIS_PID, KARAGOZ18_CC_PID, KARAGOZ18_PLANTS,
+    MultiAxisLoop, run,
 };
 use crate::sim::disturbance::{Disturbance, Sine};
 use crate::sim::path::{MotionLimits, Path, Shape, Trajectory};
@@ -44,6 +45,87 @@ impl Choices for PathShape {
             "Square of side `size`, one S-curve per side (at rest at every corner)",
         ),
     ];
+}
+
+/// What runs each axis built from its PID gains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisKind {
+    /// The PID alone (\[Karagoz18\] PID-CC).
+    #[default]
+    Pid,
+    /// The PID inside a disturbance observer with friction feedforward
+    /// (\[Karagoz18\] ARC-CC, `synth::dob`).
+    Dob,
+}
+
+impl Choices for AxisKind {
+    const CHOICES: &'static [(&'static str, &'static str)] = &[
+        ("pid", "The axis PID alone ([Karagoz18] PID-CC)"),
+        (
+            "dob",
+            "The axis PID inside a disturbance observer with friction feedforward ([Karagoz18] ARC-CC)",
+        ),
+    ];
+}
+
+/// The disturbance observer and friction feedforward of `dob` axes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DobSettings {
+    /// `Q` cut-off, Hz; default 1000.
+    pub q_hz: f64,
+    /// `Q` order (binomial); default 2.
+    #[serde(deserialize_with = "whole_number")]
+    pub q_order: usize,
+    /// Coulomb friction feedforward `Fc`, command units; default 0.
+    pub coulomb: f64,
+    /// Viscous friction feedforward `Fv`, command per um/s; default 0.
+    pub viscous: f64,
+    /// Smoothing velocity `v_eps` of the feedforward's sign, um/s; default 10.
+    pub smoothing: f64,
+}
+
+impl Default for DobSettings {
+    fn default() -> Self {
+        Self {
+            q_hz: 1000.0,
+            q_order: 2,
+            coulomb: 0.0,
+            viscous: 0.0,
+            smoothing: 10.0,
+        }
+    }
+}
+
+impl DobSettings {
+    fn validate(&self, ts: f64) -> Result<(), StepError> {
+        crate::synth::dob::q_filter(1.0 / (4.0 * ts), self.q_order, ts)
+            .map_err(|e| StepError::setting("dob.q_order", e))?;
+        crate::synth::dob::q_filter(self.q_hz, self.q_order, ts)
+            .map_err(|e| StepError::setting("dob.q_hz", e))?;
+        for (field, v) in [("dob.coulomb", self.coulomb), ("dob.viscous", self.viscous)] {
+            if !v.is_finite() {
+                return Err(StepError::setting(
+                    field,
+                    format!("expected a finite number, got {}", super::fmt_value(v)),
+                ));
+            }
+        }
+        positive("dob.smoothing", self.smoothing).map(|_| ())
+    }
+
+    fn name(&self, pid: PidGains4) -> String {
+        format!(
+            "DOB (Q order {} at {} Hz) + {}, friction feedforward Fc {} Fv {} (v_eps {} um/s)",
+            self.q_order,
+            self.q_hz,
+            pid_name(pid),
+            self.coulomb,
+            self.viscous,
+            self.smoothing
+        )
+    }
 }
 
 /// The path and how it is traversed; defaults are \[Karagoz18\]'s.
@@ -439,6 +521,15 @@ pub struct Contour {
     /// Points kept in the trace for plots and CSV; default 20000.
     #[serde(deserialize_with = "whole_number")]
     pub trace_points: usize,
+    /// What the PID gains run as: `pid` or `dob`; default pid.
+    pub axis_controller: AxisKind,
+    /// The observer and friction feedforward of `dob` axes.
+    pub dob: DobSettings,
+    /// Coulomb friction `Fc` at every plant's input, command units:
+    /// `u_eff = u - Fc sign(v) - Fv v`; default 0.
+    pub friction_coulomb: f64,
+    /// Viscous friction `Fv` at every plant's input, command per um/s; default 0.
+    pub friction_viscous: f64,
 }
 
 impl Default for Contour {
@@ -456,6 +547,10 @@ impl Default for Contour {
             output_min: None,
             output_max: None,
             trace_points: 20_000,
+            axis_controller: AxisKind::Pid,
+            dob: DobSettings::default(),
+            friction_coulomb: 0.0,
+            friction_viscous: 0.0,
         }
     }
 }
@@ -524,6 +619,20 @@ impl Validate for Contour {
         }
         command_limits(self.output_min, self.output_max)?;
         self.sines()?;
+        if self.axis_controller == AxisKind::Dob {
+            self.dob.validate(self.ts)?;
+        }
+        for (field, v) in [
+            ("friction_coulomb", self.friction_coulomb),
+            ("friction_viscous", self.friction_viscous),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(StepError::setting(
+                    field,
+                    format!("expected a finite number >= 0, got {}", super::fmt_value(v)),
+                ));
+            }
+        }
         let traj = self.trajectory.plan()?;
         let n = (traj.duration() + self.settle) / self.ts;
         if n > 1e9 {
@@ -597,6 +706,29 @@ impl Contour {
         }
     }
 
+    /// The controller of PID gains `g` on `plant` (its own nominal model
+    /// for a DOB), named in `name`.
+    fn pid_axis(&self, g: PidGains4, plant: &StateSpace, name: &mut String) -> AxisController {
+        match self.axis_controller {
+            AxisKind::Pid => {
+                *name = pid_name(g);
+                AxisController::Pid(pid_of(g))
+            }
+            AxisKind::Dob => {
+                *name = self.dob.name(g);
+                AxisController::Dob(Box::new(DobAxis {
+                    pid: pid_of(g),
+                    nominal: plant.clone(),
+                    q_hz: self.dob.q_hz,
+                    q_order: self.dob.q_order,
+                    coulomb: self.dob.coulomb,
+                    viscous: self.dob.viscous,
+                    smoothing: self.dob.smoothing,
+                }))
+            }
+        }
+    }
+
     fn axes(&self, inputs: &ContourInputs) -> Result<([AxisSetup; 3], [String; 3]), StepError> {
         let sines = self.sines()?;
         let pids = [self.pid_x, self.pid_y, self.pid_z];
@@ -609,14 +741,17 @@ impl Contour {
                 }
                 None => {
                     let g = pids[i];
-                    names[i] = pid_name(g);
-                    AxisController::Pid(pid_of(g))
+                    self.pid_axis(g, &inputs.plants[i], &mut names[i])
                 }
             };
             AxisSetup {
                 plant: inputs.plants[i].clone(),
                 controller,
                 disturbance: sines.clone(),
+                friction: Friction {
+                    coulomb: self.friction_coulomb,
+                    viscous: self.friction_viscous,
+                },
             }
         });
         Ok((axes, names))
@@ -670,6 +805,10 @@ impl Contour {
             main,
             baseline,
             seconds: started.elapsed().as_secs_f64(),
+            friction: Friction {
+                coulomb: self.friction_coulomb,
+                viscous: self.friction_viscous,
+            },
         })
     }
 }
@@ -696,6 +835,12 @@ pub struct BuildMultiAxis {
     pub output_min: Option<f64>,
     /// Highest command of every controller written; default none.
     pub output_max: Option<f64>,
+    /// What the PID gains are written as: `pid` or `dob` (with the
+    /// \[Karagoz18\] Eq. 2-4 plants as the observers' nominal models);
+    /// default pid.
+    pub axis_controller: AxisKind,
+    /// The observer and friction feedforward of `dob` axes.
+    pub dob: DobSettings,
 }
 
 impl Default for BuildMultiAxis {
@@ -710,6 +855,8 @@ impl Default for BuildMultiAxis {
             coupled: true,
             output_min: None,
             output_max: None,
+            axis_controller: AxisKind::Pid,
+            dob: DobSettings::default(),
         }
     }
 }
@@ -721,6 +868,9 @@ impl Validate for BuildMultiAxis {
         check_pid("pid_y", self.pid_y)?;
         check_pid("pid_z", self.pid_z)?;
         check_pid("cross_coupling", self.cross_coupling)?;
+        if self.axis_controller == AxisKind::Dob {
+            self.dob.validate(self.ts)?;
+        }
         command_limits(self.output_min, self.output_max).map(|_| ())
     }
 }
@@ -736,10 +886,16 @@ impl BuildMultiAxis {
     ) -> Result<MultiAxisControllerFile, StepError> {
         self.validate()?;
         let pids = [self.pid_x, self.pid_y, self.pid_z];
+        let plants = karagoz18_plants();
+        let as_contour = Contour {
+            axis_controller: self.axis_controller,
+            dob: self.dob.clone(),
+            ..Contour::default()
+        };
         let axes: [AxisController; 3] = std::array::from_fn(|i| {
             controllers[i]
                 .clone()
-                .unwrap_or_else(|| AxisController::Pid(pid_of(pids[i])))
+                .unwrap_or_else(|| as_contour.pid_axis(pids[i], &plants[i], &mut String::new()))
         });
         let cross = self
             .coupled
@@ -777,6 +933,8 @@ pub struct ContourReport {
     pub baseline: Option<ContourRun>,
     /// Wall-clock time of the simulations, s.
     pub seconds: f64,
+    /// Friction at every plant's input.
+    pub friction: Friction,
 }
 
 fn metrics_json(m: &ContourMetrics) -> Value {
@@ -855,6 +1013,8 @@ impl Serialize for ContourReport {
             "errors_um": metrics_json(&self.main.run.metrics),
             "baseline_errors_um": self.baseline.as_ref().map(|b| metrics_json(&b.metrics)),
             "improvement": improvement,
+            "friction_coulomb": self.friction.coulomb,
+            "friction_viscous": self.friction.viscous,
             "seconds": self.seconds,
         })
         .serialize(s)
@@ -895,6 +1055,13 @@ impl fmt::Display for ContourReport {
                 d.amplitude,
                 d.freq_hz,
                 2.0 * PI * d.freq_hz
+            )?;
+        }
+        if self.friction != Friction::default() {
+            writeln!(
+                f,
+                "friction at every plant input: Fc {} sign(v) + Fv {} v (v in um/s)",
+                self.friction.coulomb, self.friction.viscous
             )?;
         }
         for ((axis, controller), l) in AXES

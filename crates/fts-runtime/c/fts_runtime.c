@@ -330,6 +330,89 @@ static fts_status init_repetitive(fts_controller *c, const fts_repetitive_spec *
     return FTS_OK;
 }
 
+/* A DOB filter num/den normalised by den[0] (Rust SmallFilter::new). */
+static fts_status init_small_filter(const double *num, size_t num_len, const double *den,
+                                    size_t den_len, double *b, double *a, size_t *order,
+                                    const char *num_field, const char *den_field,
+                                    const char **field)
+{
+    size_t i;
+    double a0;
+    if (num == NULL || num_len == 0 || num_len > FTS_MAX_DOB_LEN) {
+        FTS_FAIL(FTS_ERR_BAD_LENGTH, num_field);
+    }
+    FTS_CHECK(all_finite(num, num_len), num_field);
+    if (den == NULL || den_len == 0 || den_len > FTS_MAX_DOB_LEN) {
+        FTS_FAIL(FTS_ERR_BAD_LENGTH, den_field);
+    }
+    FTS_CHECK(all_finite(den, den_len), den_field);
+    if (den[0] == 0.0) {
+        FTS_FAIL(FTS_ERR_INVALID, den_field);
+    }
+    a0 = den[0];
+    zero(b, FTS_MAX_DOB_LEN);
+    zero(a, FTS_MAX_DOB_LEN);
+    for (i = 0; i < num_len; ++i) {
+        b[i] = num[i] / a0;
+    }
+    for (i = 0; i < den_len; ++i) {
+        a[i] = den[i] / a0;
+    }
+    *order = (num_len > den_len ? num_len : den_len) - 1;
+    return FTS_OK;
+}
+
+/* The DOB block (Rust DobBlock::new), checked in the same order. */
+static fts_status init_dob(fts_feedback *c, const fts_ss_spec *k, const fts_dob_spec *d,
+                           const char **field)
+{
+    static const double one = 1.0;
+    size_t i;
+    fts_status s = init_ss(c, k, field);
+    if (s != FTS_OK) {
+        return s;
+    }
+    s = init_small_filter(d->q_num, d->q_num_len, d->q_den, d->q_den_len, c->dob_qb, c->dob_qa,
+                          &c->dob_q_order, "dob.q_num", "dob.q_den", field);
+    if (s != FTS_OK) {
+        return s;
+    }
+    if (d->inverse_num == NULL || d->inverse_num_len == 0 ||
+        d->inverse_num_len > FTS_MAX_DOB_LEN) {
+        FTS_FAIL(FTS_ERR_BAD_LENGTH, "dob.inverse_num");
+    }
+    FTS_CHECK(all_finite(d->inverse_num, d->inverse_num_len), "dob.inverse_num");
+    zero(c->dob_diff, FTS_MAX_DOB_LEN);
+    for (i = 0; i < d->inverse_num_len; ++i) {
+        c->dob_diff[i] = d->inverse_num[i];
+    }
+    c->dob_diff_len = d->inverse_num_len;
+    s = init_small_filter(&one, 1, d->inverse_den, d->inverse_den_len, c->dob_ib, c->dob_ia,
+                          &c->dob_inv_order, "dob.inverse_den", "dob.inverse_den", field);
+    if (s != FTS_OK) {
+        return s;
+    }
+    if (d->delay == 0 || d->delay > FTS_MAX_DOB_DELAY) {
+        FTS_FAIL(FTS_ERR_INVALID, "dob.delay");
+    }
+    FTS_CHECK(finite_or(d->coulomb), "dob.coulomb");
+    FTS_CHECK(finite_or(d->viscous), "dob.viscous");
+    FTS_CHECK(finite_or(d->smoothing), "dob.smoothing");
+    if (d->smoothing <= 0.0) {
+        FTS_FAIL(FTS_ERR_INVALID, "dob.smoothing");
+    }
+    FTS_CHECK(finite_or(d->ts), "dob.ts");
+    if (d->ts <= 0.0) {
+        FTS_FAIL(FTS_ERR_INVALID, "dob.ts");
+    }
+    c->dob_delay = d->delay;
+    c->dob_coulomb = d->coulomb;
+    c->dob_viscous = d->viscous;
+    c->dob_smoothing = d->smoothing;
+    c->dob_rate = 1.0 / d->ts;
+    return FTS_OK;
+}
+
 /* One feedback controller (Rust Feedback::new); the kind is set on success. */
 static fts_status init_feedback(fts_feedback *f, const fts_feedback_spec *spec, const char **field)
 {
@@ -343,6 +426,9 @@ static fts_status init_feedback(fts_feedback *f, const fts_feedback_spec *spec, 
         break;
     case FTS_FEEDBACK_STATE_SPACE:
         s = init_ss(f, &spec->ss, field);
+        break;
+    case FTS_FEEDBACK_DOB:
+        s = init_dob(f, &spec->ss, &spec->dob, field);
         break;
     default:
         FTS_FAIL(FTS_ERR_INVALID, "feedback");
@@ -360,6 +446,14 @@ static void reset_feedback(fts_feedback *f)
     f->previous_measurement = 0.0;
     f->started = 0;
     zero(f->x, FTS_MAX_SS_ORDER);
+    zero(f->dob_qs, FTS_MAX_DOB_LEN);
+    zero(f->dob_is, FTS_MAX_DOB_LEN);
+    zero(f->dob_diffs, FTS_MAX_DOB_LEN);
+    zero(f->dob_commands, FTS_MAX_DOB_DELAY);
+    f->dob_head = 0;
+    f->dob_last_friction = 0.0;
+    f->dob_previous_reference = 0.0;
+    f->dob_started = 0;
 }
 
 fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **field)
@@ -393,6 +487,9 @@ fts_status fts_init(fts_controller *ctl, const fts_spec *spec, const char **fiel
         feedback.kind = spec->feedback;
         feedback.pid = spec->pid;
         feedback.ss = spec->ss;
+        if (spec->feedback == FTS_FEEDBACK_DOB) {
+            feedback.dob = spec->dob;
+        }
         s = init_feedback(&ctl->fb, &feedback, field);
         if (s != FTS_OK) {
             return s;
@@ -568,6 +665,62 @@ static double ss_step(fts_feedback *c, double error, double feedforward)
     return command;
 }
 
+/* One sample of a DOB filter in transposed direct form II (Rust SmallFilter::step). */
+static double small_filter_step(const double *b, const double *a, double *state, size_t n,
+                                double x)
+{
+    double y;
+    size_t i;
+    if (n == 0) {
+        return b[0] * x;
+    }
+    y = b[0] * x + state[0];
+    for (i = 0; i + 1 < n; ++i) {
+        state[i] = b[i + 1] * x + state[i + 1] - a[i + 1] * y;
+    }
+    state[n - 1] = b[n] * x - a[n] * y;
+    return y;
+}
+
+/* A[x](k) = sum_j a_j (Delta^j x)(k) by successive differences (Rust
+ * DobBlock::difference_step). */
+static double dob_difference_step(fts_feedback *c, double x)
+{
+    double d = x, acc = c->dob_diff[0] * x;
+    size_t j;
+    for (j = 1; j < c->dob_diff_len; ++j) {
+        double next = d - c->dob_diffs[j - 1];
+        c->dob_diffs[j - 1] = d;
+        d = next;
+        acc += c->dob_diff[j] * d;
+    }
+    return acc;
+}
+
+/* The DOB step (Rust DobBlock::step). */
+static double dob_step(fts_feedback *c, double reference, double measurement,
+                       double feedforward)
+{
+    double previous = c->dob_started ? c->dob_previous_reference : reference;
+    double velocity, oldest, w, estimate, abs_v, friction, ff, command;
+    c->dob_previous_reference = reference;
+    c->dob_started = 1;
+    velocity = (reference - previous) * c->dob_rate;
+    oldest = c->dob_commands[c->dob_head];
+    w = small_filter_step(c->dob_ib, c->dob_ia, c->dob_is, c->dob_inv_order,
+                          dob_difference_step(c, measurement)) -
+        oldest;
+    estimate = small_filter_step(c->dob_qb, c->dob_qa, c->dob_qs, c->dob_q_order, w);
+    abs_v = velocity < 0.0 ? -velocity : velocity;
+    friction = c->dob_coulomb * (velocity / (abs_v + c->dob_smoothing)) + c->dob_viscous * velocity;
+    ff = feedforward - estimate + friction;
+    command = ss_step(c, reference - measurement, ff);
+    c->dob_last_friction = friction;
+    c->dob_commands[c->dob_head] = command - friction;
+    c->dob_head = (c->dob_head + 1) % c->dob_delay;
+    return command;
+}
+
 /* One clamped command u_ff + K[reference - measurement] (Rust Feedback::step);
  * the kind is not FTS_FEEDBACK_NONE. */
 static double feedback_step(fts_feedback *f, double reference, double measurement,
@@ -575,6 +728,9 @@ static double feedback_step(fts_feedback *f, double reference, double measuremen
 {
     if (f->kind == FTS_FEEDBACK_STATE_SPACE) {
         return ss_step(f, reference - measurement, feedforward);
+    }
+    if (f->kind == FTS_FEEDBACK_DOB) {
+        return dob_step(f, reference, measurement, feedforward);
     }
     return pid_step(f, reference, measurement, feedforward);
 }
@@ -794,6 +950,14 @@ void fts_multiaxis_step(fts_multiaxis *m, const double reference[3], const doubl
     if (m->coupled) {
         for (i = 0; i < 3; ++i) {
             command[i] += feedback_step(&m->cross[i], 0.0, -eps[i], 0.0);
+        }
+        /* A DOB axis observes the command applied (Rust Feedback::applied). */
+        for (i = 0; i < 3; ++i) {
+            fts_feedback *f = &m->axes[i];
+            if (f->kind == FTS_FEEDBACK_DOB) {
+                f->dob_commands[(f->dob_head + f->dob_delay - 1) % f->dob_delay] =
+                    command[i] - f->dob_last_friction;
+            }
         }
     }
 }

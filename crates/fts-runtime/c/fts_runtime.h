@@ -50,6 +50,17 @@ extern "C" {
 #ifndef FTS_MAX_SS_ORDER
 #define FTS_MAX_SS_ORDER 16
 #endif
+
+#ifndef FTS_MAX_DOB_LEN
+/* Longest polynomial of a DOB filter (Q or the nominal inverse). */
+#define FTS_MAX_DOB_LEN 16
+#endif
+
+#ifndef FTS_MAX_DOB_DELAY
+/* Longest command delay d of a DOB's nominal plant. */
+#define FTS_MAX_DOB_DELAY 16
+#endif
+
 /* The repetitive compensator's memory, samples: a period of up to
  * FTS_MAX_PERIOD - h - 2 samples (h = q_len - 1). FTS_MAX_PERIOD,
  * FTS_MAX_LEAD + 1 and FTS_MAX_RC_PREVIEW + 1 are ring lengths and must be
@@ -90,7 +101,8 @@ typedef enum fts_feedback_kind {
     FTS_FEEDBACK_NONE = 0,         /* feedforward only */
     FTS_FEEDBACK_PID = 1,          /* [Li21] Eq. 5, gains per sample */
     FTS_FEEDBACK_PID_FILTERED = 2, /* the same with a filtered derivative */
-    FTS_FEEDBACK_STATE_SPACE = 3   /* v = C x + D e; x <- A x + B e */
+    FTS_FEEDBACK_STATE_SPACE = 3,  /* v = C x + D e; x <- A x + B e */
+    FTS_FEEDBACK_DOB = 4           /* state space + disturbance observer + friction ff */
 } fts_feedback_kind;
 
 /* ZPETC pre-filter: ascending powers of z^-1, den[0] != 0. */
@@ -146,6 +158,34 @@ typedef struct fts_ss_spec {
     int conditional_update; /* hold x while saturated and C (x+ - x) points further out */
 } fts_ss_spec;
 
+/* Disturbance observer around a state-space controller K (ss, on e = r - x),
+ * with friction feedforward ([Karagoz18]; Ohnishi; Umeno & Hori); Rust DobSpec:
+ *   A[x](k) = sum_j inverse_num[j] (Delta^j x)(k), Delta^j x(k) = Delta^(j-1) x(k) - Delta^(j-1) x(k-1)
+ *             (inverse_num in ascending powers of the backward difference 1 - z^-1)
+ *   w = (1/inverse_den)[A[x]](k) - (u - u_f)(k - delay), u_f the friction term below
+ *   d_hat = (q_num/q_den)[w](k)
+ *   v = (r(k) - r(k-1))/ts (0 at the first sample)
+ *   u_f = coulomb v/(|v| + smoothing) + viscous v
+ *   u = K step (ss_step) with feedforward (u_ff - d_hat) + u_f
+ * u(k - delay) is the command applied (fts_multiaxis_step stores the sum with
+ * the coupling's command). Filters ascending z^-1, den[0] != 0, at most
+ * FTS_MAX_DOB_LEN coefficients; 1 <= delay <= FTS_MAX_DOB_DELAY; smoothing, ts > 0. */
+typedef struct fts_dob_spec {
+    const double *q_num;
+    size_t q_num_len;
+    const double *q_den;
+    size_t q_den_len;
+    const double *inverse_num;
+    size_t inverse_num_len;
+    const double *inverse_den;
+    size_t inverse_den_len;
+    size_t delay;
+    double coulomb;
+    double viscous;
+    double smoothing;
+    double ts;
+} fts_dob_spec;
+
 /* Plug-in repetitive compensator on the tracking error e = r - x (r the
  * reference undelayed by the ZPETC preview), its output added to r_f:
  *   v(k) = sum_{i=-h..h} q[|i|] D(k - i - period) with
@@ -170,6 +210,7 @@ typedef struct fts_spec {
     fts_feedback_kind feedback;
     fts_pid_spec pid;   /* FTS_FEEDBACK_PID and FTS_FEEDBACK_PID_FILTERED */
     fts_ss_spec ss;     /* FTS_FEEDBACK_STATE_SPACE */
+    fts_dob_spec dob;   /* FTS_FEEDBACK_DOB (with ss, its outer controller) */
     const fts_repetitive_spec *repetitive; /* NULL: no repetitive compensator */
 } fts_spec;
 
@@ -192,14 +233,38 @@ typedef struct fts_feedback {
     double ss_max;
     int conditional_update;
     double x[FTS_MAX_SS_ORDER];
+
+    size_t dob_q_order;
+    double dob_qb[FTS_MAX_DOB_LEN];
+    double dob_qa[FTS_MAX_DOB_LEN];
+    double dob_qs[FTS_MAX_DOB_LEN];
+    size_t dob_diff_len;
+    double dob_diff[FTS_MAX_DOB_LEN];
+    double dob_diffs[FTS_MAX_DOB_LEN];
+    size_t dob_inv_order;
+    double dob_ib[FTS_MAX_DOB_LEN];
+    double dob_ia[FTS_MAX_DOB_LEN];
+    double dob_is[FTS_MAX_DOB_LEN];
+    size_t dob_delay;
+    double dob_commands[FTS_MAX_DOB_DELAY];
+    size_t dob_head;
+    double dob_last_friction;
+    double dob_coulomb;
+    double dob_viscous;
+    double dob_smoothing;
+    double dob_rate;
+    double dob_previous_reference;
+    int dob_started;
 } fts_feedback;
 
 /* One feedback controller's coefficients: pid for FTS_FEEDBACK_PID and
- * FTS_FEEDBACK_PID_FILTERED, ss for FTS_FEEDBACK_STATE_SPACE. */
+ * FTS_FEEDBACK_PID_FILTERED, ss for FTS_FEEDBACK_STATE_SPACE, ss and dob
+ * for FTS_FEEDBACK_DOB. */
 typedef struct fts_feedback_spec {
     fts_feedback_kind kind;
     fts_pid_spec pid;
     fts_ss_spec ss;
+    fts_dob_spec dob;
 } fts_feedback_spec;
 
 /* The cross-coupled multi-axis step (docs/contouring.md; the Rust

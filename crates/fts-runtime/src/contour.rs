@@ -15,6 +15,9 @@
 //! (a PID differentiates the measurement, as in the single-axis loop); a
 //! coupling controller sees the reference 0 and the measurement `-eps_i`,
 //! so that its error is `eps_i` and a PID's derivative acts on `eps_i`.
+//! A disturbance-observer axis block is told the sum `u_i` it drove the
+//! plant with, so that its observer does not take the coupling command for
+//! a disturbance.
 
 use crate::{Feedback, FeedbackSpec, RuntimeError};
 
@@ -100,6 +103,9 @@ impl CrossCoupledStep {
         if let Some(cross) = &mut self.cross {
             for (i, k) in cross.iter_mut().enumerate() {
                 u[i] += k.step(0.0, -eps[i], 0.0).unwrap_or(0.0);
+            }
+            for (k, u) in self.axes.iter_mut().zip(u) {
+                k.applied(u);
             }
         }
         u

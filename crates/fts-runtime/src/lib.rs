@@ -35,8 +35,11 @@
 extern crate std;
 
 mod contour;
+mod dob;
 mod repetitive;
 pub use contour::{CrossCoupledStep, contour_estimate};
+use dob::DobBlock;
+pub use dob::{DobSpec, MAX_DOB_DELAY, MAX_DOB_LEN};
 use repetitive::RepetitiveBlock;
 pub use repetitive::{MAX_LEAD, MAX_PERIOD, MAX_Q_HALF, MAX_RC_PREVIEW, RepetitiveSpec};
 
@@ -288,6 +291,9 @@ pub enum FeedbackSpec<'a> {
     PidFiltered(PidFilteredSpec),
     /// A discrete state-space controller.
     StateSpace(StateSpaceSpec<'a>),
+    /// The filtered PID with a disturbance observer and friction
+    /// feedforward (\[Karagoz18\]'s adaptive robust controller, [`DobSpec`]).
+    Dob(DobSpec<'a>),
 }
 
 impl FeedbackSpec<'_> {
@@ -298,6 +304,7 @@ impl FeedbackSpec<'_> {
             FeedbackSpec::Pid(p) => (p.output_min, p.output_max),
             FeedbackSpec::PidFiltered(p) => (p.output_min, p.output_max),
             FeedbackSpec::StateSpace(s) => (s.output_min, s.output_max),
+            FeedbackSpec::Dob(d) => (d.outer.output_min, d.outer.output_max),
         }
     }
 }
@@ -358,16 +365,16 @@ struct PidFilteredBlock {
 }
 
 #[derive(Debug, Clone)]
-struct SsBlock {
+pub(crate) struct SsBlock {
     n: usize,
     a: [[f64; MAX_SS_ORDER]; MAX_SS_ORDER],
     b: [f64; MAX_SS_ORDER],
     c: [f64; MAX_SS_ORDER],
     d: f64,
-    output_min: f64,
-    output_max: f64,
+    pub(crate) output_min: f64,
+    pub(crate) output_max: f64,
     anti_windup: SsAntiWindup,
-    x: [f64; MAX_SS_ORDER],
+    pub(crate) x: [f64; MAX_SS_ORDER],
 }
 
 // Fixed capacity, no heap: the state-space variant is large on purpose.
@@ -378,6 +385,35 @@ enum Feedback {
     Pid(PidBlock),
     PidFiltered(PidFilteredBlock),
     StateSpace(SsBlock),
+    Dob(DobBlock),
+}
+
+impl PidFilteredBlock {
+    /// Checks and loads the filtered PID, at rest.
+    fn new(p: &PidFilteredSpec) -> Result<Self, RuntimeError> {
+        check_pid([p.kp, p.ki, p.kd], p.output_min, p.output_max)?;
+        finite("pid.derivative_pole", p.derivative_pole)?;
+        if !(0.0..1.0).contains(&p.derivative_pole) {
+            return Err(RuntimeError::Invalid {
+                field: "pid.derivative_pole",
+            });
+        }
+        Ok(Self {
+            spec: *p,
+            integral: 0.0,
+            derivative: 0.0,
+            previous_measurement: 0.0,
+            started: false,
+        })
+    }
+
+    /// Back to rest.
+    fn reset(&mut self) {
+        self.integral = 0.0;
+        self.derivative = 0.0;
+        self.previous_measurement = 0.0;
+        self.started = false;
+    }
 }
 
 impl Feedback {
@@ -394,23 +430,9 @@ impl Feedback {
                     started: false,
                 })
             }
-            FeedbackSpec::PidFiltered(p) => {
-                check_pid([p.kp, p.ki, p.kd], p.output_min, p.output_max)?;
-                finite("pid.derivative_pole", p.derivative_pole)?;
-                if !(0.0..1.0).contains(&p.derivative_pole) {
-                    return Err(RuntimeError::Invalid {
-                        field: "pid.derivative_pole",
-                    });
-                }
-                Feedback::PidFiltered(PidFilteredBlock {
-                    spec: *p,
-                    integral: 0.0,
-                    derivative: 0.0,
-                    previous_measurement: 0.0,
-                    started: false,
-                })
-            }
+            FeedbackSpec::PidFiltered(p) => Feedback::PidFiltered(PidFilteredBlock::new(p)?),
             FeedbackSpec::StateSpace(k) => Feedback::StateSpace(ss_block(k)?),
+            FeedbackSpec::Dob(d) => Feedback::Dob(DobBlock::new(d)?),
         })
     }
 
@@ -423,13 +445,9 @@ impl Feedback {
                 p.previous_measurement = 0.0;
                 p.started = false;
             }
-            Feedback::PidFiltered(p) => {
-                p.integral = 0.0;
-                p.derivative = 0.0;
-                p.previous_measurement = 0.0;
-                p.started = false;
-            }
+            Feedback::PidFiltered(p) => p.reset(),
             Feedback::StateSpace(k) => k.x = [0.0; MAX_SS_ORDER],
+            Feedback::Dob(d) => d.reset(),
         }
     }
 
@@ -440,6 +458,16 @@ impl Feedback {
             Feedback::Pid(p) => (p.spec.output_min, p.spec.output_max),
             Feedback::PidFiltered(p) => (p.spec.output_min, p.spec.output_max),
             Feedback::StateSpace(k) => (k.output_min, k.output_max),
+            Feedback::Dob(d) => d.limits(),
+        }
+    }
+
+    /// The command actually applied to the plant (a DOB's observer input;
+    /// nothing for the other controllers).
+    #[inline]
+    fn applied(&mut self, command: f64) {
+        if let Feedback::Dob(d) = self {
+            d.applied(command);
         }
     }
 
@@ -465,6 +493,7 @@ impl Feedback {
                 command
             }
             Feedback::StateSpace(k) => ss_step(k, reference - measurement, feedforward),
+            Feedback::Dob(d) => d.step(reference, measurement, feedforward),
         })
     }
 }
@@ -774,7 +803,7 @@ impl<'a> FeedforwardTable<'a> {
     }
 }
 
-fn ss_block(k: &StateSpaceSpec<'_>) -> Result<SsBlock, RuntimeError> {
+pub(crate) fn ss_block(k: &StateSpaceSpec<'_>) -> Result<SsBlock, RuntimeError> {
     let n = k.b.len();
     if n > MAX_SS_ORDER {
         return Err(RuntimeError::OrderTooHigh {
@@ -844,7 +873,7 @@ fn ss_block(k: &StateSpaceSpec<'_>) -> Result<SsBlock, RuntimeError> {
 /// `A x` row by row with `B e` added last; [`ss_reference_step`] documents
 /// the same order for independent implementations.
 #[inline]
-fn ss_step(k: &mut SsBlock, error: f64, feedforward: f64) -> f64 {
+pub(crate) fn ss_step(k: &mut SsBlock, error: f64, feedforward: f64) -> f64 {
     let n = k.n;
     let x = &k.x[..n];
     let mut cx = 0.0;

@@ -91,6 +91,7 @@ pub fn to_c_header(file: &ControllerFile) -> String {
         Feedback::ParallelPid(p) => write_parallel_pid(&mut out, p, file.ts),
         Feedback::Pid(p) => write_li21_pid(&mut out, p),
         Feedback::StateSpace(k) => write_state_space(&mut out, k),
+        Feedback::Dob(d) => write_dob(&mut out, d, file.ts),
     }
     out.push_str("\n#endif /* FTS_CONTROLLER_H */\n");
     out
@@ -187,6 +188,64 @@ fn write_parallel_pid(out: &mut String, p: &ParallelPid, ts: f64) {
             ("FTS_PID_OUTPUT_MIN", spec.output_min),
             ("FTS_PID_OUTPUT_MAX", spec.output_max),
         ],
+    );
+}
+
+/// A single-axis header's DOB block: the outer controller as the
+/// state-space block's `FTS_SS_*`, the observer as `FTS_DOB_*`.
+fn write_dob(out: &mut String, d: &super::DobBlock, ts: f64) {
+    write_state_space(out, &d.outer);
+    out.push_str("#define FTS_HAS_DOB 1\n");
+    write_dob_observer(out, "FTS", &d.runtime_spec(ts), &d.design);
+}
+
+/// A DOB block's observer and friction numbers as `{prefix}_DOB_*`
+/// (`FTS` in a single-axis header, `FTS_X` .. in a multi-axis one).
+pub(super) fn write_dob_observer(
+    out: &mut String,
+    prefix: &str,
+    d: &crate::runtime::DobSpec<'_>,
+    design: &str,
+) {
+    let label = design.replace("*/", "* /").replace('\n', " ");
+    let _ = writeln!(
+        out,
+        "/* Disturbance observer ([Karagoz18]; {label}) around the filtered PID:\n *   w = (INVERSE_NUM/INVERSE_DEN)[x] - u(k - DELAY), d_hat = (Q_NUM/Q_DEN)[w],\n *   v = (r(k) - r(k-1))/FTS_TS, u = PID with feedforward u_ff - d_hat + COULOMB v/(|v| + SMOOTHING) + VISCOUS v. */"
+    );
+    let names: Vec<(String, f64)> = [
+        ("COULOMB", d.coulomb),
+        ("VISCOUS", d.viscous),
+        ("SMOOTHING", d.smoothing),
+    ]
+    .iter()
+    .map(|(n, v)| (format!("{prefix}_DOB_{n}"), *v))
+    .collect();
+    let borrowed: Vec<(&str, f64)> = names.iter().map(|(n, v)| (n.as_str(), *v)).collect();
+    write_defines(out, &borrowed);
+    let _ = writeln!(out, "#define {prefix}_DOB_DELAY {}", d.delay);
+    c_array(out, &format!("{prefix}_DOB_Q_NUM"), d.q_num);
+    c_array(out, &format!("{prefix}_DOB_Q_DEN"), d.q_den);
+    c_array(out, &format!("{prefix}_DOB_INVERSE_NUM"), d.inverse_num);
+    c_array(out, &format!("{prefix}_DOB_INVERSE_DEN"), d.inverse_den);
+}
+
+/// The assignments filling the `dob` part of `var` (`spec`, `axes[0]`, ..)
+/// from `prefix`.
+pub(super) fn dob_loader(out: &mut String, var: &str, prefix: &str) {
+    for (field, name) in [
+        ("q_num", "Q_NUM"),
+        ("q_den", "Q_DEN"),
+        ("inverse_num", "INVERSE_NUM"),
+        ("inverse_den", "INVERSE_DEN"),
+    ] {
+        let _ = write!(
+            out,
+            "    {var}.dob.{field} = {prefix}_DOB_{name};\n    {var}.dob.{field}_len = {prefix}_DOB_{name}_LEN;\n"
+        );
+    }
+    let _ = write!(
+        out,
+        "    {var}.dob.delay = {prefix}_DOB_DELAY;\n    {var}.dob.coulomb = {prefix}_DOB_COULOMB;\n    {var}.dob.viscous = {prefix}_DOB_VISCOUS;\n    {var}.dob.smoothing = {prefix}_DOB_SMOOTHING;\n    {var}.dob.ts = FTS_TS;\n"
     );
 }
 
@@ -328,8 +387,13 @@ fn c_loader(file: &ControllerFile) -> String {
             }));
             body.push_str(no_ss);
         }
-        Feedback::StateSpace(k) => {
-            body.push_str("    spec.feedback = FTS_FEEDBACK_STATE_SPACE;\n");
+        Feedback::StateSpace(_) | Feedback::Dob(_) => {
+            let (kind, k) = match &file.feedback {
+                Feedback::Dob(d) => ("FTS_FEEDBACK_DOB", &d.outer),
+                Feedback::StateSpace(k) => ("FTS_FEEDBACK_STATE_SPACE", k),
+                _ => unreachable!("matched above"),
+            };
+            let _ = writeln!(body, "    spec.feedback = {kind};");
             body.push_str(no_pid);
             let _ = write!(
                 body,
@@ -345,6 +409,9 @@ fn c_loader(file: &ControllerFile) -> String {
                     "fts_infinity()"
                 },
             );
+            if kind == "FTS_FEEDBACK_DOB" {
+                dob_loader(&mut body, "spec", "FTS");
+            }
         }
     }
     let table = if file.feedforward_table.is_some() {

@@ -14,8 +14,9 @@
 //! way a type error names its place, e.g. `blocks[2].a[1][0]`.
 
 use super::{
-    ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, PARALLEL_PID_DISCRETISATION,
-    ParallelPid, Provenance, RepetitiveBlock, StateSpaceBlock, Units, ZpetcBlock,
+    ControllerFile, DobBlock, Feedback, FeedforwardTableBlock, HysteresisBlock,
+    PARALLEL_PID_DISCRETISATION, ParallelPid, Provenance, RepetitiveBlock, StateSpaceBlock, Units,
+    ZpetcBlock,
 };
 use crate::io::InputError;
 use crate::io::serde_doc::{At, from_value};
@@ -50,19 +51,56 @@ pub(super) enum Block<'a> {
     HysteresisInverse(&'a HysteresisBlock),
     Pid(PidDoc),
     StateSpace(StateSpaceDoc),
+    Dob(DobDoc),
     NoFeedback(NoFeedbackDoc),
+}
+
+/// A `dob` block: the outer controller as a `state_space` block's body
+/// under `outer`, the observer's filters and the friction feedforward.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct DobDoc {
+    outer: StateSpaceDoc,
+    q_num: Vec<f64>,
+    q_den: Vec<f64>,
+    inverse_num: Vec<f64>,
+    inverse_den: Vec<f64>,
+    delay: usize,
+    coulomb: f64,
+    viscous: f64,
+    smoothing: f64,
+    #[serde(default)]
+    design: String,
+}
+
+impl DobDoc {
+    fn new(d: &DobBlock, ts: f64) -> Self {
+        Self {
+            outer: StateSpaceDoc::new(&d.outer, ts),
+            q_num: d.q_num.clone(),
+            q_den: d.q_den.clone(),
+            inverse_num: d.inverse_num.clone(),
+            inverse_den: d.inverse_den.clone(),
+            delay: d.delay,
+            coulomb: d.coulomb,
+            viscous: d.viscous,
+            smoothing: d.smoothing,
+            design: d.design.clone(),
+        }
+    }
 }
 
 /// The block type names in signal order; `pid`, `state_space` and
 /// `no_feedback` (from [`FIRST_FEEDBACK`] on) are alternatives at the same
 /// place in the chain.
-const ORDER: [&str; 7] = [
+const ORDER: [&str; 8] = [
     "zpetc",
     "repetitive",
     "feedforward_table",
     "hysteresis_inverse",
     "pid",
     "state_space",
+    "dob",
     "no_feedback",
 ];
 
@@ -219,6 +257,7 @@ impl ControllerFile {
             Feedback::Pid(p) => Block::Pid(PidDoc::li21(p)),
             Feedback::ParallelPid(p) => Block::Pid(PidDoc::parallel(p, self.ts)),
             Feedback::StateSpace(k) => Block::StateSpace(StateSpaceDoc::new(k, self.ts)),
+            Feedback::Dob(d) => Block::Dob(DobDoc::new(d, self.ts)),
         });
         Document {
             format: super::CONTROLLER_FORMAT.to_owned(),
@@ -320,6 +359,7 @@ impl Stages {
                 let k = from_value::<StateSpaceDoc>(rest, at)?.block(ts, at)?;
                 self.feedback = Some(Feedback::StateSpace(k));
             }
+            "dob" => self.feedback = Some(dob(from_value(rest, at)?, ts, at)?),
             _ => {
                 from_value::<NoFeedbackDoc>(rest, at)?;
                 self.feedback = Some(Feedback::None);
@@ -355,7 +395,7 @@ impl Chain {
             && is_feedback
         {
             return Err(format!(
-                "a second feedback block {kind:?} after {first:?}: exactly one of \"pid\", \"state_space\" and \"no_feedback\" is allowed"
+                "a second feedback block {kind:?} after {first:?}: exactly one of \"pid\", \"state_space\", \"dob\" and \"no_feedback\" is allowed"
             ));
         }
         let rank = ORDER
@@ -628,7 +668,39 @@ pub(super) fn feedback_block(feedback: &Feedback, ts: f64) -> Block<'static> {
         Feedback::Pid(p) => Block::Pid(PidDoc::li21(p)),
         Feedback::ParallelPid(p) => Block::Pid(PidDoc::parallel(p, ts)),
         Feedback::StateSpace(k) => Block::StateSpace(StateSpaceDoc::new(k, ts)),
+        Feedback::Dob(d) => Block::Dob(DobDoc::new(d, ts)),
     }
+}
+
+/// A `dob` block, checked as the runtime loads it (the field named).
+fn dob(doc: DobDoc, ts: f64, at: At<'_>) -> Result<Feedback, InputError> {
+    let outer_at = At {
+        source: at.source,
+        path: &format!("{}.outer", at.path),
+    };
+    let d = DobBlock {
+        outer: doc.outer.block(ts, outer_at)?,
+        q_num: doc.q_num,
+        q_den: doc.q_den,
+        inverse_num: doc.inverse_num,
+        inverse_den: doc.inverse_den,
+        delay: doc.delay,
+        coulomb: doc.coulomb,
+        viscous: doc.viscous,
+        smoothing: doc.smoothing,
+        design: doc.design,
+    };
+    let spec = crate::runtime::FeedbackSpec::Dob(d.runtime_spec(ts));
+    if let Err(e) = crate::runtime::RuntimeController::new(&crate::runtime::RuntimeSpec {
+        zpetc: None,
+        hysteresis: None,
+        feedback: spec,
+        repetitive: None,
+    }) {
+        let key = super::runtime_field(&e).replace("state_space.", "outer.");
+        return Err(at.err(key.trim_start_matches("dob."), e.to_string()));
+    }
+    Ok(Feedback::Dob(d))
 }
 
 /// Reads one `pid` or `state_space` block at `at` (the file's `ts`),
@@ -640,9 +712,10 @@ pub(super) fn read_feedback(block: Value, at: At<'_>, ts: f64) -> Result<Feedbac
         "state_space" => Ok(Feedback::StateSpace(
             from_value::<StateSpaceDoc>(rest, at)?.block(ts, at)?,
         )),
+        "dob" => dob(from_value(rest, at)?, ts, at),
         other => Err(at.err(
             "type",
-            format!("expected \"pid\" or \"state_space\", found {other:?}"),
+            format!("expected \"pid\", \"state_space\" or \"dob\", found {other:?}"),
         )),
     }
 }

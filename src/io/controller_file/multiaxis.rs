@@ -174,6 +174,7 @@ fn kind(spec: &FeedbackSpec<'_>) -> (u8, &'static str) {
         FeedbackSpec::Pid(_) => (1, "FTS_FEEDBACK_PID"),
         FeedbackSpec::PidFiltered(_) => (2, "FTS_FEEDBACK_PID_FILTERED"),
         FeedbackSpec::StateSpace(_) => (3, "FTS_FEEDBACK_STATE_SPACE"),
+        FeedbackSpec::Dob(_) => (4, "FTS_FEEDBACK_DOB"),
     }
 }
 
@@ -217,7 +218,8 @@ fn write_block(out: &mut String, prefix: &str, what: &str, spec: &FeedbackSpec<'
     let borrowed: Vec<(&str, f64)> = defines.iter().map(|(n, v)| (n.as_str(), *v)).collect();
     write_defines(out, &borrowed);
     let (a, b, c, d, conditional) = match spec {
-        FeedbackSpec::StateSpace(k) => (
+        FeedbackSpec::StateSpace(k)
+        | FeedbackSpec::Dob(crate::runtime::DobSpec { outer: k, .. }) => (
             k.a,
             k.b,
             k.c,
@@ -236,6 +238,9 @@ fn write_block(out: &mut String, prefix: &str, what: &str, spec: &FeedbackSpec<'
         "#define {prefix}_SS_CONDITIONAL_UPDATE {}",
         u8::from(conditional)
     );
+    if let FeedbackSpec::Dob(d) = spec {
+        super::c_header::write_dob_observer(out, prefix, d, "");
+    }
 }
 
 /// A state-space limit as a C expression (`fts_infinity()` when absent).
@@ -253,7 +258,7 @@ fn c_limit(v: f64) -> String {
 fn loader_block(out: &mut String, var: &str, prefix: &str, spec: &FeedbackSpec<'_>) {
     let (lo, hi) = spec.limits();
     let (ss_lo, ss_hi) = match spec {
-        FeedbackSpec::StateSpace(_) => (c_limit(lo), c_limit(hi)),
+        FeedbackSpec::StateSpace(_) | FeedbackSpec::Dob(_) => (c_limit(lo), c_limit(hi)),
         _ => ("-fts_infinity()".into(), "fts_infinity()".into()),
     };
     let _ = write!(
@@ -261,6 +266,9 @@ fn loader_block(out: &mut String, var: &str, prefix: &str, spec: &FeedbackSpec<'
         "    {var}.kind = {};\n    {var}.pid.kp = {prefix}_PID_KP;\n    {var}.pid.ki = {prefix}_PID_KI;\n    {var}.pid.kd = {prefix}_PID_KD;\n    {var}.pid.derivative_pole = {prefix}_PID_DERIVATIVE_POLE;\n    {var}.pid.output_min = {prefix}_PID_OUTPUT_MIN;\n    {var}.pid.output_max = {prefix}_PID_OUTPUT_MAX;\n    {var}.ss.n = {prefix}_SS_NX;\n    {var}.ss.a = {prefix}_SS_A;\n    {var}.ss.b = {prefix}_SS_B;\n    {var}.ss.c = {prefix}_SS_C;\n    {var}.ss.d = {prefix}_SS_D;\n    {var}.ss.output_min = {ss_lo};\n    {var}.ss.output_max = {ss_hi};\n    {var}.ss.conditional_update = {prefix}_SS_CONDITIONAL_UPDATE;\n",
         kind(spec).1
     );
+    if let FeedbackSpec::Dob(_) = spec {
+        super::c_header::dob_loader(out, var, prefix);
+    }
 }
 
 /// The blocks' prefixes and descriptions.
