@@ -58,6 +58,7 @@ fn record() -> (String, HysteresisModel, Vec<f64>) {
         offset: 0.5,
         input_offset: 0.0,
         dead_zone: None,
+        rate: None,
     };
     let y = truth.simulate(&u);
     let mut csv = String::from("t,u,y\n");
