@@ -463,6 +463,73 @@ mod tests {
         assert!((0.08..0.18).contains(&width), "loop width {width}");
     }
 
+    /// Loop width (descending minus ascending branch at mid-stroke, over
+    /// the top) of the second period of a 0-10 V triangle at `freq` Hz.
+    fn loop_width(p: VirtualFtsParams, freq: f64) -> f64 {
+        let mut fts = VirtualFts::new(p).unwrap();
+        let n = (1.0 / (freq * fts.params().ts)).round() as usize;
+        let tri = |k: usize| {
+            let ph = (k % n) as f64 / n as f64;
+            10.0 * if ph < 0.5 { 2.0 * ph } else { 2.0 - 2.0 * ph }
+        };
+        let (mut up, mut down, mut top) = (f64::NAN, f64::NAN, f64::NEG_INFINITY);
+        for k in 0..2 * n {
+            fts.step(tri(k));
+            if k >= n {
+                top = top.max(fts.true_position());
+                if k == n + n / 4 {
+                    up = fts.true_position();
+                }
+                if k == n + 3 * n / 4 {
+                    down = fts.true_position();
+                }
+            }
+        }
+        (down - up) / top
+    }
+
+    #[test]
+    fn rate_dependence_widens_fast_loops_only() {
+        let with = |c: f64| VirtualFtsParams {
+            piezo: PiezoParams {
+                rate_dependence: Some(RateDependence {
+                    coefficient: c,
+                    reference_rate_v_per_s: 1e5,
+                }),
+                ..quiet().piezo
+            },
+            ..quiet()
+        };
+        // c = 0 is the rate-independent plant, bit for bit.
+        for freq in [2.0, 200.0] {
+            assert_eq!(loop_width(with(0.0), freq), loop_width(quiet(), freq));
+        }
+        // At 1 Hz the rate is 200 V/s: alpha grows by 0.2 %; at 200 Hz by
+        // about 40 %, and the loop is visibly wider than without.
+        let slow = (loop_width(with(1.0), 1.0), loop_width(quiet(), 1.0));
+        assert!((slow.0 - slow.1).abs() < 0.01 * slow.1, "{slow:?}");
+        let fast = (loop_width(with(1.0), 200.0), loop_width(quiet(), 200.0));
+        assert!(fast.0 > 1.1 * fast.1, "{fast:?}");
+        // The fixture has no rate field and writes none.
+        let text = serde_json::to_string(&quiet()).unwrap();
+        assert!(!text.contains("rate_dependence"));
+        let mut bad = with(-1.0);
+        assert_eq!(
+            bad.validate().unwrap_err().field,
+            "piezo.rate_dependence.coefficient"
+        );
+        bad = with(1.0);
+        bad.piezo
+            .rate_dependence
+            .as_mut()
+            .unwrap()
+            .reference_rate_v_per_s = 0.0;
+        assert_eq!(
+            bad.validate().unwrap_err().field,
+            "piezo.rate_dependence.reference_rate_v_per_s"
+        );
+    }
+
     #[test]
     fn deterministic_for_a_seed() {
         let run = |seed| {
