@@ -80,3 +80,71 @@ fn rate_dependent_pi_fits_high_frequency_records_better() {
     );
     assert!(e_rd.rms_percent < 1.5 * e_ri.rms_percent);
 }
+
+/// The regression of §1.7 recovers a rate-dependent model from its own
+/// output: triangles at several rates (so `|s|` varies), weights, rate
+/// weights and velocity gain to round-off; the rate-independent fit of the
+/// same data cannot.
+#[test]
+fn exact_recovery_of_a_rate_dependent_model() {
+    use fts::ident::hysteresis::RateStage;
+    use fts::ident::hysteresis::operators::uniform_thresholds;
+    let ts = 1e-4;
+    let mut u = vec![0.0];
+    for (amplitude, per_leg) in [(8.0, 400), (5.0, 40), (9.0, 13), (3.0, 200), (7.0, 25)] {
+        for target in [amplitude, -amplitude, 0.0] {
+            let last = *u.last().unwrap();
+            for k in 1..=per_leg {
+                u.push(last + (target - last) * k as f64 / per_leg as f64);
+            }
+        }
+    }
+    let scale = u
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0f64, f64::max)
+        / ts;
+    let n = 6;
+    let truth = HysteresisModel {
+        kind: ModelKind::MpiCbrt,
+        operator: PlayOperator::Lower,
+        thresholds: uniform_thresholds(n, 9.0),
+        weights: vec![0.9, 0.2, -0.1, 0.15, 0.05, 0.1],
+        cbrt_gain: -0.2,
+        offset: 0.4,
+        input_offset: 0.0,
+        dead_zone: None,
+        rate: Some(RateStage {
+            ts,
+            rate_scale: scale,
+            weights: vec![0.3, -0.1, 0.2, 0.05, -0.05, 0.1],
+            velocity_gain: -0.25,
+        }),
+    };
+    let y = truth.simulate(&u);
+    let p = IdentifyParams {
+        kind: ModelKind::MpiCbrt,
+        operator: Some(PlayOperator::Lower),
+        operators: n,
+        rate_ts: Some(ts),
+        ..IdentifyParams::default()
+    };
+    let found = identify(&u, &y, &p).unwrap().model;
+    let rate = found.rate.as_ref().unwrap();
+    let truth_rate = truth.rate.as_ref().unwrap();
+    assert!((rate.rate_scale - scale).abs() <= 1e-12 * scale);
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+    for (a, b) in found.weights.iter().zip(&truth.weights) {
+        assert!(close(*a, *b), "w {a} vs {b}");
+    }
+    for (a, b) in rate.weights.iter().zip(&truth_rate.weights) {
+        assert!(close(*a, *b), "w1 {a} vs {b}");
+    }
+    assert!(close(rate.velocity_gain, truth_rate.velocity_gain));
+    assert!(close(found.cbrt_gain, truth.cbrt_gain) && close(found.offset, truth.offset));
+    let static_fit = identify(&u, &y, &IdentifyParams { rate_ts: None, ..p })
+        .unwrap()
+        .info
+        .fit;
+    assert!(static_fit.rms_percent > 0.1, "{static_fit:?}");
+}
