@@ -169,6 +169,16 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
         min_rows: 1,
     };
     let mut table = read_table(open_input(&args.data)?, &source, &params)?;
+    // A rate stage differentiates at its own ts (docs/math.md §1.7): a record
+    // with another sample time would get wrong rates.
+    if let (Some(rate), Some(timing)) = (&model_file.model.rate, &table.timing)
+        && (timing.ts - rate.ts).abs() > 1e-6 * rate.ts
+    {
+        return Err(bad(format!(
+            "{source}: the sample time of the record, {} s, is not the {} s of the model's rate stage",
+            timing.ts, rate.ts
+        )));
+    }
     let measured = match args.compare_col {
         Some(_) => table.columns.pop(),
         None => None,
