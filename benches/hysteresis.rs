@@ -55,6 +55,7 @@ fn bench(c: &mut Criterion) {
                 cbrt,
                 operator: PlayOperator::Lower,
                 thresholds: uniform_thresholds(10, max_abs),
+                rate: None,
             };
             group.bench_function(format!("regressor_qr_{name}/{n}x10"), |b| {
                 b.iter(|| {
@@ -68,6 +69,7 @@ fn bench(c: &mut Criterion) {
             cbrt: true,
             operator: PlayOperator::Lower,
             thresholds: uniform_thresholds(10, max_abs),
+            rate: None,
         };
         let params = IdentifyParams {
             kind: ModelKind::MpiCbrt,

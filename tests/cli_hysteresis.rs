@@ -58,6 +58,7 @@ fn record() -> (String, HysteresisModel, Vec<f64>) {
         offset: 0.5,
         input_offset: 0.0,
         dead_zone: None,
+        rate: None,
     };
     let y = truth.simulate(&u);
     let mut csv = String::from("t,u,y\n");
@@ -275,4 +276,128 @@ fn bad_inputs_exit_2_name_the_problem_and_write_nothing() {
     let mut args = id("data.csv");
     args.extend(["--start", "5000"]);
     assert_bad(d, &inputs, &args, "sample range 5000..");
+}
+
+/// A PI model whose loading curve turns down (partial sum W_1 = 1 - 1.5 < 0)
+/// is valid but has no inverse: exit 1, one line naming the partial sum, no
+/// file written.
+#[test]
+fn invert_refuses_a_non_increasing_loading_curve_with_exit_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "h.json",
+        r#"{"format": "fts.hysteresis/1", "model": "pi", "operator": "play-symmetric",
+            "thresholds": [0.0, 1.0, 2.0], "weights": [1.0, -1.5, 0.2]}"#,
+    );
+    fts()
+        .current_dir(d)
+        .args(["hysteresis", "invert", "h.json", "-o", "inv.json"])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains(
+            "h.json: partial sum W_1 = -0.5 of the weights is not positive",
+        ))
+        .stderr(predicate::str::contains("panicked").not());
+    assert!(!d.join("inv.json").exists());
+}
+
+/// `--rate-dependent` (docs/math.md §1.7): the model file carries the rate
+/// stage, `apply` reads it back and reproduces the identification fit; the
+/// analytic inverse and the runtime's HC refuse it.
+#[test]
+fn rate_dependent_model_round_trips_and_is_refused_where_unsupported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ok = |args: &[&str]| {
+        let out = fts().current_dir(d).args(args).assert().success();
+        String::from_utf8(out.get_output().stdout.clone()).unwrap()
+    };
+    ok(&[
+        "virtual",
+        "triangles",
+        "--freq",
+        "5,200",
+        "--amplitudes",
+        "10,5",
+        "--rate-coefficient",
+        "1",
+        "-o",
+        "r.csv",
+    ]);
+    let text = ok(&[
+        "identify",
+        "hysteresis",
+        "r.csv",
+        "--model",
+        "pi",
+        "--rate-dependent",
+        "--json",
+        "-o",
+        "rd.json",
+    ]);
+    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let rms = report["fit"]["rms_percent"].as_f64().unwrap();
+    let model: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("rd.json")).unwrap()).unwrap();
+    assert_eq!(
+        model["rate_dependent"]["weights"].as_array().unwrap().len(),
+        10
+    );
+    assert_eq!(model["rate_dependent"]["ts"].as_f64().unwrap(), 1e-4);
+    let applied: serde_json::Value = serde_json::from_str(&ok(&[
+        "hysteresis",
+        "apply",
+        "rd.json",
+        "r.csv",
+        "--compare-col",
+        "y",
+        "--json",
+    ]))
+    .unwrap();
+    let again = applied["fit_rms_percent"].as_f64().unwrap();
+    assert!((again - rms).abs() <= 1e-9 * rms, "{again} vs {rms}");
+    fts()
+        .current_dir(d)
+        .args(["hysteresis", "invert", "rd.json", "-o", "inv.json"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("rate-dependent weights"));
+    fts()
+        .current_dir(d)
+        .args([
+            "emit",
+            "--hysteresis",
+            "rd.json",
+            "--kp",
+            "0.05",
+            "--ki",
+            "0.3",
+            "--ts",
+            "1e-4",
+            "--pid-form",
+            "li21",
+            "-o",
+            "c.json",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("rate-independent models only"))
+        .stderr(predicate::str::contains("panicked").not());
+    assert!(!d.join("c.json").exists() && !d.join("inv.json").exists());
+    // mpi-deadzone has no rate stage: a setting error naming it.
+    fts()
+        .current_dir(d)
+        .args([
+            "identify",
+            "hysteresis",
+            "r.csv",
+            "--model",
+            "mpi-deadzone",
+            "--rate-dependent",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--rate-dependent"));
 }

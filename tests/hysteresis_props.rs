@@ -55,6 +55,7 @@ fn invertible_pi() -> impl Strategy<Value = HysteresisModel> {
                 offset,
                 input_offset: 0.0,
                 dead_zone: None,
+                rate: None,
             }
         })
 }

@@ -2,7 +2,7 @@
 //! allocator sees every allocation of this test binary.
 
 use fts::ident::hysteresis::operators::uniform_thresholds;
-use fts::ident::hysteresis::{DeadZoneStage, HysteresisModel, ModelKind, PlayOperator};
+use fts::ident::hysteresis::{DeadZoneStage, HysteresisModel, ModelKind, PlayOperator, RateStage};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -40,6 +40,7 @@ fn model_step_does_not_allocate() {
         offset: 0.0,
         input_offset: 0.0,
         dead_zone: None,
+        rate: None,
     };
     let dz = HysteresisModel {
         kind: ModelKind::MpiDeadzone,
@@ -51,12 +52,22 @@ fn model_step_does_not_allocate() {
         }),
         ..cbrt.clone()
     };
+    // Rate-dependent weights (docs/math.md §1.7).
+    let rate = HysteresisModel {
+        rate: Some(RateStage {
+            ts: 1e-4,
+            rate_scale: 1e3,
+            weights: vec![0.01; 10],
+            velocity_gain: 0.1,
+        }),
+        ..cbrt.clone()
+    };
     let input: Vec<f64> = (0..10_000).map(|k| 9.0 * (k as f64 * 0.01).sin()).collect();
-    let (mut s1, mut s2) = (cbrt.new_state(), dz.new_state());
+    let (mut s1, mut s2, mut s3) = (cbrt.new_state(), dz.new_state(), rate.new_state());
     let before = ALLOCATIONS.load(Ordering::SeqCst);
     let mut acc = 0.0;
     for &x in &input {
-        acc += cbrt.step(&mut s1, x) + dz.step(&mut s2, x);
+        acc += cbrt.step(&mut s1, x) + dz.step(&mut s2, x) + rate.step(&mut s3, x);
     }
     s1.reset();
     acc += cbrt.step(&mut s1, 1.0);

@@ -3,7 +3,7 @@
 
 use super::columns::LayoutArgs;
 use super::common::{bad, open_input, print_json, read_input, write_atomic};
-use crate::ident::hysteresis::analytic_inverse;
+use crate::ident::hysteresis::{Fit, InverseError, analytic_inverse};
 use crate::io::hysteresis_json::{ModelFile, model_to_string, parse_model};
 use crate::io::timeseries::{ColumnRef, ReadParams, TimeColumn, read_table, write_csv};
 use clap::{Args, Subcommand};
@@ -42,6 +42,9 @@ pub struct ApplyArgs {
     /// Column that drives the model: header name, 1-based index or MAT variable.
     #[arg(long, value_name = "COL", default_value = "u", value_parser = super::columns::parse_column)]
     input_col: String,
+    /// Column to compare the model output with (e.g. the measured `y`): prints the fit (docs/math.md §1.5).
+    #[arg(long, value_name = "COL", value_parser = super::columns::parse_column)]
+    compare_col: Option<String>,
     /// Time column to copy to the output (default: found by name, `t`, `time_ms`, ...).
     #[arg(long, value_name = "COL", value_parser = super::columns::parse_column)]
     time_col: Option<String>,
@@ -73,7 +76,12 @@ const CHECK_POINTS: usize = 2001;
 fn invert(args: InvertArgs) -> anyhow::Result<()> {
     let source = args.model.display().to_string();
     let forward = load(&args.model)?;
-    let inverse = analytic_inverse(&forward.model).map_err(|e| bad(format!("{source}: {e}")))?;
+    // A loading-curve slope that is not positive is a fact about a valid
+    // model (exit 1); a model of the wrong kind is a wrong input (exit 2).
+    let inverse = analytic_inverse(&forward.model).map_err(|e| match e {
+        InverseError::NotInvertible { .. } => anyhow::anyhow!("{source}: {e}"),
+        _ => bad(format!("{source}: {e}")),
+    })?;
     // Self-check: P^-1[P[u]] = u on 0 -> +A -> -A -> +A/2, A just above the
     // largest threshold (the range the model was identified on).
     let n = forward.model.operators() as f64;
@@ -149,8 +157,10 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
 fn apply(args: ApplyArgs) -> anyhow::Result<()> {
     let model_file = load(&args.model)?;
     let source = args.data.display().to_string();
+    let mut columns = vec![ColumnRef::parse(&args.input_col)];
+    columns.extend(args.compare_col.as_deref().map(ColumnRef::parse));
     let params = ReadParams {
-        columns: vec![ColumnRef::parse(&args.input_col)],
+        columns,
         time: args
             .time_col
             .as_deref()
@@ -159,6 +169,20 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
         min_rows: 1,
     };
     let mut table = read_table(open_input(&args.data)?, &source, &params)?;
+    // A rate stage differentiates at its own ts (docs/math.md §1.7): a record
+    // with another sample time would get wrong rates.
+    if let (Some(rate), Some(timing)) = (&model_file.model.rate, &table.timing)
+        && (timing.ts - rate.ts).abs() > 1e-6 * rate.ts
+    {
+        return Err(bad(format!(
+            "{source}: the sample time of the record, {} s, is not the {} s of the model's rate stage",
+            timing.ts, rate.ts
+        )));
+    }
+    let measured = match args.compare_col {
+        Some(_) => table.columns.pop(),
+        None => None,
+    };
     let u = table.columns.pop().unwrap_or_default();
     // Allocation-free per-sample evaluation with explicit state, as a
     // real-time loop would run it.
@@ -184,15 +208,28 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
+    let fit = match &measured {
+        Some(m) => Some(Fit::of(&y, m).ok_or_else(|| {
+            bad(format!(
+                "{source}: --compare-col: the column is constant; the fit is relative to its range"
+            ))
+        })?),
+        None => None,
+    };
     if args.json {
-        return print_json(&json!({
+        let mut doc = json!({
             "samples": y.len(),
             "mapping": model_file.mapping(),
             "model": model.kind.name(),
             "output_min": lo,
             "output_max": hi,
             "output_file": args.out.as_ref().map(|p| p.display().to_string()),
-        }));
+        });
+        if let (Some(f), Some(obj)) = (fit, doc.as_object_mut()) {
+            obj.insert("fit_rms_percent".into(), json!(f.rms_percent));
+            obj.insert("fit_max_percent".into(), json!(f.max_percent));
+        }
+        return print_json(&doc);
     }
     say!(
         "applied {} ({} {}, {}) to {} samples of {source}: output {lo:.6} .. {hi:.6} {}",
@@ -203,6 +240,14 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
         y.len(),
         model_file.output.unit
     );
+    if let Some(f) = fit {
+        say!(
+            "fit against {}: rms {:.4} %, max {:.4} % of its range",
+            args.compare_col.as_deref().unwrap_or_default(),
+            f.rms_percent,
+            f.max_percent
+        );
+    }
     if let Some(path) = &args.out {
         say!("wrote {}", path.display());
     }

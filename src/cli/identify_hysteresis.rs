@@ -60,6 +60,9 @@ pub struct HysteresisArgs {
     /// Identify the inverse model directly: the recorded output is the model input (\[Li21\]).
     #[arg(long)]
     inverse: bool,
+    /// Rate-dependent weights w_i + w1_i |du/dt|/scale (pi, mpi-cbrt; the record needs a time column).
+    #[arg(long)]
+    rate_dependent: bool,
     /// Iteration cap of each gradient solve (--method gd).
     #[arg(long, value_name = "N", default_value_t = IdentifyHysteresis::default().max_iters)]
     max_iters: u64,
@@ -99,6 +102,7 @@ impl HysteresisArgs {
             invertible: self.invertible,
             offset: !self.no_offset,
             inverse: self.inverse,
+            rate_dependent: self.rate_dependent,
             max_iters: self.max_iters,
             input_quantity: self.input_quantity.clone(),
             input_unit: self.input_unit.clone(),

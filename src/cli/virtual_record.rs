@@ -26,9 +26,15 @@ pub struct TrianglesArgs {
     /// Peak amplitudes of the command, V, played in order.
     #[arg(long, value_delimiter = ',', default_values_t = VirtualTriangles::default().amplitudes)]
     amplitudes: Vec<f64>,
-    /// Triangle frequency, Hz.
-    #[arg(long, default_value_t = VirtualTriangles::default().freq)]
-    freq: f64,
+    /// Triangle frequencies, Hz, played in order (all amplitudes at each).
+    #[arg(long, value_delimiter = ',', default_values_t = VirtualTriangles::default().freq)]
+    freq: Vec<f64>,
+    /// Rate dependence of the plant's loop: alpha (1 + c |dv/dt| / ref); 0 = rate independent.
+    #[arg(long, value_name = "C", default_value_t = VirtualTriangles::default().rate_coefficient, allow_hyphen_values = true)]
+    rate_coefficient: f64,
+    /// Reference voltage rate of the rate dependence, V/s (amplifier output).
+    #[arg(long, value_name = "V/S", default_value_t = VirtualTriangles::default().rate_reference, allow_hyphen_values = true)]
+    rate_reference: f64,
     /// Write the `t,u,y` CSV here (default: stdout).
     #[arg(short = 'o', long = "out", value_name = "OUT.csv")]
     output: Option<PathBuf>,
@@ -81,6 +87,8 @@ pub fn run(cmd: VirtualCommand) -> anyhow::Result<()> {
                 seed: args.seed,
                 amplitudes: args.amplitudes,
                 freq: args.freq,
+                rate_coefficient: args.rate_coefficient,
+                rate_reference: args.rate_reference,
             };
             write_record(&step.run().map_err(step_error)?, args.output.as_deref())
         }

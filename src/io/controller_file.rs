@@ -489,6 +489,7 @@ impl HysteresisBlock {
                 thresholds: self.dead_zone_thresholds.clone(),
                 weights: self.dead_zone_weights.clone(),
             }),
+            rate: None,
         };
         model.validate().map_err(|e| {
             let key = match &e {

@@ -13,7 +13,8 @@ use super::InputError;
 use super::serde_doc::{At, Object, from_value, parse_object, top};
 use super::tf_json::MAX_COEFF_MAGNITUDE;
 use crate::ident::hysteresis::{
-    DeadZoneStage, HysteresisModel, Identified, IdentifyParams, ModelError, ModelKind, PlayOperator,
+    DeadZoneStage, HysteresisModel, Identified, IdentifyParams, ModelError, ModelKind,
+    PlayOperator, RateStage,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -98,6 +99,14 @@ struct DeadZoneDoc<'a> {
 }
 
 #[derive(Serialize)]
+struct RateDoc<'a> {
+    ts: f64,
+    rate_scale: f64,
+    weights: &'a [f64],
+    velocity_gain: f64,
+}
+
+#[derive(Serialize)]
 struct Doc<'a> {
     format: &'static str,
     model: &'static str,
@@ -111,6 +120,9 @@ struct Doc<'a> {
     offset: f64,
     input_offset: f64,
     dead_zone: Option<DeadZoneDoc<'a>>,
+    /// Written only for a rate-dependent model (docs/math.md §1.7).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rate_dependent: Option<RateDoc<'a>>,
     fit: Option<&'a FitRecord>,
 }
 
@@ -132,6 +144,12 @@ pub fn model_to_value(file: &ModelFile) -> Value {
         dead_zone: m.dead_zone.as_ref().map(|dz| DeadZoneDoc {
             thresholds: &dz.thresholds,
             weights: &dz.weights,
+        }),
+        rate_dependent: m.rate.as_ref().map(|r| RateDoc {
+            ts: r.ts,
+            rate_scale: r.rate_scale,
+            weights: &r.weights,
+            velocity_gain: r.velocity_gain,
         }),
         fit: file.fit.as_ref(),
     })
@@ -171,6 +189,9 @@ struct ModelDoc {
     input_offset: Option<f64>,
     #[serde(default)]
     dead_zone: Option<Object<DeadZoneIn>>,
+    /// Absent or `null` for a rate-independent model (every older file).
+    #[serde(default)]
+    rate_dependent: Option<Object<RateIn>>,
     #[serde(default)]
     fit: Option<Object<FitDoc>>,
 }
@@ -189,6 +210,17 @@ struct SignalDoc {
 struct DeadZoneIn {
     thresholds: Vec<f64>,
     weights: Vec<f64>,
+}
+
+/// The `rate_dependent` stage as read (docs/math.md §1.7).
+#[derive(Deserialize)]
+struct RateIn {
+    ts: f64,
+    rate_scale: f64,
+    weights: Vec<f64>,
+    /// Absent or `null` reads as 0.
+    #[serde(default)]
+    velocity_gain: Option<f64>,
 }
 
 /// The fit record as read: informative, so each field may be absent, and
@@ -303,6 +335,26 @@ pub fn parse_model(text: &str, source: &str) -> Result<ModelFile, InputError> {
     })
 }
 
+/// The rate stage, its numbers bounded and its scales positive.
+fn rate_stage(r: &RateIn, at: At<'_>) -> Result<RateStage, InputError> {
+    let nested = At {
+        source: at.source,
+        path: "rate_dependent",
+    };
+    check_bounded(&r.weights, "weights", nested)?;
+    for (key, v) in [("ts", r.ts), ("rate_scale", r.rate_scale)] {
+        if absurd(v) || !(v.is_finite() && v > 0.0) {
+            return Err(nested.err(key, format!("expected a positive number, found {v}")));
+        }
+    }
+    Ok(RateStage {
+        ts: r.ts,
+        rate_scale: r.rate_scale,
+        weights: r.weights.clone(),
+        velocity_gain: scalar(r.velocity_gain, "velocity_gain", nested)?,
+    })
+}
+
 impl ModelDoc {
     /// The model, its names known and its numbers bounded (not yet
     /// validated as a whole).
@@ -337,6 +389,10 @@ impl ModelDoc {
         };
         check_bounded(&self.thresholds, "thresholds", at)?;
         check_bounded(&self.weights, "weights", at)?;
+        let rate = match &self.rate_dependent {
+            Some(Object(r)) => Some(rate_stage(r, at)?),
+            None => None,
+        };
         Ok(HysteresisModel {
             kind,
             operator,
@@ -346,6 +402,7 @@ impl ModelDoc {
             offset: scalar(self.offset, "offset", at)?,
             input_offset: scalar(self.input_offset, "input_offset", at)?,
             dead_zone,
+            rate,
         })
     }
 }
@@ -368,6 +425,7 @@ mod tests {
                     thresholds: vec![0.0, 5.0],
                     weights: vec![1.0, 0.25],
                 }),
+                rate: None,
             },
             input: SignalInfo {
                 quantity: "voltage".into(),

@@ -393,9 +393,13 @@ pub fn build_controller(
             None
         },
         hysteresis: if stages.hysteresis_compensation {
-            Some(HysteresisBlock::from_model(inverse.ok_or_else(|| {
-                format!("{} needs an inverse hysteresis model", stages.name())
-            })?))
+            let inverse = inverse
+                .ok_or_else(|| format!("{} needs an inverse hysteresis model", stages.name()))?;
+            if inverse.rate.is_some() {
+                // The runtime's compensator (and its C mirror) has no rate stage.
+                return Err("the HC compensator of the runtime takes rate-independent models only; this inverse model has rate-dependent weights (docs/math.md §1.7)".into());
+            }
+            Some(HysteresisBlock::from_model(inverse))
         } else {
             None
         },
@@ -440,15 +444,29 @@ pub fn track(
 /// The open-loop triangle record of step 1: the command (V) and the
 /// measured displacement (um), unaligned.
 pub fn triangle_record(params: &ExperimentParams) -> Result<(Vec<f64>, Vec<f64>), ExperimentError> {
-    let command = excite::triangle(&excite::TriangleParams {
-        amplitudes: params.triangle_amplitudes_v.clone(),
-        freq_hz: params.triangle_freq_hz,
-        cycles: 2,
-        ts: params.plant.ts,
-        offset: 0.0,
-        bipolar: false,
-    })
-    .map_err(|e| step_err("triangle excitation")(e.to_string()))?;
+    triangle_record_at(params, &[params.triangle_freq_hz])
+}
+
+/// The open-loop triangles played at each of `freqs` in turn (the
+/// amplitudes at the first frequency, then at the second, ...) on one fresh
+/// plant: one record over several rates (docs/math.md §1.7).
+pub fn triangle_record_at(
+    params: &ExperimentParams,
+    freqs: &[f64],
+) -> Result<(Vec<f64>, Vec<f64>), ExperimentError> {
+    let mut command = Vec::new();
+    for &freq_hz in freqs {
+        let part = excite::triangle(&excite::TriangleParams {
+            amplitudes: params.triangle_amplitudes_v.clone(),
+            freq_hz,
+            cycles: 2,
+            ts: params.plant.ts,
+            offset: 0.0,
+            bipolar: false,
+        })
+        .map_err(|e| step_err("triangle excitation")(e.to_string()))?;
+        command.extend(part);
+    }
     let mut plant = fresh_plant(params, 0)?;
     let measured = plant.run_open_loop(&command);
     Ok((command, measured))

@@ -6,11 +6,14 @@
 //!    sample after `delay_samples` samples of computation and transport delay;
 //! 2. power amplifier: gain `G`, first-order bandwidth `f_a`:
 //!    `dv/dt = 2 pi f_a (G u - v)` (solved exactly per substep);
-//! 3. piezo stack: rate-independent Bouc–Wen hysteresis in the voltage
-//!    domain plus an asymmetric quadratic term,
+//! 3. piezo stack: Bouc–Wen hysteresis in the voltage domain plus an
+//!    asymmetric quadratic term,
 //!    `x_free = d v + q v^2 - h`, `dh = alpha d dv - beta |dv| h - gamma dv |h|`
 //!    (Heun's method per substep). This is deliberately *not* a play-operator
-//!    model, so identifying PI/MPI models from it is honest;
+//!    model, so identifying PI/MPI models from it is honest. Rate independent
+//!    by default; with `piezo.rate_dependence` the loop widens with the
+//!    voltage rate, `alpha(v') = alpha (1 + c |v'| / v'_ref)`
+//!    (docs/virtual-fts.md);
 //! 4. flexure: stiffness loss `k_p/(k_p + k)` (\[Li21\] Eq. 1) and the first
 //!    mode, `x'' = w_n^2 (kappa x_free - x) - 2 zeta w_n x'` (exact ZOH
 //!    discretisation of the mode by the matrix exponential);
@@ -57,6 +60,31 @@ pub struct PiezoParams {
     pub beta: f64,
     /// Bouc–Wen `gamma`, 1/V.
     pub gamma: f64,
+    /// Rate dependence of the loop; absent (the default): rate independent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_dependence: Option<RateDependence>,
+}
+
+/// Rate-dependent Bouc–Wen: `alpha(v') = alpha (1 + coefficient |v'| /
+/// reference_rate_v_per_s)`, `v'` the mean rate of the amplifier's output
+/// voltage over the previous controller sample (the drive rate, not the
+/// fast transients of the held command inside a sample). The hysteretic part grows with the drive rate as
+/// piezo loops widen with frequency (Ang et al. 2007; docs/virtual-fts.md).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RateDependence {
+    /// `c`, dimensionless, >= 0.
+    pub coefficient: f64,
+    /// `v'_ref`, V/s, > 0: the rate at which `alpha` is `(1 + c)` times its static value.
+    pub reference_rate_v_per_s: f64,
+}
+
+impl RateDependence {
+    /// The factor `1 + c |v'| / v'_ref` of `alpha` at voltage rate `v'` (V/s).
+    #[inline(always)]
+    pub fn alpha_factor(&self, rate_v_per_s: f64) -> f64 {
+        1.0 + self.coefficient * rate_v_per_s.abs() / self.reference_rate_v_per_s
+    }
 }
 
 /// Flexure hinge mechanics.
@@ -164,6 +192,20 @@ impl VirtualFtsParams {
         {
             return err("piezo", "every coefficient must be finite");
         }
+        if let Some(r) = &p.rate_dependence {
+            if !(r.coefficient.is_finite() && r.coefficient >= 0.0) {
+                return err(
+                    "piezo.rate_dependence.coefficient",
+                    "must be a finite number >= 0",
+                );
+            }
+            if !positive(r.reference_rate_v_per_s) {
+                return err(
+                    "piezo.rate_dependence.reference_rate_v_per_s",
+                    "must be a positive number of V/s",
+                );
+            }
+        }
         let f = &self.flexure;
         if !(positive(f.piezo_stiffness_n_per_um)
             && f.flexure_stiffness_n_per_um.is_finite()
@@ -205,6 +247,8 @@ pub struct VirtualFts {
     gamma_in: [f64; 2],
     // State.
     amp_voltage: f64,
+    /// Mean amplifier voltage rate over the previous sample, V/s.
+    voltage_rate: f64,
     hysteresis: f64,
     free_displacement: f64,
     position: f64,
@@ -241,6 +285,7 @@ impl VirtualFts {
             phi: [[e[(0, 0)], e[(0, 1)]], [e[(1, 0)], e[(1, 1)]]],
             gamma_in: [e[(0, 2)], e[(1, 2)]],
             amp_voltage: 0.0,
+            voltage_rate: 0.0,
             hysteresis: 0.0,
             free_displacement: 0.0,
             position: 0.0,
@@ -303,12 +348,18 @@ impl VirtualFts {
         let target = a.gain * u.clamp(a.input_min_v, a.input_max_v);
         let p = self.params.piezo;
         let d = p.d_um_per_v;
+        // Rate-dependent loop width (docs/virtual-fts.md); exactly alpha when off.
+        let alpha = match &p.rate_dependence {
+            Some(r) => p.alpha * r.alpha_factor(self.voltage_rate),
+            None => p.alpha,
+        };
+        let v_start = self.amp_voltage;
         for _ in 0..self.params.substeps {
             let v_old = self.amp_voltage;
             let v_new = target + (v_old - target) * self.amp_decay;
             let dv = v_new - v_old;
             // Bouc–Wen in the voltage domain, Heun's method.
-            let rate = |h: f64| p.alpha * d * dv - p.beta * dv.abs() * h - p.gamma * dv * h.abs();
+            let rate = |h: f64| alpha * d * dv - p.beta * dv.abs() * h - p.gamma * dv * h.abs();
             let k1 = rate(self.hysteresis);
             let k2 = rate(self.hysteresis + k1);
             self.hysteresis += 0.5 * (k1 + k2);
@@ -324,6 +375,7 @@ impl VirtualFts {
             self.velocity =
                 self.phi[1][0] * s[0] + self.phi[1][1] * s[1] + self.gamma_in[1] * drive;
         }
+        self.voltage_rate = (self.amp_voltage - v_start) / self.params.ts;
     }
 
     /// Measures, then applies the command computed from that measurement:
@@ -409,6 +461,73 @@ mod tests {
         let width = (down - up) / top;
         assert!(down > up, "descending branch above ascending");
         assert!((0.08..0.18).contains(&width), "loop width {width}");
+    }
+
+    /// Loop width (descending minus ascending branch at mid-stroke, over
+    /// the top) of the second period of a 0-10 V triangle at `freq` Hz.
+    fn loop_width(p: VirtualFtsParams, freq: f64) -> f64 {
+        let mut fts = VirtualFts::new(p).unwrap();
+        let n = (1.0 / (freq * fts.params().ts)).round() as usize;
+        let tri = |k: usize| {
+            let ph = (k % n) as f64 / n as f64;
+            10.0 * if ph < 0.5 { 2.0 * ph } else { 2.0 - 2.0 * ph }
+        };
+        let (mut up, mut down, mut top) = (f64::NAN, f64::NAN, f64::NEG_INFINITY);
+        for k in 0..2 * n {
+            fts.step(tri(k));
+            if k >= n {
+                top = top.max(fts.true_position());
+                if k == n + n / 4 {
+                    up = fts.true_position();
+                }
+                if k == n + 3 * n / 4 {
+                    down = fts.true_position();
+                }
+            }
+        }
+        (down - up) / top
+    }
+
+    #[test]
+    fn rate_dependence_widens_fast_loops_only() {
+        let with = |c: f64| VirtualFtsParams {
+            piezo: PiezoParams {
+                rate_dependence: Some(RateDependence {
+                    coefficient: c,
+                    reference_rate_v_per_s: 1e5,
+                }),
+                ..quiet().piezo
+            },
+            ..quiet()
+        };
+        // c = 0 is the rate-independent plant, bit for bit.
+        for freq in [2.0, 200.0] {
+            assert_eq!(loop_width(with(0.0), freq), loop_width(quiet(), freq));
+        }
+        // At 1 Hz the rate is 200 V/s: alpha grows by 0.2 %; at 200 Hz by
+        // about 40 %, and the loop is visibly wider than without.
+        let slow = (loop_width(with(1.0), 1.0), loop_width(quiet(), 1.0));
+        assert!((slow.0 - slow.1).abs() < 0.01 * slow.1, "{slow:?}");
+        let fast = (loop_width(with(1.0), 200.0), loop_width(quiet(), 200.0));
+        assert!(fast.0 > 1.1 * fast.1, "{fast:?}");
+        // The fixture has no rate field and writes none.
+        let text = serde_json::to_string(&quiet()).unwrap();
+        assert!(!text.contains("rate_dependence"));
+        let mut bad = with(-1.0);
+        assert_eq!(
+            bad.validate().unwrap_err().field,
+            "piezo.rate_dependence.coefficient"
+        );
+        bad = with(1.0);
+        bad.piezo
+            .rate_dependence
+            .as_mut()
+            .unwrap()
+            .reference_rate_v_per_s = 0.0;
+        assert_eq!(
+            bad.validate().unwrap_err().field,
+            "piezo.rate_dependence.reference_rate_v_per_s"
+        );
     }
 
     #[test]

@@ -10,8 +10,9 @@ use crate::io::timeseries::{time_column, write_csv};
 use crate::runtime::PidSpec;
 use crate::sim::experiment::{
     DEFAULT_PID, ExperimentError, ExperimentParams, align_triangle_record, sweep_record,
-    triangle_record,
+    triangle_record_at,
 };
+use crate::sim::virtual_fts::RateDependence;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -27,8 +28,29 @@ pub struct VirtualTriangles {
     /// Peak amplitudes of the command, V, played in order; default 10, 8,
     /// 6, 4, 2.
     pub amplitudes: Vec<f64>,
-    /// Triangle frequency, Hz; default 2.
-    pub freq: f64,
+    /// Triangle frequencies, Hz, played in order (all amplitudes at each);
+    /// one number or a list; default 2.
+    #[serde(deserialize_with = "one_or_many")]
+    pub freq: Vec<f64>,
+    /// Rate dependence of the plant's loop, `alpha (1 + c |v'| / v'_ref)`
+    /// (docs/virtual-fts.md): `c`, >= 0; default 0 (rate independent).
+    pub rate_coefficient: f64,
+    /// `v'_ref` of the rate dependence, V/s (amplifier output); default 1e5.
+    pub rate_reference: f64,
+}
+
+/// A number or a list of numbers.
+fn one_or_many<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum OneOrMany {
+        One(f64),
+        Many(Vec<f64>),
+    }
+    Ok(match OneOrMany::deserialize(d)? {
+        OneOrMany::One(x) => vec![x],
+        OneOrMany::Many(v) => v,
+    })
 }
 
 impl Default for VirtualTriangles {
@@ -37,7 +59,9 @@ impl Default for VirtualTriangles {
         Self {
             seed: p.seed,
             amplitudes: p.triangle_amplitudes_v,
-            freq: p.triangle_freq_hz,
+            freq: vec![p.triangle_freq_hz],
+            rate_coefficient: 0.0,
+            rate_reference: 1e5,
         }
     }
 }
@@ -45,12 +69,19 @@ impl Default for VirtualTriangles {
 impl VirtualTriangles {
     /// The experiment's settings with these changed.
     pub fn params(&self) -> ExperimentParams {
-        ExperimentParams {
+        let mut p = ExperimentParams {
             seed: self.seed,
             triangle_amplitudes_v: self.amplitudes.clone(),
-            triangle_freq_hz: self.freq,
+            triangle_freq_hz: self.freq.first().copied().unwrap_or(f64::NAN),
             ..ExperimentParams::default()
+        };
+        if self.rate_coefficient > 0.0 {
+            p.plant.piezo.rate_dependence = Some(RateDependence {
+                coefficient: self.rate_coefficient,
+                reference_rate_v_per_s: self.rate_reference,
+            });
         }
+        p
     }
 
     /// Records the triangles.
@@ -58,7 +89,7 @@ impl VirtualTriangles {
         self.validate()?;
         let p = self.params();
         let (command, measured) =
-            triangle_record(&p).map_err(|e| StepError::input(e.to_string()))?;
+            triangle_record_at(&p, &self.freq).map_err(|e| StepError::input(e.to_string()))?;
         let (u, y) = align_triangle_record(&p, &command, &measured);
         Ok(VirtualRecord::new(p.plant.ts, u.to_vec(), y.to_vec()))
     }
@@ -80,7 +111,30 @@ impl Validate for VirtualTriangles {
                 ),
             ));
         }
-        positive("freq", self.freq).map(|_| ())
+        if self.freq.is_empty() {
+            return Err(StepError::setting("freq", "give at least one frequency"));
+        }
+        for (i, &f) in self.freq.iter().enumerate() {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(StepError::setting(
+                    "freq",
+                    format!(
+                        "item {i}: expected a positive number of Hz, got {}",
+                        super::fmt_value(f)
+                    ),
+                ));
+            }
+        }
+        if !(self.rate_coefficient.is_finite() && self.rate_coefficient >= 0.0) {
+            return Err(StepError::setting(
+                "rate_coefficient",
+                format!(
+                    "expected a finite number >= 0, got {}",
+                    super::fmt_value(self.rate_coefficient)
+                ),
+            ));
+        }
+        positive("rate_reference", self.rate_reference).map(|_| ())
     }
 }
 

@@ -105,6 +105,9 @@ pub struct IdentifyHysteresis {
     /// Identify the inverse directly: the recorded output drives the model;
     /// default false.
     pub inverse: bool,
+    /// Rate-dependent weights `w_i + w1_i rho` (docs/math.md §1.7; pi and
+    /// mpi-cbrt, least squares); the record needs a time column; default false.
+    pub rate_dependent: bool,
     /// Iteration cap of each gradient solve (gd); default 2000.
     pub max_iters: u64,
     /// Quantity of the record's input column; default voltage.
@@ -130,6 +133,7 @@ impl Default for IdentifyHysteresis {
             invertible: d.invertible,
             offset: d.offset,
             inverse: false,
+            rate_dependent: false,
             max_iters: d.gd.max_iters,
             input_quantity: "voltage".into(),
             input_unit: "V".into(),
@@ -146,6 +150,20 @@ impl Validate for IdentifyHysteresis {
                 "invertible",
                 "the invertibility constraint needs `method` ls (gradient descent here is unconstrained)",
             ));
+        }
+        if self.rate_dependent {
+            if self.model == HysteresisModelKind::MpiDeadzone {
+                return Err(StepError::setting(
+                    "rate_dependent",
+                    "rate-dependent weights are for `model` pi or mpi-cbrt (mpi-deadzone is bilinear)",
+                ));
+            }
+            if self.invertible {
+                return Err(StepError::setting(
+                    "rate_dependent",
+                    "the invertibility constraint covers rate-independent weights only; drop `invertible`",
+                ));
+            }
         }
         Ok(())
     }
@@ -224,7 +242,15 @@ impl IdentifyHysteresis {
         } else {
             (&record.input, &record.output, file_in, file_out)
         };
-        let params = self.params();
+        let mut params = self.params();
+        if self.rate_dependent {
+            let ts = record.timing.as_ref().map(|t| t.ts).ok_or_else(|| {
+                StepError::input(format!(
+                    "{source}: a rate-dependent model needs the record's time column (the sample time of the rate)"
+                ))
+            })?;
+            params.rate_ts = Some(ts);
+        }
         let identified = identify_observed(u, y, &params, observer).map_err(|e| match e {
             IdentifyError::Solver(_) => StepError::computation(e.to_string()),
             IdentifyError::Thresholds(t) => StepError::setting("thresholds", t.to_string()),
@@ -367,6 +393,18 @@ impl fmt::Display for HysteresisReport {
             "cbrt gain {:.6}, offset {:.6}",
             model.cbrt_gain, model.offset
         )?;
+        if let Some(rate) = &model.rate {
+            writeln!(
+                f,
+                "rate-dependent weights w_i + w1_i |s|, s = (du/dt)/{:.6e} (ts {:e} s):",
+                rate.rate_scale, rate.ts
+            )?;
+            writeln!(f, "  {:>3} {:>14}", "i", "w1_i")?;
+            for (i, w) in rate.weights.iter().enumerate() {
+                writeln!(f, "  {i:>3} {w:>14.6}")?;
+            }
+            writeln!(f, "velocity gain {:.6}", rate.velocity_gain)?;
+        }
         if let Some(dz) = &model.dead_zone {
             writeln!(f, "dead-zone stage:")?;
             writeln!(f, "  {:>3} {:>14} {:>14}", "j", "d_j", "g_j")?;

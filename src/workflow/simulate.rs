@@ -388,6 +388,16 @@ impl Simulate {
                 hysteresis,
                 source,
             } => {
+                // A rate stage (docs/math.md §1.7) differentiates at its own ts.
+                if let Some(rate) = hysteresis.as_ref().and_then(|h| h.rate.as_ref())
+                    && (rate.ts - tf.ts()).abs() > 1e-9 * tf.ts()
+                {
+                    return Err(StepError::input(format!(
+                        "{source}: the hysteresis model's rate stage runs at ts {} s, the plant model at {} s",
+                        rate.ts,
+                        tf.ts()
+                    )));
+                }
                 let limits = file.command_limits();
                 let seed = self.seed.unwrap_or(1).wrapping_add(run);
                 let plant = ModelPlant::new(&tf, hysteresis, limits, 0.0, seed)

@@ -9,7 +9,7 @@
 
 use super::gd::{GdInfo, GdParams, GdState, gd_lstsq};
 use super::lsq::{ColMajor, LsError, PartialSumConstraint, qr_of, solve_from_r};
-use super::model::{DeadZoneStage, HysteresisModel, ModelKind};
+use super::model::{DeadZoneStage, HysteresisModel, ModelKind, RateStage};
 use super::operators::{
     PlayOperator, ThresholdError, check_thresholds, dead_zone, uniform_thresholds,
 };
@@ -58,6 +58,10 @@ pub struct IdentifyParams {
     pub alternations: usize,
     /// Gradient solver settings (for `Method::Gd`).
     pub gd: GdParams,
+    /// Rate-dependent weights `w_i + w1_i rho` (docs/math.md §1.7) with the
+    /// record's sample time, s; `None` (default) for a rate-independent
+    /// model. PI and MPI-cbrt, without the invertibility constraint.
+    pub rate_ts: Option<f64>,
 }
 
 impl Default for IdentifyParams {
@@ -74,6 +78,7 @@ impl Default for IdentifyParams {
             min_partial_sum_rel: 1e-6,
             alternations: 50,
             gd: GdParams::default(),
+            rate_ts: None,
         }
     }
 }
@@ -241,6 +246,9 @@ pub struct Regressor {
     pub operator: PlayOperator,
     /// Play thresholds, one column each.
     pub thresholds: Vec<f64>,
+    /// Rate columns `|s(k)| F_{r_i}[u](k)` after the play columns, then the
+    /// velocity column `s(k)` (docs/math.md §1.7), with `(ts, rate_scale)`.
+    pub rate: Option<(f64, f64)>,
 }
 
 impl Regressor {
@@ -251,15 +259,24 @@ impl Regressor {
 
     /// Number of columns.
     pub fn cols(&self) -> usize {
-        self.free() + self.thresholds.len()
+        let n = self.thresholds.len();
+        self.free() + if self.rate.is_some() { 2 * n + 1 } else { n }
+    }
+
+    /// Length of the state `fill` carries from block to block: one per
+    /// play operator, and the previous input when there are rate columns.
+    pub fn state_len(&self) -> usize {
+        self.thresholds.len() + self.rate.is_some() as usize
     }
 
     /// Fills `columns[j][..u.len()]` with the regressor rows for `u`, continuing
-    /// from the play states `states` (one per threshold, updated).
+    /// from `states` ([`Regressor::state_len`]: the play states, then the
+    /// previous input under rate columns; updated).
     pub fn fill(&self, u: &[f64], states: &mut [f64], columns: &mut [&mut [f64]]) {
         let rows = u.len();
         assert!(columns.len() >= self.cols() && columns.iter().all(|c| c.len() >= rows));
-        assert_eq!(states.len(), self.thresholds.len());
+        assert_eq!(states.len(), self.state_len());
+        let n = self.thresholds.len();
         let mut j = 0;
         if self.offset {
             columns[j][..rows].fill(1.0);
@@ -276,15 +293,34 @@ impl Regressor {
             self.operator,
             &self.thresholds,
             u,
-            states,
+            &mut states[..n],
             &mut columns[j..],
         );
+        if let Some((ts, scale)) = self.rate {
+            // §1.7: s(k) = (u(k) - u(k-1)) / (ts scale), columns |s| F_i and s.
+            let (plays, rates) = columns[j..].split_at_mut(n);
+            for (play, rate) in plays.iter().zip(rates.iter_mut()) {
+                let mut previous = states[n];
+                for ((o, f), &x) in rate[..rows].iter_mut().zip(&play[..rows]).zip(u) {
+                    *o = ((x - previous) / (ts * scale)).abs() * f;
+                    previous = x;
+                }
+            }
+            let mut previous = states[n];
+            for (o, &x) in rates[n][..rows].iter_mut().zip(u) {
+                *o = (x - previous) / (ts * scale);
+                previous = x;
+            }
+            if let Some(&last) = u.last() {
+                states[n] = last;
+            }
+        }
     }
 
     /// The whole regressor as an `N x cols` column-major matrix.
     pub fn matrix(&self, u: &[f64]) -> ColMajor {
         let mut phi = ColMajor::zeros(u.len(), self.cols());
-        let mut states = vec![PlayOperator::INITIAL_STATE; self.thresholds.len()];
+        let mut states = vec![PlayOperator::INITIAL_STATE; self.state_len()];
         self.fill(u, &mut states, &mut phi.cols_mut());
         phi
     }
@@ -295,7 +331,7 @@ impl Regressor {
         let cols = self.cols();
         let mut acc = StreamingQr::new(cols + 1);
         let block_rows = acc.block_rows();
-        let mut states = vec![PlayOperator::INITIAL_STATE; self.thresholds.len()];
+        let mut states = vec![PlayOperator::INITIAL_STATE; self.state_len()];
         for (ub, yb) in u.chunks(block_rows).zip(y.chunks(block_rows)) {
             let mut block = acc.block_cols_mut();
             self.fill(ub, &mut states, &mut block);
@@ -478,6 +514,7 @@ where
     } else {
         thresholds.len()
     };
+    check_rate(params)?;
     let dz_ops = params.dead_zone_operators;
     if params.kind == ModelKind::MpiDeadzone && dz_ops == 0 {
         return Err(IdentifyError::InvalidParams(
@@ -496,7 +533,11 @@ where
     }
     let unknowns = params.offset as usize
         + (params.kind == ModelKind::MpiCbrt) as usize
-        + n_ops
+        + if params.rate_ts.is_some() {
+            2 * n_ops + 1
+        } else {
+            n_ops
+        }
         + if params.kind == ModelKind::MpiDeadzone {
             dz_ops
         } else {
@@ -515,6 +556,7 @@ where
         cbrt: params.kind == ModelKind::MpiCbrt,
         operator: params.operator_form(),
         thresholds,
+        rate: params.rate_ts.map(|ts| (ts, rate_scale(u, ts))),
     };
     let (ylo, yhi) = min_max(y);
     let (ulo, uhi) = min_max(u);
@@ -541,6 +583,38 @@ where
     Ok(identified)
 }
 
+/// The settings a rate-dependent fit needs (docs/math.md §1.7).
+fn check_rate(params: &IdentifyParams) -> Result<(), IdentifyError> {
+    let Some(ts) = params.rate_ts else {
+        return Ok(());
+    };
+    let refuse = |m: &str| Err(IdentifyError::InvalidParams(m.into()));
+    if !(ts.is_finite() && ts > 0.0) {
+        return refuse("rate_dependent: the sample time must be a positive number of seconds");
+    }
+    if params.kind == ModelKind::MpiDeadzone {
+        return refuse("rate_dependent: pi and mpi-cbrt only (mpi-deadzone is bilinear)");
+    }
+    if params.invertible {
+        return refuse(
+            "rate_dependent: the invertibility constraint covers rate-independent weights only",
+        );
+    }
+    Ok(())
+}
+
+/// The normalising rate of §1.7: the largest `|u(k) - u(k-1)| / ts` of the
+/// record (from `u(-1) = 0`), so that `rho` lies in `[0, 1]` on it.
+fn rate_scale(u: &[f64], ts: f64) -> f64 {
+    let mut previous = 0.0;
+    let mut largest = 0.0f64;
+    for &x in u {
+        largest = largest.max((x - previous).abs());
+        previous = x;
+    }
+    largest / ts
+}
+
 fn placeholder_fit() -> Fit {
     Fit {
         rms_percent: f64::NAN,
@@ -562,15 +636,23 @@ fn linear_model(regressor: &Regressor, kind: ModelKind, x: &[f64]) -> Hysteresis
     } else {
         0.0
     };
+    let n = regressor.thresholds.len();
+    let weights: Vec<f64> = it.by_ref().take(n).collect();
     HysteresisModel {
         kind,
         operator: regressor.operator,
         thresholds: regressor.thresholds.clone(),
-        weights: it.collect(),
+        weights,
         cbrt_gain,
         offset,
         input_offset: 0.0,
         dead_zone: None,
+        rate: regressor.rate.map(|(ts, rate_scale)| RateStage {
+            ts,
+            rate_scale,
+            weights: it.by_ref().take(n).collect(),
+            velocity_gain: it.next().unwrap_or(0.0),
+        }),
     }
 }
 
@@ -820,6 +902,7 @@ where
                 thresholds: d,
                 weights: g,
             }),
+            rate: None,
         },
         info: IdentifyInfo {
             fit: placeholder_fit(),
@@ -851,6 +934,7 @@ mod tests {
                 cbrt: true,
                 operator: op,
                 thresholds: uniform_thresholds(11, 10.0),
+                rate: None,
             };
             let phi = reg.matrix(&u);
             assert!(phi.col(0).iter().all(|&v| v == 1.0));

@@ -21,6 +21,11 @@ pub enum InverseError {
         "the analytic inverse needs a classical PI model; this one is '{0}' (identify the inverse directly instead: the `inverse` setting)"
     )]
     NotPi(String),
+    /// Rate-dependent weights change the loading curve from sample to sample.
+    #[error(
+        "the analytic inverse needs a rate-independent model; this one has rate-dependent weights (identify the inverse directly instead: the `inverse` setting)"
+    )]
+    RateDependent,
     /// The formula is for the symmetric play.
     #[error(
         "the analytic inverse needs the symmetric play (play-symmetric); this model uses play-lower (identify the inverse directly instead: the `inverse` setting)"
@@ -46,6 +51,9 @@ pub enum InverseError {
 pub fn analytic_inverse(model: &HysteresisModel) -> Result<HysteresisModel, InverseError> {
     if model.kind != ModelKind::Pi {
         return Err(InverseError::NotPi(model.kind.name().into()));
+    }
+    if model.rate.is_some() {
+        return Err(InverseError::RateDependent);
     }
     if model.operator != PlayOperator::Symmetric {
         return Err(InverseError::NotSymmetric);
@@ -84,6 +92,7 @@ pub fn analytic_inverse(model: &HysteresisModel) -> Result<HysteresisModel, Inve
         offset: model.input_offset,
         input_offset: model.offset,
         dead_zone: None,
+        rate: None,
     })
 }
 
@@ -104,6 +113,7 @@ mod tests {
             offset: 2.0,
             input_offset: 0.0,
             dead_zone: None,
+            rate: None,
         };
         let inv = analytic_inverse(&m).unwrap();
         assert_eq!(inv.thresholds, vec![0.0, 1.0]);

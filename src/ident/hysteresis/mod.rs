@@ -19,5 +19,5 @@ pub use identify::{
     identify_observed,
 };
 pub use inverse::{InverseError, analytic_inverse};
-pub use model::{DeadZoneStage, HysteresisModel, ModelError, ModelKind, ModelState};
+pub use model::{DeadZoneStage, HysteresisModel, ModelError, ModelKind, ModelState, RateStage};
 pub use operators::PlayOperator;

@@ -44,9 +44,30 @@ pub struct DeadZoneStage {
     pub weights: Vec<f64>,
 }
 
+/// Rate-dependent play weights (docs/math.md §1.7): the weight of play `i`
+/// at sample `k` is `w_i + w1_i |s(k)|` with the normalised input rate
+/// `s(k) = (x(k) - x(k-1)) / (ts rate_scale)` (`x(-1) = 0`, the
+/// demagnetised state), the linear-in-parameters form of Ang et al. 2007
+/// ("Modeling rate-dependent hysteresis in piezoelectric actuators"), plus
+/// a velocity term `g s(k)` added to the output (a first-order lag of the
+/// loop, `y(t - tau) ~ y(t) - tau y'(t)`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RateStage {
+    /// Sample time the model runs at, s (the rate is a backward difference).
+    pub ts: f64,
+    /// Input rate at which `rho = 1`, input units per second (the largest
+    /// rate of the identification record).
+    pub rate_scale: f64,
+    /// Rate weights `w1_i`, one per play operator.
+    pub weights: Vec<f64>,
+    /// Velocity gain `g`, output units.
+    pub velocity_gain: f64,
+}
+
 /// A hysteresis model
-/// `y = offset + c cbrt(x) + Out[ sum_i w_i F_{r_i}[x] ]`, `x = u - input_offset`,
-/// where `Out` is the identity, or the dead-zone stage for MPI-deadzone.
+/// `y = offset + c cbrt(x) + Out[ sum_i (w_i + w1_i |s|) F_{r_i}[x] ] + g s`, `x = u - input_offset`,
+/// where `Out` is the identity, or the dead-zone stage for MPI-deadzone, and
+/// the rate weights `w1_i` are 0 unless the model has a [`RateStage`].
 ///
 /// `offset` absorbs the sensor offset of real records (on by default when
 /// identifying); `input_offset` is 0 for identified models and is what an
@@ -69,6 +90,8 @@ pub struct HysteresisModel {
     pub input_offset: f64,
     /// Output stage (MPI-deadzone only).
     pub dead_zone: Option<DeadZoneStage>,
+    /// Rate-dependent weights (PI and MPI-cbrt only; docs/math.md §1.7).
+    pub rate: Option<RateStage>,
 }
 
 /// A model that cannot be evaluated as given.
@@ -175,7 +198,57 @@ impl HysteresisModel {
             }
             (None, _) => {}
         }
+        if let Some(rate) = &self.rate {
+            self.validate_rate(rate)?;
+        }
         Ok(())
+    }
+
+    fn validate_rate(&self, rate: &RateStage) -> Result<(), ModelError> {
+        if self.kind == ModelKind::MpiDeadzone {
+            return Err(ModelError::Inconsistent(
+                "an 'mpi-deadzone' model has no rate-dependent stage (pi and mpi-cbrt only)".into(),
+            ));
+        }
+        if rate.weights.len() != self.thresholds.len() {
+            return Err(ModelError::LengthMismatch {
+                field: "rate_dependent.weights",
+                reference: "thresholds",
+                expected: self.thresholds.len(),
+                found: rate.weights.len(),
+            });
+        }
+        if rate.weights.iter().any(|w| !w.is_finite()) {
+            return Err(ModelError::NonFinite {
+                field: "rate_dependent.weights",
+            });
+        }
+        if !rate.velocity_gain.is_finite() {
+            return Err(ModelError::NonFinite {
+                field: "rate_dependent.velocity_gain",
+            });
+        }
+        for (field, v) in [
+            ("rate_dependent.ts", rate.ts),
+            ("rate_dependent.rate_scale", rate.rate_scale),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ModelError::Inconsistent(format!(
+                    "'{field}' must be a positive number, found {v}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The normalised signed rate `s` of a step from `previous` to `x`
+    /// (§1.7); 0 without a rate stage.
+    #[inline(always)]
+    fn signed_rate(&self, previous: f64, x: f64) -> f64 {
+        match &self.rate {
+            Some(rate) => (x - previous) / (rate.ts * rate.rate_scale),
+            None => 0.0,
+        }
     }
 
     /// Number of play operators.
@@ -187,6 +260,7 @@ impl HysteresisModel {
     pub fn new_state(&self) -> ModelState {
         ModelState {
             play: vec![PlayOperator::INITIAL_STATE; self.thresholds.len()],
+            previous_input: 0.0,
         }
     }
 
@@ -213,6 +287,15 @@ impl HysteresisModel {
             *s = self.operator.step(r, x, *s);
             v += w * *s;
         }
+        let sigma = self.signed_rate(state.previous_input, x);
+        if let Some(rate) = &self.rate {
+            // §1.7: the rate part of the weights, summed after the static part.
+            let rho = sigma.abs();
+            for (s, &w1) in state.play.iter().zip(&rate.weights) {
+                v += w1 * rho * *s;
+            }
+        }
+        state.previous_input = x;
         let out = match &self.dead_zone {
             // [Tang17] Eq. 41: y = sum_j g_j S_{d_j}[v].
             Some(dz) => dz
@@ -224,7 +307,13 @@ impl HysteresisModel {
             None => v,
         };
         // [Li21] Eq. 4: the cube-root term (cbrt_gain is 0 for other kinds).
-        self.offset + self.cbrt_gain * crate::runtime::cbrt(x) + out
+        self.offset + self.cbrt_gain * crate::runtime::cbrt(x) + out + self.velocity_term(sigma)
+    }
+
+    /// `g s` of §1.7 (0 without a rate stage).
+    #[inline(always)]
+    fn velocity_term(&self, sigma: f64) -> f64 {
+        self.rate.as_ref().map_or(0.0, |r| r.velocity_gain * sigma)
     }
 
     /// Runs the model over a signal from the demagnetised state.
@@ -241,6 +330,8 @@ impl HysteresisModel {
         let mut scratch = vec![0.0; n * BLOCK];
         let mut x = [0.0f64; BLOCK];
         let mut columns: Vec<&mut [f64]> = scratch.chunks_mut(BLOCK).collect();
+        let mut sigma = [0.0f64; BLOCK];
+        let mut previous = 0.0;
         for (ub, ob) in u.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
             let len = ub.len();
             for (xk, uk) in x.iter_mut().zip(ub) {
@@ -260,7 +351,18 @@ impl HysteresisModel {
                     *o += w * f;
                 }
             }
-            for (o, &xk) in ob.iter_mut().zip(&x[..len]) {
+            for (r, &xk) in sigma.iter_mut().zip(&x[..len]) {
+                *r = self.signed_rate(previous, xk);
+                previous = xk;
+            }
+            if let Some(rate) = &self.rate {
+                for (col, &w1) in columns.iter().zip(&rate.weights) {
+                    for ((o, f), r) in ob.iter_mut().zip(&col[..len]).zip(&sigma) {
+                        *o += w1 * r.abs() * f;
+                    }
+                }
+            }
+            for ((o, &xk), &sk) in ob.iter_mut().zip(&x[..len]).zip(&sigma) {
                 let v = *o;
                 let stage = match &self.dead_zone {
                     Some(dz) => dz
@@ -271,7 +373,10 @@ impl HysteresisModel {
                         .sum(),
                     None => v,
                 };
-                *o = self.offset + self.cbrt_gain * crate::runtime::cbrt(xk) + stage;
+                *o = self.offset
+                    + self.cbrt_gain * crate::runtime::cbrt(xk)
+                    + stage
+                    + self.velocity_term(sk);
             }
         }
         out
@@ -296,12 +401,15 @@ impl HysteresisModel {
 pub struct ModelState {
     /// Previous output of each play operator.
     pub play: Vec<f64>,
+    /// Previous operator input `x(k-1)` (for the rate of §1.7); 0 at rest.
+    pub previous_input: f64,
 }
 
 impl ModelState {
     /// Back to the demagnetised state, without reallocating.
     pub fn reset(&mut self) {
         self.play.fill(PlayOperator::INITIAL_STATE);
+        self.previous_input = 0.0;
     }
 }
 
@@ -319,6 +427,7 @@ mod tests {
             offset: 0.0,
             input_offset: 0.0,
             dead_zone: None,
+            rate: None,
         }
     }
 
@@ -358,10 +467,28 @@ mod tests {
                     thresholds: vec![0.0, 1.0, 3.0],
                     weights: vec![1.0, 0.3, -0.2],
                 }),
+                rate: None,
             };
             let mut state = m.new_state();
             let stepped: Vec<f64> = u.iter().map(|&x| m.step(&mut state, x)).collect();
             assert_eq!(m.simulate(&u), stepped, "{kind:?} {op:?}");
+            if kind == ModelKind::MpiDeadzone {
+                continue;
+            }
+            // §1.7's rate stage, across block boundaries.
+            let m = HysteresisModel {
+                rate: Some(RateStage {
+                    ts: 1e-4,
+                    rate_scale: 3e3,
+                    weights: vec![0.1, -0.2, 0.05, 0.0, 0.3, -0.1, 0.02, 0.2, -0.05, 0.1],
+                    velocity_gain: -0.07,
+                }),
+                ..m
+            };
+            m.validate().unwrap();
+            state.reset();
+            let stepped: Vec<f64> = u.iter().map(|&x| m.step(&mut state, x)).collect();
+            assert_eq!(m.simulate(&u), stepped, "rate {kind:?} {op:?}");
         }
     }
 
