@@ -443,6 +443,17 @@ fn check_hinge(h: &Hinge) -> Result<(), StepError> {
     })
 }
 
+/// A bridge angle, when given, strictly between 0 and 90 deg.
+fn check_angle(angle_deg: Option<f64>) -> Result<(), StepError> {
+    match angle_deg {
+        Some(a) if !(a > 0.0 && a < 90.0) => Err(StepError::setting(
+            "angle_deg",
+            format!("expected an angle strictly between 0 and 90 deg, got {a}"),
+        )),
+        _ => Ok(()),
+    }
+}
+
 fn target_ratio(x: f64) -> Result<f64, StepError> {
     positive("target_ratio", x)
 }
@@ -656,14 +667,7 @@ impl Default for Bridge {
 
 impl Validate for Bridge {
     fn validate(&self) -> Result<(), StepError> {
-        if let Some(a) = self.angle_deg
-            && !(a > 0.0 && a < 90.0)
-        {
-            return Err(StepError::setting(
-                "angle_deg",
-                format!("expected an angle strictly between 0 and 90 deg, got {a}"),
-            ));
-        }
+        check_angle(self.angle_deg)?;
         if let Some(h) = &self.hinge {
             check_hinge(h)?;
             let l = self.link_mm.ok_or_else(|| {
@@ -853,14 +857,7 @@ fn required(name: &'static str, x: Option<f64>, what: &str) -> Result<f64, StepE
 
 impl Validate for Amplifier {
     fn validate(&self) -> Result<(), StepError> {
-        if let Some(a) = self.angle_deg
-            && !(a > 0.0 && a < 90.0)
-        {
-            return Err(StepError::setting(
-                "angle_deg",
-                format!("expected an angle strictly between 0 and 90 deg, got {a}"),
-            ));
-        }
+        check_angle(self.angle_deg)?;
         required(
             "link_mm",
             self.link_mm,
