@@ -80,7 +80,7 @@ impl HingeGeometry {
 /// `C_xx = int ds/(E A)`, `C_yy = int (L-s)^2 ds/(E I)`,
 /// `C_ytheta = int (L-s) ds/(E I)`, `C_thetatheta = int ds/(E I)`.
 /// The segments of the profile add in series: the rotational stiffness is
-/// `1/C_thetatheta`, not [Li21] Eq. 2's sum of the two stiffnesses.
+/// `1/C_thetatheta`, not \[Li21\] Eq. 2's sum of the two stiffnesses.
 pub fn hinge_compliance(g: &HingeGeometry) -> Mat3 {
     let (e, b) = (g.youngs_modulus, g.width);
     let total = g.profile_length();
