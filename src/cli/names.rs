@@ -284,6 +284,17 @@ mod tests {
             "hinge",
             "the --hinge-* options, checked alone",
         ),
+        (
+            "mechanism amplifier",
+            "hinge",
+            "the --hinge-* options, checked alone",
+        ),
+        (
+            "mechanism amplifier",
+            "pivot",
+            "the manifest's own table; the command uses the bridge's hinge",
+        ),
+        ("contour", "dob", "the --dob-* options"),
         ("ding22", "pid", "--no-pid"),
         ("trajectory", "shape", "the positional <SHAPE>"),
         ("contour", "shape", "the positional <SHAPE>"),
@@ -338,6 +349,10 @@ mod tests {
             s(
                 &["mechanism", "bridge"],
                 settings(&w::mechanism::Bridge::default()),
+            ),
+            s(
+                &["mechanism", "amplifier"],
+                settings(&w::mechanism::Amplifier::default()),
             ),
             s(
                 &["identify", "ct"],
