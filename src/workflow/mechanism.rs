@@ -999,8 +999,13 @@ fn singular() -> StepError {
 /// refined by golden-section search: `(angle, ratio)` in rad.
 fn peak_over_angle(ratio: impl Fn(f64) -> f64) -> (f64, f64) {
     let step = 0.05f64.to_radians();
-    let grid = (1..=1780).map(|i| i as f64 * step);
-    let best = grid.fold(step, |b, a| if ratio(a) > ratio(b) { a } else { b });
+    let (best, _) = (1..=1780)
+        .map(|i| i as f64 * step)
+        .map(|a| (a, ratio(a)))
+        .fold(
+            (step, f64::NEG_INFINITY),
+            |b, a| if a.1 > b.1 { a } else { b },
+        );
     let (mut lo, mut hi) = ((best - step).max(1e-6), best + step);
     let g = 0.5 * (5f64.sqrt() - 1.0);
     for _ in 0..60 {

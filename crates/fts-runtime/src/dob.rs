@@ -114,19 +114,10 @@ impl SmallFilter {
         Ok(f)
     }
 
-    /// One sample, the arithmetic of the ZPETC block's `tdf2_step`.
+    /// One sample, the ZPETC block's arithmetic (`crate::tdf2`).
     #[inline]
     fn step(&mut self, x: f64) -> f64 {
-        let n = self.order;
-        if n == 0 {
-            return self.b[0] * x;
-        }
-        let y = self.b[0] * x + self.state[0];
-        for i in 0..n - 1 {
-            self.state[i] = self.b[i + 1] * x + self.state[i + 1] - self.a[i + 1] * y;
-        }
-        self.state[n - 1] = self.b[n] * x - self.a[n] * y;
-        y
+        crate::tdf2(self.order, &self.b, &self.a, &mut self.state, x)
     }
 }
 

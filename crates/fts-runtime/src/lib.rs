@@ -942,15 +942,22 @@ pub fn ss_reference_step(
 /// Transposed direct form II, the same arithmetic as `lti::TdfFilter::step`.
 #[inline]
 fn tdf2_step(z: &mut ZpetcBlock, x: f64) -> f64 {
-    let n = z.order;
+    tdf2(z.order, &z.b, &z.a, &mut z.state, x)
+}
+
+/// One sample of `B(z^-1)/A(z^-1)` (`a[0] = 1`, order `n`) in transposed
+/// direct form II; the ZPETC block and the DOB's filters share it, so both
+/// run the same arithmetic as the C twin.
+#[inline]
+pub(crate) fn tdf2(n: usize, b: &[f64], a: &[f64], state: &mut [f64], x: f64) -> f64 {
     if n == 0 {
-        return z.b[0] * x;
+        return b[0] * x;
     }
-    let y = z.b[0] * x + z.state[0];
+    let y = b[0] * x + state[0];
     for i in 0..n - 1 {
-        z.state[i] = z.b[i + 1] * x + z.state[i + 1] - z.a[i + 1] * y;
+        state[i] = b[i + 1] * x + state[i + 1] - a[i + 1] * y;
     }
-    z.state[n - 1] = z.b[n] * x - z.a[n] * y;
+    state[n - 1] = b[n] * x - a[n] * y;
     y
 }
 
