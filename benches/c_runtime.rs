@@ -42,6 +42,8 @@ fn pid_hc_zpetc() -> ControllerFile {
             input_offset: 0.0,
             dead_zone_thresholds: vec![],
             dead_zone_weights: vec![],
+            input_dead_zone_thresholds: vec![],
+            input_dead_zone_weights: vec![],
         }),
         feedback: Feedback::Pid(PidSpec {
             kp: 0.05,

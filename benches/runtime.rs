@@ -33,6 +33,8 @@ fn spec<'a>(thresholds: &'a [f64], weights: &'a [f64]) -> RuntimeSpec<'a> {
             input_offset: 0.0,
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
+            input_dead_zone_thresholds: &[],
+            input_dead_zone_weights: &[],
         }),
         feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,

@@ -60,6 +60,8 @@ fn deadzone_controller() -> ControllerFile {
         input_offset: 6.5,
         dead_zone_thresholds: vec![0.0, 0.5, 1.5, 3.0],
         dead_zone_weights: vec![0.8, 0.15, -0.1, 0.07],
+        input_dead_zone_thresholds: vec![],
+        input_dead_zone_weights: vec![],
     });
     f.feedback = Feedback::ParallelPid(ParallelPid {
         kp: 0.05,
@@ -70,6 +72,20 @@ fn deadzone_controller() -> ControllerFile {
         output_max: 2.5,
     });
     f
+}
+
+/// The analytic inverse of an MPI-deadzone model (docs/math.md §1.6): a PI
+/// stage on symmetric plays behind an input dead-zone stage.
+fn inverse_deadzone_controller() -> ControllerFile {
+    let mut f = deadzone_controller();
+    let h = f.hysteresis.as_mut().unwrap();
+    h.model = "pi".into();
+    h.input_dead_zone_thresholds = std::mem::take(&mut h.dead_zone_thresholds);
+    h.input_dead_zone_weights = std::mem::take(&mut h.dead_zone_weights);
+    // Round trip through the file format: the stage is written and read.
+    let text = f.to_json_string();
+    assert!(text.contains("input_dead_zone_weights"), "{text}");
+    parse_controller(&text, "inverse-deadzone").unwrap()
 }
 
 /// The mixsyn example's 4-state controller, widened to 8 states by a
@@ -376,6 +392,15 @@ fn mpi_deadzone_symmetric_with_filtered_pid_is_bit_identical_in_c() {
 }
 
 #[test]
+fn mpi_deadzone_inverse_input_stage_is_bit_identical_in_c() {
+    assert_bit_identical(
+        "PI with input dead zone+filtered PID",
+        &inverse_deadzone_controller(),
+        1000,
+    );
+}
+
+#[test]
 fn state_space_with_zpetc_is_bit_identical_in_c() {
     assert_bit_identical("state space (8)+ZPETC", &state_space_controller(), 1000);
 }
@@ -424,6 +449,7 @@ fn c_files_compile_warning_free_as_c99_and_cpp() {
     for (i, file) in [
         demo_controller(),
         deadzone_controller(),
+        inverse_deadzone_controller(),
         state_space_controller(),
         feedforward_controller(),
         repetitive_controller(),

@@ -58,6 +58,7 @@ fn record() -> (String, HysteresisModel, Vec<f64>) {
         offset: 0.5,
         input_offset: 0.0,
         dead_zone: None,
+        input_dead_zone: None,
         rate: None,
     };
     let y = truth.simulate(&u);
@@ -145,6 +146,111 @@ fn identify_json_model_file_plot_then_invert_and_apply() {
         let got: f64 = line.rsplit(',').next().unwrap().parse().unwrap();
         assert!((got - want).abs() < 1e-8, "{got} vs {want}");
     }
+}
+
+/// The analytic inverse of MPI-deadzone (docs/math.md §1.6): `invert` writes
+/// a PI model with an input dead-zone stage, and applying it to the forward
+/// model's output gives the input back.
+#[test]
+fn mpi_deadzone_inverts_analytically_and_round_trips() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "dz.json",
+        r#"{"format": "fts.hysteresis/1", "model": "mpi-deadzone", "operator": "play-symmetric",
+            "thresholds": [0.0, 1.0, 2.0, 3.0], "weights": [0.9, 0.2, -0.1, 0.15],
+            "offset": 0.4, "input_offset": -0.3,
+            "dead_zone": {"thresholds": [0.0, 1.0, 2.5], "weights": [1.1, -0.3, 0.2]}}"#,
+    );
+    let (csv, _, u) = record();
+    write(d, "data.csv", &csv);
+    fts()
+        .current_dir(d)
+        .args([
+            "hysteresis",
+            "apply",
+            "dz.json",
+            "data.csv",
+            "-o",
+            "fwd.csv",
+        ])
+        .assert()
+        .success();
+    let out = fts()
+        .current_dir(d)
+        .args([
+            "hysteresis",
+            "invert",
+            "dz.json",
+            "-o",
+            "inv.json",
+            "--json",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert!(v["round_trip_max_error"].as_f64().unwrap() < 1e-12);
+    // d'_j = D[d_j]: 0, 1.1, 1.1 * 2.5 - 0.3 * 1.5 = 2.3; g'_0 = 1/1.1.
+    let dz = &v["input_dead_zone"];
+    let dt: Vec<f64> = serde_json::from_value(dz["thresholds"].clone()).unwrap();
+    for (got, want) in dt.iter().zip([0.0, 1.1, 2.3]) {
+        assert!((got - want).abs() < 1e-12, "{dt:?}");
+    }
+    assert!((dz["weights"][0].as_f64().unwrap() - 1.0 / 1.1).abs() < 1e-15);
+    assert!(
+        std::fs::read_to_string(d.join("inv.json"))
+            .unwrap()
+            .contains("\"input_dead_zone\"")
+    );
+    fts()
+        .current_dir(d)
+        .args([
+            "hysteresis",
+            "apply",
+            "inv.json",
+            "fwd.csv",
+            "--input-col",
+            "y",
+        ])
+        .args(["-o", "back.csv"])
+        .assert()
+        .success();
+    let back = std::fs::read_to_string(d.join("back.csv")).unwrap();
+    let mut n = 0;
+    for (line, want) in back.lines().skip(1).zip(&u) {
+        let got: f64 = line.rsplit(',').next().unwrap().parse().unwrap();
+        assert!((got - want).abs() < 1e-9, "{got} vs {want}");
+        n += 1;
+    }
+    assert_eq!(n, u.len());
+}
+
+/// A nearly flat dead-zone stage (G_1 = 1e-12) inverts on paper, but the
+/// inverse amplifies round-off 1e12 times: the self-check fails, exit 1,
+/// nothing written.
+#[test]
+fn invert_self_check_fails_on_an_ill_conditioned_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "flat.json",
+        r#"{"format": "fts.hysteresis/1", "model": "mpi-deadzone", "operator": "play-symmetric",
+            "thresholds": [0.0, 1.0, 2.0], "weights": [1.0, 0.2, 0.1],
+            "dead_zone": {"thresholds": [0.0, 1.5], "weights": [1.0, -0.999999999999]}}"#,
+    );
+    fts()
+        .current_dir(d)
+        .args(["hysteresis", "invert", "flat.json", "-o", "inv.json"])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("flat.json: self-check failed"))
+        .stderr(predicate::str::contains("no inverse written"));
+    assert_only(d, &["flat.json"]);
 }
 
 #[test]
@@ -271,7 +377,7 @@ fn bad_inputs_exit_2_name_the_problem_and_write_nothing() {
         d,
         &inputs,
         &["hysteresis", "invert", li21, "-o", "i.json"],
-        "needs a classical PI model",
+        "no closed-form inverse",
     );
     let mut args = id("data.csv");
     args.extend(["--start", "5000"]);

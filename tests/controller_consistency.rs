@@ -7,7 +7,9 @@
 //! table) too, with (1) an implementation of the repetitive equation on
 //! whole arrays written here.
 
-use fts::ident::hysteresis::HysteresisModel;
+use fts::ident::hysteresis::{
+    DeadZoneStage, HysteresisModel, ModelKind, PlayOperator, analytic_inverse,
+};
 use fts::io::controller_file::{
     ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, Provenance, RepetitiveBlock,
     Units, ZpetcBlock, parse_c_header, parse_controller, to_c_header,
@@ -75,6 +77,35 @@ fn run(mut controller: impl FnMut(f64, f64) -> f64, preview: usize) -> Vec<u64> 
 #[test]
 fn four_ways_bit_identical() {
     let (inverse, z) = models();
+    four_ways(&inverse, &z);
+}
+
+/// The analytic inverse of an MPI-deadzone model (a PI stage behind an input
+/// dead-zone stage, docs/math.md §1.6) in the HC block, four ways.
+#[test]
+fn mpi_deadzone_analytic_inverse_four_ways_bit_identical() {
+    let (_, z) = models();
+    let forward = HysteresisModel {
+        kind: ModelKind::MpiDeadzone,
+        operator: PlayOperator::Symmetric,
+        thresholds: (0..8).map(|i| i as f64 * 1.2).collect(),
+        weights: vec![0.8, 0.1, 0.06, -0.03, 0.05, 0.02, 0.03, 0.01],
+        cbrt_gain: 0.0,
+        offset: -0.2,
+        input_offset: 0.5,
+        dead_zone: Some(DeadZoneStage {
+            thresholds: vec![0.0, 2.5, 5.0, 7.5],
+            weights: vec![1.0, 0.15, -0.1, 0.08],
+        }),
+        input_dead_zone: None,
+        rate: None,
+    };
+    let inverse = analytic_inverse(&forward).unwrap();
+    assert!(inverse.input_dead_zone.is_some());
+    four_ways(&inverse, &z);
+}
+
+fn four_ways(inverse: &HysteresisModel, z: &zpetc::Zpetc) {
     let preview = z.preview;
     assert_eq!(preview, 7);
 
@@ -105,8 +136,8 @@ fn four_ways_bit_identical() {
     let file = ControllerFile {
         ts: 1e-4,
         units: Units::default(),
-        zpetc: Some(ZpetcBlock::from_zpetc(&z)),
-        hysteresis: Some(HysteresisBlock::from_model(&inverse)),
+        zpetc: Some(ZpetcBlock::from_zpetc(z)),
+        hysteresis: Some(HysteresisBlock::from_model(inverse)),
         feedback: Feedback::Pid(PID),
         provenance: Provenance::default(),
         repetitive: None,

@@ -54,6 +54,7 @@ fn model(kind: ModelKind, operator: PlayOperator, u: &[f64], n: usize) -> Hyster
         offset: -1.7,
         input_offset: 0.0,
         dead_zone: None,
+        input_dead_zone: None,
         rate: None,
     }
 }

@@ -2,7 +2,7 @@
 //! input (proptest).
 
 use fts::ident::hysteresis::operators::{PlayOperator, play_into};
-use fts::ident::hysteresis::{HysteresisModel, ModelKind, analytic_inverse};
+use fts::ident::hysteresis::{DeadZoneStage, HysteresisModel, ModelKind, analytic_inverse};
 use proptest::prelude::*;
 
 /// Round-trip tolerance: 1e-9 of the 16-unit range of the test signals.
@@ -55,7 +55,54 @@ fn invertible_pi() -> impl Strategy<Value = HysteresisModel> {
                 offset,
                 input_offset: 0.0,
                 dead_zone: None,
+                input_dead_zone: None,
                 rate: None,
+            }
+        })
+}
+
+/// `n` break points from 0 with the given gaps, and weights whose partial
+/// sums stay positive (`w_i = f_i W_{i-1}`, `f_i > -1`).
+fn positive_slopes(gaps: &[f64], w0: f64, fractions: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let mut breaks = vec![0.0];
+    for g in &gaps[..gaps.len() - 1] {
+        let last = *breaks.last().unwrap();
+        breaks.push(last + g);
+    }
+    let mut weights = vec![w0];
+    let mut partial = w0;
+    for f in &fractions[1..] {
+        let w = f * partial;
+        weights.push(w);
+        partial += w;
+    }
+    (breaks, weights)
+}
+
+/// An invertible MPI-deadzone model (\[Tang17\] Eq. 40-43): an invertible PI
+/// stage, then a dead-zone stage with `d_0 = 0` and positive partial sums
+/// `G_j`, its break points inside the PI stage's output range.
+fn invertible_mpi_deadzone() -> impl Strategy<Value = HysteresisModel> {
+    (invertible_pi(), 1usize..5)
+        .prop_flat_map(|(pi, m)| {
+            (
+                Just(pi),
+                prop::collection::vec(0.2f64..2.5, m),
+                0.2f64..2.0,
+                prop::collection::vec(-0.8f64..1.5, m),
+                -3.0f64..3.0,
+            )
+        })
+        .prop_map(|(pi, gaps, g0, fractions, input_offset)| {
+            let (thresholds, weights) = positive_slopes(&gaps, g0, &fractions);
+            HysteresisModel {
+                kind: ModelKind::MpiDeadzone,
+                dead_zone: Some(DeadZoneStage {
+                    thresholds,
+                    weights,
+                }),
+                input_offset,
+                ..pi
             }
         })
 }
@@ -162,5 +209,42 @@ proptest! {
         for (a, b) in again.iter().zip(&y) {
             prop_assert!((a - b).abs() < ROUND_TRIP_TOL);
         }
+    }
+
+    /// MPI-deadzone inverts analytically to a PI model with an input
+    /// dead-zone stage (math.md 1.6): `inverse(forward(u)) = u` and
+    /// `forward(inverse(y)) = y`, and inverting the inverse gives back the
+    /// forward model's parameters.
+    #[test]
+    fn mpi_deadzone_inverse_undoes_forward(
+        model in invertible_mpi_deadzone(),
+        u in prop::collection::vec(-8.0f64..8.0, 1..150),
+    ) {
+        model.validate().unwrap();
+        let inverse = analytic_inverse(&model).unwrap();
+        inverse.validate().unwrap();
+        prop_assert_eq!(inverse.kind, ModelKind::Pi);
+        prop_assert!(inverse.input_dead_zone.is_some() && inverse.dead_zone.is_none());
+        let back = inverse.simulate(&model.simulate(&u));
+        for (k, (a, b)) in back.iter().zip(&u).enumerate() {
+            prop_assert!((a - b).abs() < ROUND_TRIP_TOL, "k={}: {} vs {}", k, a, b);
+        }
+        let y = model.simulate(&u);
+        let again = model.simulate(&inverse.simulate(&y));
+        for (a, b) in again.iter().zip(&y) {
+            prop_assert!((a - b).abs() < ROUND_TRIP_TOL);
+        }
+        let twice = analytic_inverse(&inverse).unwrap();
+        prop_assert_eq!(twice.kind, ModelKind::MpiDeadzone);
+        let close = |a: &[f64], b: &[f64]| {
+            a.len() == b.len()
+                && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-9 * (1.0 + y.abs()))
+        };
+        let (dz, dz2) = (model.dead_zone.as_ref().unwrap(), twice.dead_zone.as_ref().unwrap());
+        prop_assert!(close(&twice.thresholds, &model.thresholds));
+        prop_assert!(close(&twice.weights, &model.weights));
+        prop_assert!(close(&dz2.thresholds, &dz.thresholds));
+        prop_assert!(close(&dz2.weights, &dz.weights));
+        prop_assert_eq!((twice.offset, twice.input_offset), (model.offset, model.input_offset));
     }
 }

@@ -114,6 +114,7 @@ fn exact_recovery_of_a_rate_dependent_model() {
         offset: 0.4,
         input_offset: 0.0,
         dead_zone: None,
+        input_dead_zone: None,
         rate: Some(RateStage {
             ts,
             rate_scale: scale,

@@ -40,6 +40,7 @@ fn model_step_does_not_allocate() {
         offset: 0.0,
         input_offset: 0.0,
         dead_zone: None,
+        input_dead_zone: None,
         rate: None,
     };
     let dz = HysteresisModel {

@@ -3,7 +3,7 @@
 
 use super::columns::LayoutArgs;
 use super::common::{bad, open_input, print_json, read_input, write_atomic};
-use crate::ident::hysteresis::{Fit, InverseError, analytic_inverse};
+use crate::ident::hysteresis::{Fit, HysteresisModel, InverseError, analytic_inverse};
 use crate::io::hysteresis_json::{ModelFile, model_to_string, parse_model};
 use crate::io::timeseries::{ColumnRef, ReadParams, TimeColumn, read_table, write_csv};
 use clap::{Args, Subcommand};
@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, Subcommand)]
 pub enum HysteresisCommand {
-    /// Analytic inverse of a classical PI model (symmetric play, positive partial sums).
+    /// Analytic inverse of a PI or MPI-deadzone model (symmetric play, positive partial sums).
     Invert(InvertArgs),
     /// Run a model on a signal (e.g. the inverse model on a reference: HC feedforward).
     Apply(ApplyArgs),
@@ -73,6 +73,32 @@ fn load(path: &Path) -> anyhow::Result<ModelFile> {
 /// Grid of the round-trip check: a triangle over the forward model's input range.
 const CHECK_POINTS: usize = 2001;
 
+/// Self-check of an inverse: `max |u - P^-1[P[u]]|` on 0 -> +A -> -A -> +A/2
+/// (around the input offset), A just above the largest threshold (the
+/// range the model was identified on); returns the error and A.
+fn round_trip_error(forward: &HysteresisModel, inverse: &HysteresisModel) -> (f64, f64) {
+    let n = forward.operators() as f64;
+    let amplitude = forward.thresholds.last().copied().unwrap_or(1.0) * n / (n - 1.0).max(1.0);
+    let amplitude = if amplitude > 0.0 { amplitude } else { 1.0 };
+    let mut u = vec![0.0];
+    let mut last = 0.0;
+    for target in [amplitude, -amplitude, 0.5 * amplitude] {
+        for k in 1..=CHECK_POINTS / 3 {
+            u.push(last + (target - last) * k as f64 / (CHECK_POINTS / 3) as f64);
+        }
+        last = target;
+    }
+    u.iter_mut().for_each(|x| *x += forward.input_offset);
+    let back = inverse.simulate(&forward.simulate(&u));
+    // A NaN anywhere is the result (f64::max would drop it).
+    let error = u
+        .iter()
+        .zip(&back)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, |m, e| if e.is_nan() || e > m { e } else { m });
+    (error, amplitude)
+}
+
 fn invert(args: InvertArgs) -> anyhow::Result<()> {
     let source = args.model.display().to_string();
     let forward = load(&args.model)?;
@@ -82,31 +108,16 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
         InverseError::NotInvertible { .. } => anyhow::anyhow!("{source}: {e}"),
         _ => bad(format!("{source}: {e}")),
     })?;
-    // Self-check: P^-1[P[u]] = u on 0 -> +A -> -A -> +A/2, A just above the
-    // largest threshold (the range the model was identified on).
-    let n = forward.model.operators() as f64;
-    let amplitude =
-        forward.model.thresholds.last().copied().unwrap_or(1.0) * n / (n - 1.0).max(1.0);
-    let amplitude = if amplitude > 0.0 { amplitude } else { 1.0 };
-    let legs = [amplitude, -amplitude, 0.5 * amplitude];
-    let mut u = vec![0.0];
-    let mut last = 0.0;
-    for target in legs {
-        for k in 1..=CHECK_POINTS / 3 {
-            u.push(last + (target - last) * k as f64 / (CHECK_POINTS / 3) as f64);
-        }
-        last = target;
+    let (round_trip, amplitude) = round_trip_error(&forward.model, &inverse);
+    // The inverse is exact in exact arithmetic; a round trip off by more than
+    // round-off (1e-9 of the amplitude) means a model the formula does not
+    // cover, so nothing is written (a NaN error fails too).
+    let tolerance = 1e-9 * amplitude.max(forward.model.input_offset.abs());
+    if round_trip.is_nan() || round_trip > tolerance {
+        anyhow::bail!(
+            "{source}: self-check failed: max |u - inverse(forward(u))| = {round_trip:.3e} on a triangle of amplitude {amplitude:.6} (tolerance {tolerance:.1e}); no inverse written"
+        );
     }
-    let u = u
-        .into_iter()
-        .map(|x| x + forward.model.input_offset)
-        .collect::<Vec<_>>();
-    let back = inverse.simulate(&forward.model.simulate(&u));
-    let round_trip = u
-        .iter()
-        .zip(&back)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
     let file = ModelFile {
         model: inverse,
         input: forward.output.clone(),
@@ -124,6 +135,10 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
             "cbrt_gain": file.model.cbrt_gain,
             "offset": file.model.offset,
             "input_offset": file.model.input_offset,
+            "input_dead_zone": file.model.input_dead_zone.as_ref().map(|dz| json!({
+                "thresholds": dz.thresholds,
+                "weights": dz.weights,
+            })),
             "round_trip_max_error": round_trip,
             "round_trip_amplitude": amplitude,
             "model_file": args.out.as_ref().map(|p| p.display().to_string()),
@@ -135,21 +150,38 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
         file.mapping(),
         file.model.operators()
     );
-    say!("  {:>3} {:>14} {:>14}", "i", "r'_i", "w'_i");
-    for (i, (r, w)) in file
-        .model
-        .thresholds
-        .iter()
-        .zip(&file.model.weights)
-        .enumerate()
-    {
-        say!("  {i:>3} {r:>14.6} {w:>14.6}");
+    if let Some(dz) = &file.model.input_dead_zone {
+        say!("input dead-zone stage (inverse of the output stage):");
+        print_stage("j", "d'_j", "g'_j", &dz.thresholds, &dz.weights)?;
+        say!("play stage:");
     }
+    print_stage(
+        "i",
+        "r'_i",
+        "w'_i",
+        &file.model.thresholds,
+        &file.model.weights,
+    )?;
     say!(
         "check: max |u - inverse(forward(u))| = {round_trip:.3e} on a triangle of amplitude {amplitude:.6}"
     );
     if let Some(path) = &args.out {
         say!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// One stage's table: index, threshold, weight.
+fn print_stage(
+    index: &str,
+    threshold: &str,
+    weight: &str,
+    thresholds: &[f64],
+    weights: &[f64],
+) -> anyhow::Result<()> {
+    say!("  {index:>3} {threshold:>14} {weight:>14}");
+    for (i, (r, w)) in thresholds.iter().zip(weights).enumerate() {
+        say!("  {i:>3} {r:>14.6} {w:>14.6}");
     }
     Ok(())
 }

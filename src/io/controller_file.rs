@@ -152,6 +152,13 @@ pub struct HysteresisBlock {
     /// Dead-zone weights.
     #[serde(default)]
     pub dead_zone_weights: Vec<f64>,
+    /// Input dead-zone thresholds: only in the analytic inverse of an
+    /// MPI-deadzone model (docs/math.md §1.6); not written when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub input_dead_zone_thresholds: Vec<f64>,
+    /// Input dead-zone weights.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub input_dead_zone_weights: Vec<f64>,
 }
 
 /// Discrete state-space feedback controller block (SISO, error in, command
@@ -459,9 +466,7 @@ impl HysteresisBlock {
     /// `model`, strictly increasing non-negative thresholds, one finite
     /// weight per threshold, parts that match the model kind.
     fn validate(&self, source: &str, field: &str) -> Result<(), InputError> {
-        use crate::ident::hysteresis::{
-            DeadZoneStage, HysteresisModel, ModelError, ModelKind, PlayOperator,
-        };
+        use crate::ident::hysteresis::{HysteresisModel, ModelError, ModelKind, PlayOperator};
         let err = |key: &str, msg: String| {
             InputError::new(source, msg).in_field(format!("{field}.{key}"))
         };
@@ -485,10 +490,11 @@ impl HysteresisBlock {
             cbrt_gain: self.cbrt_gain,
             offset: self.offset,
             input_offset: self.input_offset,
-            dead_zone: (!self.dead_zone_thresholds.is_empty()).then(|| DeadZoneStage {
-                thresholds: self.dead_zone_thresholds.clone(),
-                weights: self.dead_zone_weights.clone(),
-            }),
+            dead_zone: stage(&self.dead_zone_thresholds, &self.dead_zone_weights),
+            input_dead_zone: stage(
+                &self.input_dead_zone_thresholds,
+                &self.input_dead_zone_weights,
+            ),
             rate: None,
         };
         model.validate().map_err(|e| {
@@ -516,18 +522,31 @@ impl HysteresisBlock {
             cbrt_gain: m.cbrt_gain,
             offset: m.offset,
             input_offset: m.input_offset,
-            dead_zone_thresholds: m
-                .dead_zone
-                .as_ref()
-                .map(|d| d.thresholds.clone())
-                .unwrap_or_default(),
-            dead_zone_weights: m
-                .dead_zone
-                .as_ref()
-                .map(|d| d.weights.clone())
-                .unwrap_or_default(),
+            dead_zone_thresholds: lists(&m.dead_zone).0,
+            dead_zone_weights: lists(&m.dead_zone).1,
+            input_dead_zone_thresholds: lists(&m.input_dead_zone).0,
+            input_dead_zone_weights: lists(&m.input_dead_zone).1,
         }
     }
+}
+
+/// A dead-zone stage from the block's two lists (none when both are empty;
+/// a length mismatch is left to the model's validation).
+fn stage(thresholds: &[f64], weights: &[f64]) -> Option<crate::ident::hysteresis::DeadZoneStage> {
+    (!thresholds.is_empty() || !weights.is_empty()).then(|| {
+        crate::ident::hysteresis::DeadZoneStage {
+            thresholds: thresholds.to_vec(),
+            weights: weights.to_vec(),
+        }
+    })
+}
+
+/// The two lists of an optional dead-zone stage (empty without one).
+fn lists(stage: &Option<crate::ident::hysteresis::DeadZoneStage>) -> (Vec<f64>, Vec<f64>) {
+    stage
+        .as_ref()
+        .map(|d| (d.thresholds.clone(), d.weights.clone()))
+        .unwrap_or_default()
 }
 
 /// A whole controller as written to and read from the file.
@@ -569,6 +588,8 @@ impl ControllerFile {
                 input_offset: h.input_offset,
                 dead_zone_thresholds: &h.dead_zone_thresholds,
                 dead_zone_weights: &h.dead_zone_weights,
+                input_dead_zone_thresholds: &h.input_dead_zone_thresholds,
+                input_dead_zone_weights: &h.input_dead_zone_weights,
             }),
             feedback: self.feedback.runtime_spec(self.ts),
             repetitive: self.repetitive.as_ref().map(|r| RepetitiveSpec {
@@ -767,6 +788,8 @@ mod tests {
                 input_offset: 0.0,
                 dead_zone_thresholds: vec![],
                 dead_zone_weights: vec![],
+                input_dead_zone_thresholds: vec![],
+                input_dead_zone_weights: vec![],
             }),
             feedback: Feedback::Pid(PidSpec {
                 kp: 0.05,

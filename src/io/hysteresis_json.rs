@@ -98,6 +98,15 @@ struct DeadZoneDoc<'a> {
     weights: &'a [f64],
 }
 
+impl<'a> DeadZoneDoc<'a> {
+    fn of(dz: &'a DeadZoneStage) -> Self {
+        DeadZoneDoc {
+            thresholds: &dz.thresholds,
+            weights: &dz.weights,
+        }
+    }
+}
+
 #[derive(Serialize)]
 struct RateDoc<'a> {
     ts: f64,
@@ -120,6 +129,10 @@ struct Doc<'a> {
     offset: f64,
     input_offset: f64,
     dead_zone: Option<DeadZoneDoc<'a>>,
+    /// Written only for the analytic inverse of an MPI-deadzone model
+    /// (docs/math.md §1.6).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    input_dead_zone: Option<DeadZoneDoc<'a>>,
     /// Written only for a rate-dependent model (docs/math.md §1.7).
     #[serde(skip_serializing_if = "Option::is_none")]
     rate_dependent: Option<RateDoc<'a>>,
@@ -141,10 +154,8 @@ pub fn model_to_value(file: &ModelFile) -> Value {
         cbrt_gain: m.cbrt_gain,
         offset: m.offset,
         input_offset: m.input_offset,
-        dead_zone: m.dead_zone.as_ref().map(|dz| DeadZoneDoc {
-            thresholds: &dz.thresholds,
-            weights: &dz.weights,
-        }),
+        dead_zone: m.dead_zone.as_ref().map(DeadZoneDoc::of),
+        input_dead_zone: m.input_dead_zone.as_ref().map(DeadZoneDoc::of),
         rate_dependent: m.rate.as_ref().map(|r| RateDoc {
             ts: r.ts,
             rate_scale: r.rate_scale,
@@ -189,6 +200,9 @@ struct ModelDoc {
     input_offset: Option<f64>,
     #[serde(default)]
     dead_zone: Option<Object<DeadZoneIn>>,
+    /// Absent or `null` unless the model inverts an MPI-deadzone model.
+    #[serde(default)]
+    input_dead_zone: Option<Object<DeadZoneIn>>,
     /// Absent or `null` for a rate-independent model (every older file).
     #[serde(default)]
     rate_dependent: Option<Object<RateIn>>,
@@ -372,21 +386,9 @@ impl ModelDoc {
                 format!("unknown operator {name:?}; expected \"play-lower\" or \"play-symmetric\"");
             at.err("operator", message)
         })?;
-        let dead_zone = match &self.dead_zone {
-            Some(Object(dz)) => {
-                let nested = At {
-                    source: at.source,
-                    path: "dead_zone",
-                };
-                check_bounded(&dz.thresholds, "thresholds", nested)?;
-                check_bounded(&dz.weights, "weights", nested)?;
-                Some(DeadZoneStage {
-                    thresholds: dz.thresholds.clone(),
-                    weights: dz.weights.clone(),
-                })
-            }
-            None => None,
-        };
+        let dead_zone = dead_zone_stage(self.dead_zone.as_ref(), "dead_zone", at)?;
+        let input_dead_zone =
+            dead_zone_stage(self.input_dead_zone.as_ref(), "input_dead_zone", at)?;
         check_bounded(&self.thresholds, "thresholds", at)?;
         check_bounded(&self.weights, "weights", at)?;
         let rate = match &self.rate_dependent {
@@ -402,9 +404,31 @@ impl ModelDoc {
             offset: scalar(self.offset, "offset", at)?,
             input_offset: scalar(self.input_offset, "input_offset", at)?,
             dead_zone,
+            input_dead_zone,
             rate,
         })
     }
+}
+
+/// A dead-zone stage as read, its lists bounded.
+fn dead_zone_stage(
+    stage: Option<&Object<DeadZoneIn>>,
+    path: &'static str,
+    at: At<'_>,
+) -> Result<Option<DeadZoneStage>, InputError> {
+    let Some(Object(dz)) = stage else {
+        return Ok(None);
+    };
+    let nested = At {
+        source: at.source,
+        path,
+    };
+    check_bounded(&dz.thresholds, "thresholds", nested)?;
+    check_bounded(&dz.weights, "weights", nested)?;
+    Ok(Some(DeadZoneStage {
+        thresholds: dz.thresholds.clone(),
+        weights: dz.weights.clone(),
+    }))
 }
 
 #[cfg(test)]
@@ -425,6 +449,7 @@ mod tests {
                     thresholds: vec![0.0, 5.0],
                     weights: vec![1.0, 0.25],
                 }),
+                input_dead_zone: None,
                 rate: None,
             },
             input: SignalInfo {
@@ -452,6 +477,21 @@ mod tests {
         let text = model_to_string(&f);
         assert!(text.contains("\"mapping\": \"voltage->displacement\""));
         assert_eq!(parse_model(&text, "m.json").unwrap(), f);
+    }
+
+    /// The analytic inverse of MPI-deadzone: a PI model with an input stage.
+    #[test]
+    fn input_dead_zone_round_trips() {
+        let mut f = file();
+        f.model.kind = ModelKind::Pi;
+        f.model.input_dead_zone = f.model.dead_zone.take();
+        let text = model_to_string(&f);
+        assert!(text.contains("\"input_dead_zone\""), "{text}");
+        assert_eq!(parse_model(&text, "m.json").unwrap(), f);
+        // On an mpi-cbrt model the stage is refused by name.
+        let bad = text.replace("\"model\": \"pi\"", "\"model\": \"mpi-cbrt\"");
+        let e = parse_model(&bad, "m.json").unwrap_err();
+        assert!(e.to_string().contains("input dead-zone stage"), "{e}");
     }
 
     #[test]

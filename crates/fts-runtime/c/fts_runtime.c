@@ -180,6 +180,28 @@ static fts_status init_zpetc(fts_controller *c, const fts_zpetc_spec *z, const c
     return FTS_OK;
 }
 
+/* A dead-zone stage (Rust DeadZoneBank::new): both lists empty is none. */
+static fts_status dead_zone_bank(const double *thresholds, size_t thresholds_len,
+                                 const double *weights, size_t weights_len, double *t_out,
+                                 double *w_out, size_t *n, const char *t_field,
+                                 const char *w_field, const char **field)
+{
+    *n = 0;
+    if (thresholds_len == 0 && weights_len == 0) {
+        return FTS_OK;
+    }
+    FTS_CHECK(copy_into(thresholds, thresholds_len, t_out, FTS_MAX_DEAD_ZONES), t_field);
+    FTS_CHECK(copy_into(weights, weights_len, w_out, FTS_MAX_DEAD_ZONES), w_field);
+    if (weights_len != thresholds_len) {
+        FTS_FAIL(FTS_ERR_LENGTH_MISMATCH, w_field);
+    }
+    *n = thresholds_len;
+    return FTS_OK;
+}
+
+/* sum_j g_j S_{d_j}[v] over a stage; v itself without one. */
+static double dead_zone_stage(const double *t, const double *w, size_t n, double v);
+
 static fts_status init_hysteresis(fts_controller *c, const fts_hysteresis_spec *h,
                                   const char **field)
 {
@@ -193,18 +215,23 @@ static fts_status init_hysteresis(fts_controller *c, const fts_hysteresis_spec *
     FTS_CHECK(finite_or(h->cbrt_gain), "hysteresis.cbrt_gain");
     FTS_CHECK(finite_or(h->offset), "hysteresis.offset");
     FTS_CHECK(finite_or(h->input_offset), "hysteresis.input_offset");
-    c->n_dead_zones = 0;
-    if (h->dead_zone_thresholds_len != 0 || h->dead_zone_weights_len != 0) {
-        FTS_CHECK(copy_into(h->dead_zone_thresholds, h->dead_zone_thresholds_len,
-                            c->dz_thresholds, FTS_MAX_DEAD_ZONES),
-                  "hysteresis.dead_zone.thresholds");
-        FTS_CHECK(copy_into(h->dead_zone_weights, h->dead_zone_weights_len, c->dz_weights,
-                            FTS_MAX_DEAD_ZONES),
-                  "hysteresis.dead_zone.weights");
-        if (h->dead_zone_weights_len != h->dead_zone_thresholds_len) {
-            FTS_FAIL(FTS_ERR_LENGTH_MISMATCH, "hysteresis.dead_zone.weights");
+    {
+        fts_status s = dead_zone_bank(h->dead_zone_thresholds, h->dead_zone_thresholds_len,
+                                      h->dead_zone_weights, h->dead_zone_weights_len,
+                                      c->dz_thresholds, c->dz_weights, &c->n_dead_zones,
+                                      "hysteresis.dead_zone.thresholds",
+                                      "hysteresis.dead_zone.weights", field);
+        if (s != FTS_OK) {
+            return s;
         }
-        c->n_dead_zones = h->dead_zone_thresholds_len;
+        s = dead_zone_bank(h->input_dead_zone_thresholds, h->input_dead_zone_thresholds_len,
+                           h->input_dead_zone_weights, h->input_dead_zone_weights_len,
+                           c->idz_thresholds, c->idz_weights, &c->n_input_dead_zones,
+                           "hysteresis.input_dead_zone.thresholds",
+                           "hysteresis.input_dead_zone.weights", field);
+        if (s != FTS_OK) {
+            return s;
+        }
     }
     c->has_hysteresis = 1;
     c->form = h->form;
@@ -559,33 +586,41 @@ static double dead_zone(double d, double v)
     return t > 0.0 ? t : 0.0;
 }
 
+static double dead_zone_stage(const double *t, const double *w, size_t n, double v)
+{
+    double out;
+    size_t i;
+    if (n == 0) {
+        return v;
+    }
+    /* -0.0 is the additive identity, as in Rust's Iterator::sum. */
+    out = -0.0;
+    for (i = 0; i < n; ++i) {
+        out += w[i] * dead_zone(t[i], v);
+    }
+    return out;
+}
+
 /* The inverse hysteresis model (Rust hysteresis_step). */
 static double hysteresis_step(fts_controller *c, double u)
 {
     double x = u - c->input_offset;
+    double z = dead_zone_stage(c->idz_thresholds, c->idz_weights, c->n_input_dead_zones, x);
     double v = 0.0;
     double out;
     size_t i, n = c->n_operators;
     if (c->form == FTS_PLAY_LOWER) {
         for (i = 0; i < n; ++i) {
-            c->play[i] = play(x + 0.0, x - c->thresholds[i], c->play[i]);
+            c->play[i] = play(z + 0.0, z - c->thresholds[i], c->play[i]);
             v += c->weights[i] * c->play[i];
         }
     } else {
         for (i = 0; i < n; ++i) {
-            c->play[i] = play(x + c->thresholds[i], x - c->thresholds[i], c->play[i]);
+            c->play[i] = play(z + c->thresholds[i], z - c->thresholds[i], c->play[i]);
             v += c->weights[i] * c->play[i];
         }
     }
-    if (c->n_dead_zones == 0) {
-        out = v;
-    } else {
-        /* -0.0 is the additive identity, as in Rust's Iterator::sum. */
-        out = -0.0;
-        for (i = 0; i < c->n_dead_zones; ++i) {
-            out += c->dz_weights[i] * dead_zone(c->dz_thresholds[i], v);
-        }
-    }
+    out = dead_zone_stage(c->dz_thresholds, c->dz_weights, c->n_dead_zones, v);
     return c->offset + c->cbrt_gain * fts_cbrt(x) + out;
 }
 

@@ -130,6 +130,11 @@ typedef struct fts_hysteresis_spec {
     size_t dead_zone_thresholds_len;
     const double *dead_zone_weights;
     size_t dead_zone_weights_len;
+    /* The input stage of the analytic inverse of an MPI-deadzone model. */
+    const double *input_dead_zone_thresholds; /* may be NULL with length 0 */
+    size_t input_dead_zone_thresholds_len;
+    const double *input_dead_zone_weights;
+    size_t input_dead_zone_weights_len;
 } fts_hysteresis_spec;
 
 /* PID on e = r_f - x, derivative on the measurement x:
@@ -305,6 +310,9 @@ typedef struct fts_controller {
     size_t n_dead_zones;
     double dz_thresholds[FTS_MAX_DEAD_ZONES];
     double dz_weights[FTS_MAX_DEAD_ZONES];
+    size_t n_input_dead_zones;
+    double idz_thresholds[FTS_MAX_DEAD_ZONES];
+    double idz_weights[FTS_MAX_DEAD_ZONES];
 
     fts_feedback fb; /* the feedback stage */
 

@@ -182,7 +182,8 @@ pub struct ZpetcSpec<'a> {
 }
 
 /// Inverse hysteresis block coefficients (borrowed):
-/// `u_ff = offset + c cbrt(x) + Out[sum_i w_i F_{r_i}[x]]`, `x = r_f - input_offset`.
+/// `u_ff = offset + c cbrt(x) + Out[sum_i w_i F_{r_i}[In[x]]]`, `x = r_f - input_offset`,
+/// `Out` and `In` dead-zone stages `sum_j g_j S_{d_j}[.]` or the identity.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HysteresisSpec<'a> {
     /// Play operator form.
@@ -201,6 +202,11 @@ pub struct HysteresisSpec<'a> {
     pub dead_zone_thresholds: &'a [f64],
     /// Dead-zone weights.
     pub dead_zone_weights: &'a [f64],
+    /// Input dead-zone thresholds (empty: no input stage; the analytic
+    /// inverse of an MPI-deadzone model has one).
+    pub input_dead_zone_thresholds: &'a [f64],
+    /// Input dead-zone weights.
+    pub input_dead_zone_weights: &'a [f64],
 }
 
 /// PID block coefficients (\[Li21\] Eq. 5).
@@ -342,9 +348,57 @@ struct HysteresisBlock {
     cbrt_gain: f64,
     offset: f64,
     input_offset: f64,
-    n_dead_zones: usize,
-    dz_thresholds: [f64; MAX_DEAD_ZONES],
-    dz_weights: [f64; MAX_DEAD_ZONES],
+    output_stage: DeadZoneBank,
+    input_stage: DeadZoneBank,
+}
+
+/// A dead-zone stage `sum_j g_j S_{d_j}[v]`; `n == 0` is the identity.
+#[derive(Debug, Clone)]
+struct DeadZoneBank {
+    n: usize,
+    thresholds: [f64; MAX_DEAD_ZONES],
+    weights: [f64; MAX_DEAD_ZONES],
+}
+
+impl DeadZoneBank {
+    /// Copies a stage; both lists empty means no stage.
+    fn new(
+        fields: [&'static str; 2],
+        thresholds: &[f64],
+        weights: &[f64],
+    ) -> Result<Self, RuntimeError> {
+        let mut bank = DeadZoneBank {
+            n: 0,
+            thresholds: [0.0; MAX_DEAD_ZONES],
+            weights: [0.0; MAX_DEAD_ZONES],
+        };
+        if thresholds.is_empty() && weights.is_empty() {
+            return Ok(bank);
+        }
+        bank.n = copy_into(fields[0], thresholds, &mut bank.thresholds)?;
+        if copy_into(fields[1], weights, &mut bank.weights)? != bank.n {
+            return Err(RuntimeError::LengthMismatch { field: fields[1] });
+        }
+        Ok(bank)
+    }
+
+    /// The stage's output, the same sum as `ident::hysteresis::DeadZoneStage::apply`.
+    #[inline]
+    fn apply(&self, v: f64) -> f64 {
+        if self.n == 0 {
+            return v;
+        }
+        // -0.0 is the additive identity (as in `Iterator::sum`): the sum
+        // of one term is that term, signed zero included.
+        let mut acc = -0.0;
+        for (&d, &g) in self.thresholds[..self.n]
+            .iter()
+            .zip(&self.weights[..self.n])
+        {
+            acc += g * dead_zone(d, v);
+        }
+        acc
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -610,29 +664,22 @@ impl RuntimeController {
                 finite("hysteresis.cbrt_gain", h.cbrt_gain)?;
                 finite("hysteresis.offset", h.offset)?;
                 finite("hysteresis.input_offset", h.input_offset)?;
-                let mut dz_thresholds = [0.0; MAX_DEAD_ZONES];
-                let mut dz_weights = [0.0; MAX_DEAD_ZONES];
-                let n_dead_zones =
-                    if h.dead_zone_thresholds.is_empty() && h.dead_zone_weights.is_empty() {
-                        0
-                    } else {
-                        let m = copy_into(
-                            "hysteresis.dead_zone.thresholds",
-                            h.dead_zone_thresholds,
-                            &mut dz_thresholds,
-                        )?;
-                        if copy_into(
-                            "hysteresis.dead_zone.weights",
-                            h.dead_zone_weights,
-                            &mut dz_weights,
-                        )? != m
-                        {
-                            return Err(RuntimeError::LengthMismatch {
-                                field: "hysteresis.dead_zone.weights",
-                            });
-                        }
-                        m
-                    };
+                let output_stage = DeadZoneBank::new(
+                    [
+                        "hysteresis.dead_zone.thresholds",
+                        "hysteresis.dead_zone.weights",
+                    ],
+                    h.dead_zone_thresholds,
+                    h.dead_zone_weights,
+                )?;
+                let input_stage = DeadZoneBank::new(
+                    [
+                        "hysteresis.input_dead_zone.thresholds",
+                        "hysteresis.input_dead_zone.weights",
+                    ],
+                    h.input_dead_zone_thresholds,
+                    h.input_dead_zone_weights,
+                )?;
                 Some(HysteresisBlock {
                     form: h.form,
                     n,
@@ -642,9 +689,8 @@ impl RuntimeController {
                     cbrt_gain: h.cbrt_gain,
                     offset: h.offset,
                     input_offset: h.input_offset,
-                    n_dead_zones,
-                    dz_thresholds,
-                    dz_weights,
+                    output_stage,
+                    input_stage,
                 })
             }
         };
@@ -966,6 +1012,7 @@ pub(crate) fn tdf2(n: usize, b: &[f64], a: &[f64], state: &mut [f64], x: f64) ->
 #[inline]
 fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
     let x = u - h.input_offset;
+    let z = h.input_stage.apply(x);
     let mut v = 0.0;
     let n = h.n;
     // One loop per form keeps the branch out of the operator loop.
@@ -976,7 +1023,7 @@ fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
                 .zip(&h.thresholds[..n])
                 .zip(&h.weights[..n])
             {
-                *s = play(x + 0.0, x - r, *s);
+                *s = play(z + 0.0, z - r, *s);
                 v += w * *s;
             }
         }
@@ -986,23 +1033,12 @@ fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
                 .zip(&h.thresholds[..n])
                 .zip(&h.weights[..n])
             {
-                *s = play(x + r, x - r, *s);
+                *s = play(z + r, z - r, *s);
                 v += w * *s;
             }
         }
     }
-    let out = if h.n_dead_zones == 0 {
-        v
-    } else {
-        let m = h.n_dead_zones;
-        // -0.0 is the additive identity (as in `Iterator::sum`): the sum
-        // of one term is that term, signed zero included.
-        let mut acc = -0.0;
-        for (&d, &g) in h.dz_thresholds[..m].iter().zip(&h.dz_weights[..m]) {
-            acc += g * dead_zone(d, v);
-        }
-        acc
-    };
+    let out = h.output_stage.apply(v);
     h.offset + h.cbrt_gain * cbrt(x) + out
 }
 
@@ -1172,6 +1208,8 @@ mod tests {
                 input_offset: 0.0,
                 dead_zone_thresholds: &[],
                 dead_zone_weights: &[],
+                input_dead_zone_thresholds: &[],
+                input_dead_zone_weights: &[],
             }),
             feedback: FeedbackSpec::Pid(PID),
             repetitive: None,

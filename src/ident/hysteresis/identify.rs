@@ -647,6 +647,7 @@ fn linear_model(regressor: &Regressor, kind: ModelKind, x: &[f64]) -> Hysteresis
         offset,
         input_offset: 0.0,
         dead_zone: None,
+        input_dead_zone: None,
         rate: regressor.rate.map(|(ts, rate_scale)| RateStage {
             ts,
             rate_scale,
@@ -902,6 +903,7 @@ where
                 thresholds: d,
                 weights: g,
             }),
+            input_dead_zone: None,
             rate: None,
         },
         info: IdentifyInfo {

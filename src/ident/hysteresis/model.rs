@@ -35,13 +35,27 @@ impl ModelKind {
     }
 }
 
-/// The output stage of MPI-deadzone: `y = sum_j g_j S_{d_j}[v]` (\[Tang17\] Eq. 41).
+/// A dead-zone stage `D[v] = sum_j g_j S_{d_j}[v]` (\[Tang17\] Eq. 41): the
+/// output stage of MPI-deadzone, or the input stage of its analytic inverse
+/// (docs/math.md §1.6).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeadZoneStage {
     /// Dead-zone thresholds `d_j`, strictly increasing, `d_0 = 0` normally.
     pub thresholds: Vec<f64>,
     /// Output weights `g_j`.
     pub weights: Vec<f64>,
+}
+
+impl DeadZoneStage {
+    /// `D[v]`, summed in operator order (the runtime sums in the same order).
+    #[inline]
+    pub fn apply(&self, v: f64) -> f64 {
+        self.thresholds
+            .iter()
+            .zip(&self.weights)
+            .map(|(&d, &g)| g * dead_zone(d, v))
+            .sum()
+    }
 }
 
 /// Rate-dependent play weights (docs/math.md §1.7): the weight of play `i`
@@ -65,9 +79,11 @@ pub struct RateStage {
 }
 
 /// A hysteresis model
-/// `y = offset + c cbrt(x) + Out[ sum_i (w_i + w1_i |s|) F_{r_i}[x] ] + g s`, `x = u - input_offset`,
-/// where `Out` is the identity, or the dead-zone stage for MPI-deadzone, and
-/// the rate weights `w1_i` are 0 unless the model has a [`RateStage`].
+/// `y = offset + c cbrt(x) + Out[ sum_i (w_i + w1_i |s|) F_{r_i}[In[x]] ] + g s`, `x = u - input_offset`,
+/// where `Out` is the identity, or the dead-zone stage for MPI-deadzone,
+/// `In` is the identity, or the input dead-zone stage of a PI model that is
+/// the analytic inverse of an MPI-deadzone model, and the rate weights
+/// `w1_i` are 0 unless the model has a [`RateStage`].
 ///
 /// `offset` absorbs the sensor offset of real records (on by default when
 /// identifying); `input_offset` is 0 for identified models and is what an
@@ -90,6 +106,9 @@ pub struct HysteresisModel {
     pub input_offset: f64,
     /// Output stage (MPI-deadzone only).
     pub dead_zone: Option<DeadZoneStage>,
+    /// Input stage (PI only, without a rate stage): what the analytic
+    /// inverse of an MPI-deadzone model has in front of its plays.
+    pub input_dead_zone: Option<DeadZoneStage>,
     /// Rate-dependent weights (PI and MPI-cbrt only; docs/math.md §1.7).
     pub rate: Option<RateStage>,
 }
@@ -198,6 +217,20 @@ impl HysteresisModel {
             }
             (None, _) => {}
         }
+        if let Some(dz) = &self.input_dead_zone {
+            if self.kind != ModelKind::Pi || self.rate.is_some() {
+                return Err(ModelError::Inconsistent(format!(
+                    "an input dead-zone stage belongs to a rate-independent 'pi' model (the inverse of an mpi-deadzone model), not to this '{}' model",
+                    self.kind.name()
+                )));
+            }
+            check_stage(
+                &dz.thresholds,
+                &dz.weights,
+                "input_dead_zone.thresholds",
+                "input_dead_zone.weights",
+            )?;
+        }
         if let Some(rate) = &self.rate {
             self.validate_rate(rate)?;
         }
@@ -276,6 +309,7 @@ impl HysteresisModel {
             "state of another model"
         );
         let x = u - self.input_offset;
+        let z = self.input_stage(x);
         let mut v = 0.0;
         // [Li21] Eq. 3 / [Tang17] Eq. 39: weighted sum of play outputs.
         for ((s, &r), &w) in state
@@ -284,7 +318,7 @@ impl HysteresisModel {
             .zip(&self.thresholds)
             .zip(&self.weights)
         {
-            *s = self.operator.step(r, x, *s);
+            *s = self.operator.step(r, z, *s);
             v += w * *s;
         }
         let sigma = self.signed_rate(state.previous_input, x);
@@ -296,18 +330,16 @@ impl HysteresisModel {
             }
         }
         state.previous_input = x;
-        let out = match &self.dead_zone {
-            // [Tang17] Eq. 41: y = sum_j g_j S_{d_j}[v].
-            Some(dz) => dz
-                .thresholds
-                .iter()
-                .zip(&dz.weights)
-                .map(|(&d, &g)| g * dead_zone(d, v))
-                .sum(),
-            None => v,
-        };
+        // [Tang17] Eq. 41: y = sum_j g_j S_{d_j}[v].
+        let out = self.dead_zone.as_ref().map_or(v, |dz| dz.apply(v));
         // [Li21] Eq. 4: the cube-root term (cbrt_gain is 0 for other kinds).
         self.offset + self.cbrt_gain * crate::runtime::cbrt(x) + out + self.velocity_term(sigma)
+    }
+
+    /// `In[x]`: the input dead-zone stage, or `x` without one.
+    #[inline(always)]
+    fn input_stage(&self, x: f64) -> f64 {
+        self.input_dead_zone.as_ref().map_or(x, |dz| dz.apply(x))
     }
 
     /// `g s` of §1.7 (0 without a rate stage).
@@ -329,18 +361,20 @@ impl HysteresisModel {
         let mut states = vec![PlayOperator::INITIAL_STATE; n];
         let mut scratch = vec![0.0; n * BLOCK];
         let mut x = [0.0f64; BLOCK];
+        let mut z = [0.0f64; BLOCK];
         let mut columns: Vec<&mut [f64]> = scratch.chunks_mut(BLOCK).collect();
         let mut sigma = [0.0f64; BLOCK];
         let mut previous = 0.0;
         for (ub, ob) in u.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
             let len = ub.len();
-            for (xk, uk) in x.iter_mut().zip(ub) {
+            for ((xk, zk), uk) in x.iter_mut().zip(z.iter_mut()).zip(ub) {
                 *xk = uk - self.input_offset;
+                *zk = self.input_stage(*xk);
             }
             super::identify::play_columns(
                 self.operator,
                 &self.thresholds,
-                &x[..len],
+                &z[..len],
                 &mut states,
                 &mut columns,
             );
@@ -364,15 +398,7 @@ impl HysteresisModel {
             }
             for ((o, &xk), &sk) in ob.iter_mut().zip(&x[..len]).zip(&sigma) {
                 let v = *o;
-                let stage = match &self.dead_zone {
-                    Some(dz) => dz
-                        .thresholds
-                        .iter()
-                        .zip(&dz.weights)
-                        .map(|(&d, &g)| g * dead_zone(d, v))
-                        .sum(),
-                    None => v,
-                };
+                let stage = self.dead_zone.as_ref().map_or(v, |dz| dz.apply(v));
                 *o = self.offset
                     + self.cbrt_gain * crate::runtime::cbrt(xk)
                     + stage
@@ -427,6 +453,7 @@ mod tests {
             offset: 0.0,
             input_offset: 0.0,
             dead_zone: None,
+            input_dead_zone: None,
             rate: None,
         }
     }
@@ -467,6 +494,7 @@ mod tests {
                     thresholds: vec![0.0, 1.0, 3.0],
                     weights: vec![1.0, 0.3, -0.2],
                 }),
+                input_dead_zone: None,
                 rate: None,
             };
             let mut state = m.new_state();
@@ -477,6 +505,7 @@ mod tests {
             }
             // §1.7's rate stage, across block boundaries.
             let m = HysteresisModel {
+                input_dead_zone: None,
                 rate: Some(RateStage {
                     ts: 1e-4,
                     rate_scale: 3e3,

@@ -144,7 +144,7 @@ fn write_feedforward_table(out: &mut String, t: &FeedforwardTableBlock) {
 fn write_hysteresis(out: &mut String, h: &HysteresisBlock) {
     let _ = writeln!(
         out,
-        "\n/* Inverse hysteresis ({}, {}): u_ff = OFFSET + CBRT_GAIN cbrt(x) + Out[sum_i W_i F_i[x]], x = r_f - INPUT_OFFSET. */\n#define FTS_HAS_HYSTERESIS 1\n#define FTS_HYST_SYMMETRIC_PLAY {}",
+        "\n/* Inverse hysteresis ({}, {}): u_ff = OFFSET + CBRT_GAIN cbrt(x) + Out[sum_i W_i F_i[In[x]]], x = r_f - INPUT_OFFSET; Out and In dead-zone stages (DEAD_ZONE_*, INPUT_DEAD_ZONE_*) or the identity when empty. */\n#define FTS_HAS_HYSTERESIS 1\n#define FTS_HYST_SYMMETRIC_PLAY {}",
         h.model,
         operator_name(h.operator),
         u8::from(h.operator == PlayForm::Symmetric)
@@ -165,6 +165,16 @@ fn write_hysteresis(out: &mut String, h: &HysteresisBlock) {
         &h.dead_zone_thresholds,
     );
     c_array(out, "FTS_HYST_DEAD_ZONE_WEIGHTS", &h.dead_zone_weights);
+    c_array(
+        out,
+        "FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS",
+        &h.input_dead_zone_thresholds,
+    );
+    c_array(
+        out,
+        "FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS",
+        &h.input_dead_zone_weights,
+    );
 }
 
 fn write_parallel_pid(out: &mut String, p: &ParallelPid, ts: f64) {
@@ -359,7 +369,7 @@ fn c_loader(file: &ControllerFile) -> String {
         };
         let _ = write!(
             body,
-            "    hysteresis.form = {form};\n    hysteresis.thresholds = FTS_HYST_THRESHOLDS;\n    hysteresis.thresholds_len = FTS_HYST_THRESHOLDS_LEN;\n    hysteresis.weights = FTS_HYST_WEIGHTS;\n    hysteresis.weights_len = FTS_HYST_WEIGHTS_LEN;\n    hysteresis.cbrt_gain = FTS_HYST_CBRT_GAIN;\n    hysteresis.offset = FTS_HYST_OFFSET;\n    hysteresis.input_offset = FTS_HYST_INPUT_OFFSET;\n    hysteresis.dead_zone_thresholds = FTS_HYST_DEAD_ZONE_THRESHOLDS;\n    hysteresis.dead_zone_thresholds_len = FTS_HYST_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.dead_zone_weights = FTS_HYST_DEAD_ZONE_WEIGHTS;\n    hysteresis.dead_zone_weights_len = FTS_HYST_DEAD_ZONE_WEIGHTS_LEN;\n    spec.hysteresis = &hysteresis;\n"
+            "    hysteresis.form = {form};\n    hysteresis.thresholds = FTS_HYST_THRESHOLDS;\n    hysteresis.thresholds_len = FTS_HYST_THRESHOLDS_LEN;\n    hysteresis.weights = FTS_HYST_WEIGHTS;\n    hysteresis.weights_len = FTS_HYST_WEIGHTS_LEN;\n    hysteresis.cbrt_gain = FTS_HYST_CBRT_GAIN;\n    hysteresis.offset = FTS_HYST_OFFSET;\n    hysteresis.input_offset = FTS_HYST_INPUT_OFFSET;\n    hysteresis.dead_zone_thresholds = FTS_HYST_DEAD_ZONE_THRESHOLDS;\n    hysteresis.dead_zone_thresholds_len = FTS_HYST_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.dead_zone_weights = FTS_HYST_DEAD_ZONE_WEIGHTS;\n    hysteresis.dead_zone_weights_len = FTS_HYST_DEAD_ZONE_WEIGHTS_LEN;\n    hysteresis.input_dead_zone_thresholds = FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS;\n    hysteresis.input_dead_zone_thresholds_len = FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.input_dead_zone_weights = FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS;\n    hysteresis.input_dead_zone_weights_len = FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS_LEN;\n    spec.hysteresis = &hysteresis;\n"
         );
     }
     let pid = |kind: &str| {
@@ -592,6 +602,8 @@ impl<'a> Header<'a> {
             input_offset: self.number("FTS_HYST_INPUT_OFFSET")?,
             dead_zone_thresholds: self.array("FTS_HYST_DEAD_ZONE_THRESHOLDS"),
             dead_zone_weights: self.array("FTS_HYST_DEAD_ZONE_WEIGHTS"),
+            input_dead_zone_thresholds: self.array("FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS"),
+            input_dead_zone_weights: self.array("FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS"),
         }))
     }
 
