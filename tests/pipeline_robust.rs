@@ -380,6 +380,47 @@ fn a_bad_setting_exits_2_from_the_command_and_from_the_manifest() {
     fts().current_dir(d).arg("build").assert().code(2);
 }
 
+/// `gamma` in a manifest designs at that level, as `--gamma` does: the same
+/// controller file, and a level below the optimum fails the build (exit 1).
+#[test]
+fn manifest_gamma_designs_at_the_chosen_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(repo("fixtures/slicot-sb10fd.json"), d.join("P.json")).unwrap();
+    fts()
+        .current_dir(d)
+        .args([
+            "hinf",
+            "--generalized",
+            "P.json",
+            "--nmeas",
+            "2",
+            "--ncon",
+            "2",
+        ])
+        .args(["--gamma", "15", "-o", "k-cli.json"])
+        .assert()
+        .success();
+    let manifest = |gamma: f64| {
+        format!(
+            "[step.k]\nkind = \"hinf\"\ngeneralized = \"P.json\"\nnmeas = 2\nncon = 2\ngamma = {gamma:?}\nout = \"k.json\"\n"
+        )
+    };
+    std::fs::write(d.join("fts.toml"), manifest(15.0)).unwrap();
+    fts().current_dir(d).arg("build").assert().success();
+    assert_eq!(
+        std::fs::read_to_string(d.join("k.json")).unwrap(),
+        std::fs::read_to_string(d.join("k-cli.json")).unwrap()
+    );
+    std::fs::write(d.join("fts.toml"), manifest(10.0)).unwrap();
+    fts()
+        .current_dir(d)
+        .arg("build")
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("bisection bound 10.18425"));
+}
+
 #[test]
 fn manifest_errors_name_the_line_and_field() {
     let dir = tempfile::tempdir().unwrap();

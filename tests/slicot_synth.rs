@@ -385,6 +385,107 @@ fn sb10fd_continuous_central_controller_matches_slicot() {
     assert!(closed_loop_norm(&cl) < gamma);
 }
 
+/// `fts hinf --gamma 15` (MATLAB's `hinfsyn(P, ny, nu, gamTry)`) on the
+/// SB10FD plant, written as `fixtures/slicot-sb10fd.json`: the twelve
+/// closed-loop poles SLICOT prints, to their 5 digits, and a norm below 15.
+#[test]
+fn sb10fd_cli_at_gamma_15_gives_the_published_closed_loop_poles() {
+    let out = assert_cmd::Command::cargo_bin("fts")
+        .unwrap()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["hinf", "--generalized", "fixtures/slicot-sb10fd.json"])
+        .args(["--nmeas", "2", "--ncon", "2", "--gamma", "15", "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert_eq!(v["bisection"]["chosen_gamma"], 15.0);
+    assert_eq!(v["bisection"]["design_level"], 15.0);
+    let gamma = v["gamma"].as_f64().unwrap();
+    assert!(gamma < 15.0, "{gamma}");
+    let ours: Vec<c64> = v["closed_loop_poles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| c64::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect();
+    let re = read_res("SB10FD", "real parts");
+    let im = read_res("SB10FD", "imaginary parts");
+    let published: Vec<c64> = re
+        .concat()
+        .iter()
+        .zip(im.concat())
+        .map(|(&a, b)| c64::new(a, b))
+        .collect();
+    let pd = pole_distance(&published, &ours, 1e-4);
+    assert!(
+        pd < 1.0,
+        "poles differ by {pd} units of the printed precision"
+    );
+    // The plant file is the .dat's plant, exactly.
+    let ex = read_dat("SB10FD", None);
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/slicot-sb10fd.json"
+    ))
+    .unwrap();
+    let fixture = fts::io::ss_json::parse_system(&text, "slicot-sb10fd.json").unwrap();
+    assert_eq!(fixture.a, ex.plant.a);
+    assert_eq!(
+        (fixture.b.clone(), fixture.c.clone()),
+        (ex.plant.b.clone(), ex.plant.c.clone())
+    );
+    assert_eq!(fixture.d, ex.plant.d);
+}
+
+/// A chosen gamma below the optimum (about 10.18426 on SB10FD's plant) is
+/// refused with exit 1, naming the bisection bound.
+#[test]
+fn chosen_gamma_below_the_optimum_exits_1_naming_the_bound() {
+    assert_cmd::Command::cargo_bin("fts")
+        .unwrap()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["hinf", "--generalized", "fixtures/slicot-sb10fd.json"])
+        .args(["--nmeas", "2", "--ncon", "2", "--gamma", "10", "-o"])
+        .arg(std::env::temp_dir().join("fts-below-optimum-k.json"))
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains(
+            "no stabilising controller achieves gamma 10",
+        ))
+        .stderr(predicates::str::contains("bisection bound 10.18425"));
+    assert!(
+        !std::env::temp_dir()
+            .join("fts-below-optimum-k.json")
+            .exists()
+    );
+}
+
+/// `HinfOptions::gamma` on a discrete plant: SB10DD's discrete central
+/// controller at the chosen level (5e-5 above SLICOT's gamma, where fts's
+/// Z Riccati is well enough conditioned), verified, no backoff.
+#[test]
+fn sb10dd_at_a_chosen_gamma_is_the_discrete_central_controller() {
+    let (ex, gamma_slicot) = sb10dd();
+    let level = gamma_slicot * (1.0 + 5e-5);
+    let o = HinfOptions {
+        gamma: Some(level),
+        ..HinfOptions::default()
+    };
+    let r = hinfsyn(&ex.plant, ex.nmeas, ex.ncon, o).unwrap();
+    assert_eq!(r.form, ControllerForm::DiscreteCentral);
+    assert_eq!(r.design_level, level);
+    let recomputed = closed_loop_norm(&ex.plant.lft(&r.k).unwrap());
+    assert!(
+        recomputed <= level * (1.0 + 1e-6),
+        "{recomputed} vs {level}"
+    );
+    let kd = max_response_diff(&r.k, &slicot_controller("SB10DD", Some(1.0)));
+    assert!(kd < 1e-3, "{kd}");
+}
+
 // ---------------------------------------------------------------- SB10HD
 
 #[test]

@@ -65,6 +65,11 @@ pub struct SynthArgs {
     /// the optimum to meet it and warns when it cannot.
     #[arg(long, default_value_t = Hinf::default().pole_margin)]
     pole_margin: f64,
+    /// Design the central controller at exactly this gamma instead of
+    /// searching for the optimum (H-inf only; refused, exit 1, naming the
+    /// optimum, when below it).
+    #[arg(long, value_name = "G")]
+    gamma: Option<f64>,
 }
 
 impl SynthArgs {
@@ -77,6 +82,7 @@ impl SynthArgs {
             gamma_max: self.gamma_max,
             backoff: self.backoff,
             pole_margin: self.pole_margin,
+            gamma: self.gamma,
         }
     }
 }
@@ -219,6 +225,11 @@ pub struct MixsynArgs {
     /// Accept a reduced controller (--order) whatever its degradation.
     #[arg(long)]
     allow_degradation: bool,
+    /// Design the central controller at exactly this gamma instead of
+    /// searching for the optimum (refused, exit 1, naming the optimum, when
+    /// below it).
+    #[arg(long, value_name = "G")]
+    gamma: Option<f64>,
 }
 
 /// `--order`: at least one state (a static gain is not a reduction of a
@@ -238,6 +249,7 @@ pub fn run_mixsyn(args: MixsynArgs) -> anyhow::Result<()> {
         tol: args.tol,
         order: args.order,
         allow_degradation: args.allow_degradation,
+        gamma: args.gamma,
     };
     step.validate().map_err(step_error)?;
     let g = read_system(&args.plant)?;

@@ -32,6 +32,10 @@ pub enum SynthError {
     /// Numerical breakdown.
     #[error("{0}")]
     Numerical(String),
+    /// A chosen gamma below the optimum (a fact about a valid request, not a
+    /// bad input).
+    #[error("{0}")]
+    BelowOptimum(String),
 }
 
 /// A partitioned generalised plant.

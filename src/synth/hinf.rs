@@ -50,6 +50,12 @@ pub struct HinfOptions {
     /// pole the controller moves (fixed plant modes exempt); the synthesis
     /// backs off from the optimum (at most to `1.1 gamma_opt`) to meet it.
     pub pole_margin: f64,
+    /// Design the central controller at exactly this level instead of
+    /// searching for the optimum (MATLAB `hinfsyn(P, ny, nu, gamTry)`,
+    /// SLICOT SB10FD / SB10DD): no backoff, no pole-margin search; a level
+    /// below the optimum is refused naming the bisection bound. `None`
+    /// (default): search.
+    pub gamma: Option<f64>,
 }
 
 impl Default for HinfOptions {
@@ -60,6 +66,7 @@ impl Default for HinfOptions {
             gamma_max: 1e8,
             backoff: 1e-4,
             pole_margin: 1e-4,
+            gamma: None,
         }
     }
 }
@@ -377,6 +384,56 @@ pub fn hinfsyn(
     ncon: usize,
     opts: HinfOptions,
 ) -> Result<HinfResult, SynthError> {
+    match opts.gamma {
+        None => search_and_design(plant, nmeas, ncon, opts),
+        Some(gamma) => design_at_chosen_level(plant, nmeas, ncon, gamma, opts),
+    }
+}
+
+/// [`hinfsyn`] at a chosen level: the central controller at `gamma` when
+/// it exists and achieves `gamma`; otherwise the optimum is searched for, to
+/// say how far below it `gamma` lies (or, at or above it, that `gamma` is
+/// too close to it for a reliable central controller).
+fn design_at_chosen_level(
+    plant: &StateSpace,
+    nmeas: usize,
+    ncon: usize,
+    gamma: f64,
+    opts: HinfOptions,
+) -> Result<HinfResult, SynthError> {
+    let failure = match search_and_design(plant, nmeas, ncon, opts) {
+        Ok(r) => return Ok(r),
+        Err(e @ (SynthError::Infeasible(_) | SynthError::Numerical(_))) => e,
+        Err(e) => return Err(e),
+    };
+    let searched = HinfOptions {
+        gamma: None,
+        ..opts
+    };
+    let Ok(optimum) = search_and_design(plant, nmeas, ncon, searched) else {
+        return Err(failure);
+    };
+    let bound = optimum.bisection_bound;
+    if gamma < bound {
+        return Err(SynthError::BelowOptimum(format!(
+            "no stabilising controller achieves gamma {gamma}: it is below the optimum, which \
+             lies within {:e} (relative) below the bisection bound {bound:.8} (the search's own \
+             controller achieves {:.8}); choose a gamma above the bound",
+            opts.rtol, optimum.gamma
+        )));
+    }
+    Err(SynthError::Numerical(format!(
+        "gamma {gamma} is at or above the optimum (bisection bound {bound:.8}) but the central \
+         controller there is not reliable ({failure}); choose a gamma further above the bound"
+    )))
+}
+
+fn search_and_design(
+    plant: &StateSpace,
+    nmeas: usize,
+    ncon: usize,
+    opts: HinfOptions,
+) -> Result<HinfResult, SynthError> {
     let cont = match plant.ts {
         None => plant.clone(),
         Some(ts) => bilinear_to_continuous(plant, 2.0 / ts).map_err(|e| {
@@ -459,6 +516,19 @@ fn hinfsyn_regularised(
     };
     let norm: Normalised = normalise(&p)?;
     let pss = norm.p.to_ss()?;
+    if let Some(gamma) = opts.gamma {
+        let ctx = Verify {
+            plant,
+            norm: &norm,
+            p0,
+            discrete: discrete_partition(plant, p0, regularised)?,
+            regularised,
+            iterations: 1,
+            infeasible_below: gamma,
+            opts,
+        };
+        return ctx.at_chosen_level(&pss, gamma);
+    }
     let lo0 = gamma_lower(&norm.p);
     if lo0 >= opts.gamma_max {
         return Err(SynthError::Infeasible(format!(
@@ -659,6 +729,10 @@ fn not_found(why: &str, opts: HinfOptions, regularised: (Option<f64>, Option<f64
     ))
 }
 
+/// A controller verifies when its recomputed closed-loop norm is within this
+/// relative tolerance of the level it was built for.
+const VERIFY_RTOL: f64 = 1e-6;
+
 /// What the verification of the controller needs besides the bisection's result.
 struct Verify<'a> {
     plant: &'a StateSpace,
@@ -709,7 +783,6 @@ impl Verify<'_> {
     /// is reported rather than a controller that does not achieve the gamma
     /// it claims.
     fn choose(&self, gamma_opt: f64, best: AtGamma) -> Result<HinfResult, SynthError> {
-        const VERIFY_RTOL: f64 = 1e-6;
         let opts = self.opts;
         let mut backoff = opts.backoff;
         let mut candidate = (backoff <= 0.0).then_some((gamma_opt, best));
@@ -747,6 +820,26 @@ impl Verify<'_> {
              reliable controller; scale the weights or add a control weight",
             if stable {
                 format!("H-inf norm {achieved:.6e}")
+            } else {
+                "unstable".to_string()
+            }
+        )))
+    }
+
+    /// The central controller at the chosen `gamma`, verified on the
+    /// original plant like [`Verify::choose`]'s (stable, norm within
+    /// [`VERIFY_RTOL`] of `gamma`), with no backoff: `design_level` and
+    /// `bisection_bound` are both `gamma`.
+    fn at_chosen_level(&self, pss: &StateSpace, gamma: f64) -> Result<HinfResult, SynthError> {
+        let at = feasible(&self.norm.p, pss, gamma)?;
+        let built = self.build(&at, gamma)?;
+        if built.stable && built.achieved <= gamma * (1.0 + VERIFY_RTOL) {
+            return Ok(self.result(built, &at, gamma, gamma));
+        }
+        Err(SynthError::Numerical(format!(
+            "the central controller at gamma {gamma} does not achieve it (closed loop {})",
+            if built.stable {
+                format!("H-inf norm {:.8}", built.achieved)
             } else {
                 "unstable".to_string()
             }

@@ -52,6 +52,7 @@ fn synth_err(source: &str, e: SynthError) -> StepError {
         SynthError::Numerical(m) => {
             StepError::computation(format!("{source}: numerical failure: {m}"))
         }
+        SynthError::BelowOptimum(m) => StepError::computation(format!("{source}: {m}")),
         other => StepError::input(format!("{source}: {other}")),
     }
 }
@@ -266,6 +267,10 @@ pub struct Hinf {
     /// pole the controller moves; default 1e-4 (docs/robust.md, "Discrete
     /// H-infinity: the pole margin").
     pub pole_margin: f64,
+    /// Design at exactly this gamma instead of searching for the optimum
+    /// (`hinfsyn(P, ny, nu, gamTry)`); refused, naming the optimum, when
+    /// below it. Default: none (search).
+    pub gamma: Option<f64>,
 }
 
 impl Default for Hinf {
@@ -279,6 +284,7 @@ impl Default for Hinf {
             gamma_max: o.gamma_max,
             backoff: o.backoff,
             pole_margin: o.pole_margin,
+            gamma: o.gamma,
         }
     }
 }
@@ -292,6 +298,7 @@ impl Hinf {
             gamma_max: self.gamma_max,
             backoff: self.backoff,
             pole_margin: self.pole_margin,
+            gamma: self.gamma,
         })
     }
 
@@ -307,6 +314,7 @@ impl Hinf {
             tol: self.tol,
             plant_fastest_pole: fastest_pole(p),
             pole_margin: self.pole_margin,
+            chosen_gamma: self.gamma,
         })
     }
 }
@@ -328,6 +336,9 @@ impl Validate for Hinf {
             ));
         }
         positive("gamma_max", gmax)?;
+        if let Some(g) = self.gamma {
+            positive("gamma", g)?;
+        }
         let pm = self.pole_margin;
         if !(pm.is_finite() && (0.0..1.0).contains(&pm)) {
             return Err(StepError::setting(
@@ -372,6 +383,9 @@ pub struct HinfReport {
     pub plant_fastest_pole: f64,
     /// The `pole_margin` setting used (discrete plants).
     pub pole_margin: f64,
+    /// The `gamma` setting: the level the controller was designed at, when
+    /// chosen rather than searched for.
+    pub chosen_gamma: Option<f64>,
 }
 
 /// A controller pole this many times faster than the plant's fastest mode
@@ -399,10 +413,14 @@ impl HinfReport {
             ));
         }
         if let (Some(false), Some(m)) = (r.pole_margin_met, r.pole_margin) {
+            let levels = match self.chosen_gamma {
+                Some(g) => format!("at the chosen gamma {g}: raise it, "),
+                None => "at every level up to 1.1 times the optimum: ".to_string(),
+            };
             w.push(format!(
                 "a closed-loop pole the controller moves lies {m:.3e} from the unit circle \
-                 (|z| = {:.6}), less than the required pole margin {:.1e}, at every level up \
-                 to 1.1 times the optimum: relax the weights or lower --pole-margin",
+                 (|z| = {:.6}), less than the required pole margin {:.1e}, {levels}relax the \
+                 weights or lower --pole-margin",
                 1.0 - m,
                 self.pole_margin
             ));
@@ -432,8 +450,12 @@ impl HinfReport {
         v["gamma_omega"] = json!(r.peak_omega);
         v["gamma_freq_hz"] = json!(r.peak_omega / std::f64::consts::TAU);
         v["gamma_upper"] = json!(r.gamma_upper);
-        v["bisection"] = json!({"rtol": self.tol, "iterations": r.iterations,
-            "bound": r.bisection_bound, "design_level": r.design_level});
+        v["bisection"] = match self.chosen_gamma {
+            None => json!({"rtol": self.tol, "iterations": r.iterations,
+                "bound": r.bisection_bound, "design_level": r.design_level}),
+            // No search: the controller is built at the chosen level.
+            Some(g) => json!({"chosen_gamma": g, "design_level": r.design_level}),
+        };
         v["controller_fastest_pole_rad_s"] = json!(r.controller_fastest_pole());
         v["closed_loop_spectral_radius"] = json!(r.spectral_radius);
         v["pole_margin"] = json!({"achieved": r.pole_margin, "required": self.pole_margin,
@@ -451,7 +473,7 @@ impl fmt::Display for HinfReport {
         let r = &self.result;
         writeln!(
             f,
-            "gamma            {:.8} (||Tzw||_inf of the returned controller, recomputed)\npeak             {}\nclosed loop      {} (poles: {})\ncontroller       {} states, fastest pole {:.3e} rad/s (plant {:.3e} rad/s)\nbisection        bound {:.8}, controller built for {:.8} (diagnostics)\nRiccati residual X {:.1e}, Y {:.1e}",
+            "gamma            {:.8} (||Tzw||_inf of the returned controller, recomputed)\npeak             {}\nclosed loop      {} (poles: {})\ncontroller       {} states, fastest pole {:.3e} rad/s (plant {:.3e} rad/s)\n{}\nRiccati residual X {:.1e}, Y {:.1e}",
             r.gamma,
             peak_summary(r.peak_omega, r.gamma_upper),
             stability(r.stable),
@@ -459,8 +481,13 @@ impl fmt::Display for HinfReport {
             r.k.nx(),
             r.controller_fastest_pole(),
             self.plant_fastest_pole,
-            r.bisection_bound,
-            r.design_level,
+            match self.chosen_gamma {
+                None => format!(
+                    "bisection        bound {:.8}, controller built for {:.8} (diagnostics)",
+                    r.bisection_bound, r.design_level
+                ),
+                Some(g) => format!("design level     {g} (chosen; no search for the optimum)"),
+            },
             r.x_residual,
             r.y_residual
         )?;
@@ -612,6 +639,9 @@ pub struct Mixsyn {
     /// Accept a reduced controller whose closed-loop norm exceeds the full
     /// controller's by more than [`MAX_DEGRADATION`]; default false.
     pub allow_degradation: bool,
+    /// Design at exactly this gamma instead of searching for the optimum
+    /// ([`Hinf::gamma`]); default: none (search).
+    pub gamma: Option<f64>,
 }
 
 /// A reduced controller may raise the closed-loop H-infinity norm by at most
@@ -626,6 +656,7 @@ impl Default for Mixsyn {
             tol: h.tol,
             order: None,
             allow_degradation: false,
+            gamma: None,
         }
     }
 }
@@ -701,6 +732,7 @@ impl Mixsyn {
         Hinf {
             eps: self.eps,
             tol: self.tol,
+            gamma: self.gamma,
             ..Hinf::default()
         }
     }
@@ -742,6 +774,7 @@ impl Mixsyn {
                 tol: self.tol,
                 plant_fastest_pole,
                 pole_margin: hinf.pole_margin,
+                chosen_gamma: self.gamma,
             },
             reduction: None,
         };
