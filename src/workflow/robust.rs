@@ -425,6 +425,17 @@ impl HinfReport {
                 self.pole_margin
             ));
         }
+        if let Some(g) = self.chosen_gamma
+            && r.gamma > g * (1.0 + 1e-6)
+        {
+            w.push(format!(
+                "the central controller at the chosen gamma {g} achieves {:.8}, {:.1e} above it \
+                 (close to the optimum the central controller is ill-conditioned): choose a \
+                 gamma further above the optimum for a controller that meets it",
+                r.gamma,
+                r.gamma / g - 1.0
+            ));
+        }
         let (fk, fp) = (r.controller_fastest_pole(), self.plant_fastest_pole);
         if fk > FAST_POLE_RATIO * fp.max(f64::MIN_POSITIVE) {
             w.push(format!(
