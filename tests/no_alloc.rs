@@ -79,6 +79,7 @@ fn runtime_controller_step_does_not_allocate() {
             input_offset: 0.0,
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
+            ..HysteresisSpec::EMPTY
         }),
         feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,
