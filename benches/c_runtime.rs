@@ -42,6 +42,9 @@ fn pid_hc_zpetc() -> ControllerFile {
             input_offset: 0.0,
             dead_zone_thresholds: vec![],
             dead_zone_weights: vec![],
+            inversion: Default::default(),
+            command_range: None,
+            rate_dependent: None,
         }),
         feedback: Feedback::Pid(PidSpec {
             kp: 0.05,

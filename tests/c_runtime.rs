@@ -15,8 +15,9 @@
 mod cc;
 
 use fts::io::controller_file::{
-    ControllerFile, DobBlock, Feedback, FeedforwardTableBlock, HysteresisBlock, Inversion, ParallelPid, RateBlock,
-    RepetitiveBlock, StateSpaceBlock, ZpetcBlock, parse_controller, to_c_files,
+    ControllerFile, DobBlock, Feedback, FeedforwardTableBlock, HysteresisBlock, Inversion,
+    ParallelPid, RateBlock, RepetitiveBlock, StateSpaceBlock, ZpetcBlock, parse_controller,
+    to_c_files,
 };
 use fts::runtime::{PlayForm, RuntimeController, SsAntiWindup};
 use std::path::{Path, PathBuf};
@@ -417,7 +418,11 @@ fn rate_dependent_hc_is_bit_identical_in_c() {
 
 #[test]
 fn solved_forward_rate_model_is_bit_identical_in_c() {
-    assert_bit_identical("solved forward rate HC+ZPETC+PID", &rate_controller(true), 0);
+    assert_bit_identical(
+        "solved forward rate HC+ZPETC+PID",
+        &rate_controller(true),
+        0,
+    );
 }
 
 #[test]

@@ -591,7 +591,10 @@ fn copy_into<const N: usize>(
 /// The rate stage of a hysteresis spec: absent (no rate weights) or one
 /// finite weight per play operator, positive `rate_ts` and `rate_scale`
 /// and a finite velocity gain.
-fn rate_stage(h: &HysteresisSpec<'_>, n: usize) -> Result<(bool, [f64; MAX_OPERATORS]), RuntimeError> {
+fn rate_stage(
+    h: &HysteresisSpec<'_>,
+    n: usize,
+) -> Result<(bool, [f64; MAX_OPERATORS]), RuntimeError> {
     let mut w = [0.0; MAX_OPERATORS];
     if h.rate_weights.is_empty() {
         return Ok((false, w));
@@ -1185,15 +1188,20 @@ fn hysteresis_solve(h: &HysteresisBlock, target: f64, lo: f64, hi: f64) -> f64 {
     let mut trial = [0.0; MAX_OPERATORS];
     let y_lo = hysteresis_eval(h, lo, &mut trial);
     let mut f_a = y_lo - target;
-    if !(f_a < 0.0) {
+    // NaN compares as neither: saturate.
+    if f_a.partial_cmp(&0.0) != Some(core::cmp::Ordering::Less) {
         return lo;
     }
     let y_hi = hysteresis_eval(h, hi, &mut trial);
     let mut f_b = y_hi - target;
-    if !(f_b > 0.0) {
+    if f_b.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
         return hi;
     }
-    let scale = if fabs(y_lo) > fabs(y_hi) { fabs(y_lo) } else { fabs(y_hi) };
+    let scale = if fabs(y_lo) > fabs(y_hi) {
+        fabs(y_lo)
+    } else {
+        fabs(y_hi)
+    };
     let tolerance = 8.0 * f64::EPSILON * scale;
     let (mut a, mut b) = (lo, hi);
     // -1: `a` was kept last time, 1: `b`, 0: neither yet.

@@ -131,7 +131,10 @@ mod tests {
     }
 
     fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
     }
 
     /// Solve then forward gives the reference back; returns the solved input.
@@ -139,7 +142,10 @@ mod tests {
         // Targets strictly inside the range the model reaches from rest.
         let y_max = m.simulate(&[hi])[0];
         let y_min = m.simulate(&[hi, lo])[1];
-        let (a, b) = (y_min + 0.05 * (y_max - y_min), y_max - 0.05 * (y_max - y_min));
+        let (a, b) = (
+            y_min + 0.05 * (y_max - y_min),
+            y_max - 0.05 * (y_max - y_min),
+        );
         let y = references(a, b);
         let u = solve_inverse(m, &y, lo, hi).unwrap();
         let back = m.simulate(&u);
@@ -225,7 +231,10 @@ mod tests {
         // Reset clears x(k-1) too.
         c.reset();
         let mut state = m.new_state();
-        assert_eq!(c.step(u[5], 0.0).to_bits(), m.step(&mut state, u[5]).to_bits());
+        assert_eq!(
+            c.step(u[5], 0.0).to_bits(),
+            m.step(&mut state, u[5]).to_bits()
+        );
     }
 
     #[test]

@@ -5,9 +5,9 @@
 
 use super::document::{anti_windup_name, operator_name};
 use super::{
-    CONTROLLER_FORMAT, ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, Inversion, RateBlock,
-    PARALLEL_PID_DISCRETISATION, ParallelPid, Provenance, RepetitiveBlock, StateSpaceBlock, Units,
-    ZpetcBlock,
+    CONTROLLER_FORMAT, ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, Inversion,
+    PARALLEL_PID_DISCRETISATION, ParallelPid, Provenance, RateBlock, RepetitiveBlock,
+    StateSpaceBlock, Units, ZpetcBlock,
 };
 use crate::io::InputError;
 use crate::runtime::{PidSpec, PlayForm, SsAntiWindup};
@@ -177,7 +177,10 @@ fn write_hysteresis(out: &mut String, h: &HysteresisBlock) {
         &[
             ("FTS_HYST_RATE_TS", rate.map_or(0.0, |r| r.ts)),
             ("FTS_HYST_RATE_SCALE", rate.map_or(0.0, |r| r.rate_scale)),
-            ("FTS_HYST_VELOCITY_GAIN", rate.map_or(0.0, |r| r.velocity_gain)),
+            (
+                "FTS_HYST_VELOCITY_GAIN",
+                rate.map_or(0.0, |r| r.velocity_gain),
+            ),
         ],
     );
     // docs/math.md §1.6: with SOLVE 1 the model is the forward model and u_ff solves Y(u_ff) = r_f on [SOLVE_MIN, SOLVE_MAX].
