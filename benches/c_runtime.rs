@@ -44,6 +44,9 @@ fn pid_hc_zpetc() -> ControllerFile {
             dead_zone_weights: vec![],
             input_dead_zone_thresholds: vec![],
             input_dead_zone_weights: vec![],
+            inversion: Default::default(),
+            command_range: None,
+            rate_dependent: None,
         }),
         feedback: Feedback::Pid(PidSpec {
             kp: 0.05,

@@ -33,8 +33,7 @@ fn spec<'a>(thresholds: &'a [f64], weights: &'a [f64]) -> RuntimeSpec<'a> {
             input_offset: 0.0,
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
-            input_dead_zone_thresholds: &[],
-            input_dead_zone_weights: &[],
+            ..HysteresisSpec::EMPTY
         }),
         feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,

@@ -15,8 +15,9 @@
 mod cc;
 
 use fts::io::controller_file::{
-    ControllerFile, DobBlock, Feedback, FeedforwardTableBlock, HysteresisBlock, ParallelPid,
-    RepetitiveBlock, StateSpaceBlock, ZpetcBlock, parse_controller, to_c_files,
+    ControllerFile, DobBlock, Feedback, FeedforwardTableBlock, HysteresisBlock, Inversion,
+    ParallelPid, RateBlock, RepetitiveBlock, StateSpaceBlock, ZpetcBlock, parse_controller,
+    to_c_files,
 };
 use fts::runtime::{PlayForm, RuntimeController, SsAntiWindup};
 use std::path::{Path, PathBuf};
@@ -62,6 +63,9 @@ fn deadzone_controller() -> ControllerFile {
         dead_zone_weights: vec![0.8, 0.15, -0.1, 0.07],
         input_dead_zone_thresholds: vec![],
         input_dead_zone_weights: vec![],
+        inversion: Inversion::Model,
+        command_range: None,
+        rate_dependent: None,
     });
     f.feedback = Feedback::ParallelPid(ParallelPid {
         kp: 0.05,
@@ -389,6 +393,54 @@ fn pid_hc_zpetc_with_stable_inversion_is_bit_identical_in_c() {
 #[test]
 fn mpi_deadzone_symmetric_with_filtered_pid_is_bit_identical_in_c() {
     assert_bit_identical("MPI-deadzone+filtered PID", &deadzone_controller(), 1000);
+}
+
+/// HC with a rate stage: a forward MPI-cbrt model with rate weights and a
+/// velocity term, evaluated directly (`solve == false`) or inverted per
+/// sample on `[-10, 30]` (docs/math.md §1.6-1.7).
+fn rate_controller(solve: bool) -> ControllerFile {
+    let mut f = demo_controller();
+    f.hysteresis = Some(HysteresisBlock {
+        model: "mpi-cbrt".into(),
+        operator: PlayForm::Lower,
+        thresholds: vec![0.0, 2.0, 4.0, 6.0],
+        weights: vec![0.9, 0.1, -0.05, 0.05],
+        cbrt_gain: 0.2,
+        offset: 0.1,
+        input_offset: 0.3,
+        dead_zone_thresholds: vec![],
+        dead_zone_weights: vec![],
+        input_dead_zone_thresholds: vec![],
+        input_dead_zone_weights: vec![],
+        inversion: if solve {
+            Inversion::Solve
+        } else {
+            Inversion::Model
+        },
+        command_range: solve.then_some([-10.0, 30.0]),
+        rate_dependent: Some(RateBlock {
+            ts: 1e-4,
+            rate_scale: 5e4,
+            weights: vec![0.02, -0.01, 0.01, 0.005],
+            velocity_gain: 0.01,
+        }),
+    });
+    // Round trip through the file: the block is valid as written.
+    parse_controller(&f.to_json_string(), "rate.json").unwrap()
+}
+
+#[test]
+fn rate_dependent_hc_is_bit_identical_in_c() {
+    assert_bit_identical("rate-dependent HC+ZPETC+PID", &rate_controller(false), 0);
+}
+
+#[test]
+fn solved_forward_rate_model_is_bit_identical_in_c() {
+    assert_bit_identical(
+        "solved forward rate HC+ZPETC+PID",
+        &rate_controller(true),
+        0,
+    );
 }
 
 #[test]

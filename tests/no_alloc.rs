@@ -79,8 +79,7 @@ fn runtime_controller_step_does_not_allocate() {
             input_offset: 0.0,
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
-            input_dead_zone_thresholds: &[],
-            input_dead_zone_weights: &[],
+            ..HysteresisSpec::EMPTY
         }),
         feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,
@@ -194,5 +193,39 @@ fn repetitive_block_and_table_do_not_allocate() {
     rt.reset();
     let after = allocations();
     assert_eq!(after - before, 0, "the repetitive step allocated");
+    assert!(acc.is_finite());
+}
+
+#[test]
+fn solved_rate_dependent_hysteresis_step_does_not_allocate() {
+    use fts::runtime::{FeedbackSpec, HysteresisSpec, PlayForm, RuntimeController, RuntimeSpec};
+    let thresholds: Vec<f64> = (0..10).map(|i| i as f64).collect();
+    let weights = vec![0.1; 10];
+    let rate_weights = vec![0.01; 10];
+    let spec = RuntimeSpec {
+        zpetc: None,
+        hysteresis: Some(HysteresisSpec {
+            form: PlayForm::Lower,
+            thresholds: &thresholds,
+            weights: &weights,
+            cbrt_gain: 0.2,
+            rate_weights: &rate_weights,
+            rate_ts: 1e-4,
+            rate_scale: 1e4,
+            velocity_gain: 0.01,
+            solve: Some((-5.0, 20.0)),
+            ..HysteresisSpec::EMPTY
+        }),
+        feedback: FeedbackSpec::None,
+        repetitive: None,
+    };
+    let mut rt = RuntimeController::new(&spec).unwrap();
+    let before = allocations();
+    let mut acc = 0.0;
+    for k in 0..10_000 {
+        acc += rt.step(1.0 + (k as f64 * 0.01).sin(), 0.0);
+    }
+    let after = allocations();
+    assert_eq!(after - before, 0, "the solving hysteresis step allocated");
     assert!(acc.is_finite());
 }

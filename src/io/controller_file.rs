@@ -159,6 +159,48 @@ pub struct HysteresisBlock {
     /// Input dead-zone weights.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub input_dead_zone_weights: Vec<f64>,
+    /// How the block's model gives `u_ff`: `"model"` (default) evaluates
+    /// it (it is an inverse model); `"solve"` inverts it per sample (it is
+    /// the forward model, docs/math.md §1.6) on `command_range`.
+    #[serde(default, skip_serializing_if = "Inversion::is_model")]
+    pub inversion: Inversion,
+    /// `[lo, hi]`, the bracket of the per-sample solve (with `"solve"` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub command_range: Option<[f64; 2]>,
+    /// Rate-dependent stage as in `fts.hysteresis/1` (docs/math.md §1.7).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_dependent: Option<RateBlock>,
+}
+
+/// How a hysteresis block yields `u_ff` (the block's `inversion`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Inversion {
+    /// `u_ff = Y(r_f)`: the model is an inverse model.
+    #[default]
+    Model,
+    /// `Y(u_ff) = r_f` solved per sample: the model is the forward model.
+    Solve,
+}
+
+impl Inversion {
+    fn is_model(&self) -> bool {
+        *self == Inversion::Model
+    }
+}
+
+/// The rate-dependent stage of a hysteresis block (docs/math.md §1.7).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RateBlock {
+    /// Sample time the model runs at, s.
+    pub ts: f64,
+    /// Input rate at which `|s| = 1`, input units per second.
+    pub rate_scale: f64,
+    /// Rate weights `w1_i`, one per play operator.
+    pub weights: Vec<f64>,
+    /// Velocity gain `g`.
+    pub velocity_gain: f64,
 }
 
 /// Discrete state-space feedback controller block (SISO, error in, command
@@ -466,7 +508,9 @@ impl HysteresisBlock {
     /// `model`, strictly increasing non-negative thresholds, one finite
     /// weight per threshold, parts that match the model kind.
     fn validate(&self, source: &str, field: &str) -> Result<(), InputError> {
-        use crate::ident::hysteresis::{HysteresisModel, ModelError, ModelKind, PlayOperator};
+        use crate::ident::hysteresis::{
+            HysteresisModel, ModelError, ModelKind, PlayOperator, RateStage,
+        };
         let err = |key: &str, msg: String| {
             InputError::new(source, msg).in_field(format!("{field}.{key}"))
         };
@@ -495,8 +539,14 @@ impl HysteresisBlock {
                 &self.input_dead_zone_thresholds,
                 &self.input_dead_zone_weights,
             ),
-            rate: None,
+            rate: self.rate_dependent.as_ref().map(|r| RateStage {
+                ts: r.ts,
+                rate_scale: r.rate_scale,
+                weights: r.weights.clone(),
+                velocity_gain: r.velocity_gain,
+            }),
         };
+        self.validate_inversion(&model, &err)?;
         model.validate().map_err(|e| {
             let key = match &e {
                 ModelError::LengthMismatch { field, .. }
@@ -506,6 +556,45 @@ impl HysteresisBlock {
             };
             err(&key, e.to_string())
         })
+    }
+
+    /// `"solve"` needs a finite ordered `command_range` and nothing else
+    /// does; a model to be solved must be strictly increasing from every
+    /// state for the root to be unique (checked as far as its
+    /// coefficients show it: docs/math.md §1.6).
+    fn validate_inversion(
+        &self,
+        model: &crate::ident::hysteresis::HysteresisModel,
+        err: &dyn Fn(&str, String) -> InputError,
+    ) -> Result<(), InputError> {
+        match (self.inversion, self.command_range) {
+            (Inversion::Model, None) => Ok(()),
+            (Inversion::Model, Some(_)) => Err(err(
+                "command_range",
+                "is used with \"inversion\": \"solve\" only".into(),
+            )),
+            (Inversion::Solve, None) => Err(err(
+                "command_range",
+                "\"inversion\": \"solve\" needs \"command_range\": [lo, hi]".into(),
+            )),
+            (Inversion::Solve, Some([lo, hi])) => {
+                if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                    return Err(err(
+                        "command_range",
+                        format!("expected finite [lo, hi] with lo < hi, found [{lo}, {hi}]"),
+                    ));
+                }
+                crate::ident::hysteresis::check_solvable(model).map_err(|m| err("inversion", m))
+            }
+        }
+    }
+
+    /// The runtime's solve bracket (`None` unless `"solve"`).
+    pub fn solve_bracket(&self) -> Option<(f64, f64)> {
+        match (self.inversion, self.command_range) {
+            (Inversion::Solve, Some([lo, hi])) => Some((lo, hi)),
+            _ => None,
+        }
     }
 
     /// The block of an (inverse) hysteresis model.
@@ -526,6 +615,24 @@ impl HysteresisBlock {
             dead_zone_weights: lists(&m.dead_zone).1,
             input_dead_zone_thresholds: lists(&m.input_dead_zone).0,
             input_dead_zone_weights: lists(&m.input_dead_zone).1,
+            inversion: Inversion::Model,
+            command_range: None,
+            rate_dependent: m.rate.as_ref().map(|r| RateBlock {
+                ts: r.ts,
+                rate_scale: r.rate_scale,
+                weights: r.weights.clone(),
+                velocity_gain: r.velocity_gain,
+            }),
+        }
+    }
+
+    /// The block that inverts the forward model `m` per sample on
+    /// `[lo, hi]` (docs/math.md §1.6).
+    pub fn solving(m: &crate::ident::hysteresis::HysteresisModel, lo: f64, hi: f64) -> Self {
+        Self {
+            inversion: Inversion::Solve,
+            command_range: Some([lo, hi]),
+            ..Self::from_model(m)
         }
     }
 }
@@ -590,6 +697,11 @@ impl ControllerFile {
                 dead_zone_weights: &h.dead_zone_weights,
                 input_dead_zone_thresholds: &h.input_dead_zone_thresholds,
                 input_dead_zone_weights: &h.input_dead_zone_weights,
+                rate_weights: h.rate_dependent.as_ref().map_or(&[], |r| &r.weights),
+                rate_ts: h.rate_dependent.as_ref().map_or(0.0, |r| r.ts),
+                rate_scale: h.rate_dependent.as_ref().map_or(0.0, |r| r.rate_scale),
+                velocity_gain: h.rate_dependent.as_ref().map_or(0.0, |r| r.velocity_gain),
+                solve: h.solve_bracket(),
             }),
             feedback: self.feedback.runtime_spec(self.ts),
             repetitive: self.repetitive.as_ref().map(|r| RepetitiveSpec {
@@ -790,6 +902,9 @@ mod tests {
                 dead_zone_weights: vec![],
                 input_dead_zone_thresholds: vec![],
                 input_dead_zone_weights: vec![],
+                inversion: Inversion::Model,
+                command_range: None,
+                rate_dependent: None,
             }),
             feedback: Feedback::Pid(PidSpec {
                 kp: 0.05,

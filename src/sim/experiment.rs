@@ -395,10 +395,6 @@ pub fn build_controller(
         hysteresis: if stages.hysteresis_compensation {
             let inverse = inverse
                 .ok_or_else(|| format!("{} needs an inverse hysteresis model", stages.name()))?;
-            if inverse.rate.is_some() {
-                // The runtime's compensator (and its C mirror) has no rate stage.
-                return Err("the HC compensator of the runtime takes rate-independent models only; this inverse model has rate-dependent weights (docs/math.md §1.7)".into());
-            }
             Some(HysteresisBlock::from_model(inverse))
         } else {
             None

@@ -199,9 +199,6 @@ static fts_status dead_zone_bank(const double *thresholds, size_t thresholds_len
     return FTS_OK;
 }
 
-/* sum_j g_j S_{d_j}[v] over a stage; v itself without one. */
-static double dead_zone_stage(const double *t, const double *w, size_t n, double v);
-
 static fts_status init_hysteresis(fts_controller *c, const fts_hysteresis_spec *h,
                                   const char **field)
 {
@@ -233,6 +230,37 @@ static fts_status init_hysteresis(fts_controller *c, const fts_hysteresis_spec *
             return s;
         }
     }
+    c->has_rate = 0;
+    if (h->rate_weights_len != 0) {
+        FTS_CHECK(copy_into(h->rate_weights, h->rate_weights_len, c->rate_weights,
+                            FTS_MAX_OPERATORS),
+                  "hysteresis.rate_weights");
+        if (h->rate_weights_len != h->thresholds_len) {
+            FTS_FAIL(FTS_ERR_LENGTH_MISMATCH, "hysteresis.rate_weights");
+        }
+        FTS_CHECK(finite_or(h->velocity_gain), "hysteresis.velocity_gain");
+        FTS_CHECK(finite_or(h->rate_ts), "hysteresis.rate_ts");
+        if (h->rate_ts <= 0.0) {
+            FTS_FAIL(FTS_ERR_INVALID, "hysteresis.rate_ts");
+        }
+        FTS_CHECK(finite_or(h->rate_scale), "hysteresis.rate_scale");
+        if (h->rate_scale <= 0.0) {
+            FTS_FAIL(FTS_ERR_INVALID, "hysteresis.rate_scale");
+        }
+        c->has_rate = 1;
+    }
+    c->rate_denominator = h->rate_ts * h->rate_scale;
+    c->velocity_gain = h->velocity_gain;
+    c->solve = h->solve != 0;
+    if (c->solve) {
+        FTS_CHECK(finite_or(h->solve_min), "hysteresis.solve");
+        FTS_CHECK(finite_or(h->solve_max), "hysteresis.solve");
+        if (!(h->solve_min < h->solve_max)) {
+            FTS_FAIL(FTS_ERR_INVALID, "hysteresis.solve");
+        }
+    }
+    c->solve_min = h->solve_min;
+    c->solve_max = h->solve_max;
     c->has_hysteresis = 1;
     c->form = h->form;
     c->n_operators = h->thresholds_len;
@@ -537,6 +565,7 @@ void fts_reset(fts_controller *ctl)
 {
     zero(ctl->zstate, FTS_MAX_FILTER_LEN);
     zero(ctl->play, FTS_MAX_OPERATORS);
+    ctl->previous_input = 0.0;
     reset_feedback(&ctl->fb);
     /* The rings are only read with a repetitive block: cleared then. */
     if (ctl->has_repetitive) {
@@ -586,6 +615,13 @@ static double dead_zone(double d, double v)
     return t > 0.0 ? t : 0.0;
 }
 
+/* |x| by clearing the sign bit (Rust fabs). */
+static double fts_fabs(double x)
+{
+    return from_bits(bits_of(x) & ~((uint64_t)1 << 63));
+}
+
+/* sum_j g_j S_{d_j}[v] over a stage; v itself without one (Rust DeadZoneBank::apply). */
 static double dead_zone_stage(const double *t, const double *w, size_t n, double v)
 {
     double out;
@@ -601,27 +637,120 @@ static double dead_zone_stage(const double *t, const double *w, size_t n, double
     return out;
 }
 
-/* The inverse hysteresis model (Rust hysteresis_step). */
-static double hysteresis_step(fts_controller *c, double u)
+/* The model Y(u) from the committed state (Rust hysteresis_eval): the play
+ * outputs at u go to next, the controller is not changed. */
+static double hysteresis_eval(const fts_controller *c, double u, double *next)
 {
     double x = u - c->input_offset;
     double z = dead_zone_stage(c->idz_thresholds, c->idz_weights, c->n_input_dead_zones, x);
     double v = 0.0;
+    double sigma = 0.0;
     double out;
     size_t i, n = c->n_operators;
     if (c->form == FTS_PLAY_LOWER) {
         for (i = 0; i < n; ++i) {
-            c->play[i] = play(z + 0.0, z - c->thresholds[i], c->play[i]);
-            v += c->weights[i] * c->play[i];
+            next[i] = play(z + 0.0, z - c->thresholds[i], c->play[i]);
+            v += c->weights[i] * next[i];
         }
     } else {
         for (i = 0; i < n; ++i) {
-            c->play[i] = play(z + c->thresholds[i], z - c->thresholds[i], c->play[i]);
-            v += c->weights[i] * c->play[i];
+            next[i] = play(z + c->thresholds[i], z - c->thresholds[i], c->play[i]);
+            v += c->weights[i] * next[i];
+        }
+    }
+    if (c->has_rate) {
+        double rho;
+        sigma = (x - c->previous_input) / c->rate_denominator;
+        rho = fts_fabs(sigma);
+        for (i = 0; i < n; ++i) {
+            v += c->rate_weights[i] * rho * next[i];
         }
     }
     out = dead_zone_stage(c->dz_thresholds, c->dz_weights, c->n_dead_zones, v);
+    if (c->has_rate) {
+        return c->offset + c->cbrt_gain * fts_cbrt(x) + out + c->velocity_gain * sigma;
+    }
     return c->offset + c->cbrt_gain * fts_cbrt(x) + out;
+}
+
+/* Per-sample inversion of the forward model on [lo, hi] (Rust
+ * hysteresis_solve): Illinois regula falsi with bisection, at most
+ * FTS_MAX_SOLVE_ITERATIONS steps; saturates at the closer end. */
+#define FTS_MAX_SOLVE_ITERATIONS 100
+static double hysteresis_solve(const fts_controller *c, double target, double lo, double hi)
+{
+    double trial[FTS_MAX_OPERATORS];
+    double y_lo, y_hi, f_a, f_b, scale, tolerance, a, b, r_a, r_b;
+    int kept = 0;
+    size_t it;
+    y_lo = hysteresis_eval(c, lo, trial);
+    f_a = y_lo - target;
+    if (!(f_a < 0.0)) {
+        return lo;
+    }
+    y_hi = hysteresis_eval(c, hi, trial);
+    f_b = y_hi - target;
+    if (!(f_b > 0.0)) {
+        return hi;
+    }
+    scale = fts_fabs(y_lo) > fts_fabs(y_hi) ? fts_fabs(y_lo) : fts_fabs(y_hi);
+    tolerance = 8.0 * 2.220446049250313e-16 * scale;
+    a = lo;
+    b = hi;
+    for (it = 0; it < FTS_MAX_SOLVE_ITERATIONS; ++it) {
+        double x = (a * f_b - b * f_a) / (f_b - f_a);
+        double f_x;
+        if (!(x > a && x < b)) {
+            x = a + 0.5 * (b - a);
+            if (!(x > a && x < b)) {
+                break;
+            }
+        }
+        f_x = hysteresis_eval(c, x, trial) - target;
+        if (fts_fabs(f_x) <= tolerance) {
+            return x;
+        }
+        if (f_x < 0.0) {
+            a = x;
+            f_a = f_x;
+            if (kept == 1) {
+                f_b *= 0.5;
+            }
+            kept = 1;
+        } else {
+            b = x;
+            f_b = f_x;
+            if (kept == -1) {
+                f_a *= 0.5;
+            }
+            kept = -1;
+        }
+    }
+    r_a = fts_fabs(hysteresis_eval(c, a, trial) - target);
+    r_b = fts_fabs(hysteresis_eval(c, b, trial) - target);
+    return r_a <= r_b ? a : b;
+}
+
+/* The hysteresis block's step (Rust hysteresis_step): evaluate or solve,
+ * then commit the play states and x(k-1) at the input used. */
+static double hysteresis_step(fts_controller *c, double u)
+{
+    double next[FTS_MAX_OPERATORS];
+    double input, output;
+    size_t i;
+    if (c->solve) {
+        input = hysteresis_solve(c, u, c->solve_min, c->solve_max);
+        (void)hysteresis_eval(c, input, next);
+        output = input;
+    } else {
+        input = u;
+        output = hysteresis_eval(c, u, next);
+    }
+    for (i = 0; i < c->n_operators; ++i) {
+        c->play[i] = next[i];
+    }
+    c->previous_input = input - c->input_offset;
+    return output;
 }
 
 /* f64::clamp: NaN passes through. */

@@ -114,9 +114,15 @@ typedef struct fts_zpetc_spec {
     size_t den_len;
 } fts_zpetc_spec;
 
-/* Inverse hysteresis: u_ff = offset + cbrt_gain cbrt(x) + Out[sum_i w_i F_i[x]],
- * x = r_f - input_offset; Out is the identity without dead zones, else
- * sum_j g_j S_dj[.] with S_d[v] = max(v - d, 0) (d != 0), S_0[v] = v. */
+/* Hysteresis compensation: the model
+ *   Y(u) = offset + cbrt_gain cbrt(x) + Out[sum_i (w_i + w1_i |s|) F_i[x]] + velocity_gain s,
+ * x = u - input_offset, s = (x(k) - x(k-1)) / (rate_ts rate_scale), x(-1) = 0
+ * (the rate terms only with rate_weights_len != 0); Out is the identity
+ * without dead zones, else sum_j g_j S_dj[.] with S_d[v] = max(v - d, 0)
+ * (d != 0), S_0[v] = v. solve == 0: u_ff = Y(r_f) (an inverse model);
+ * solve != 0: u_ff in [solve_min, solve_max] with Y(u_ff) = r_f (a forward
+ * model, inverted per sample; saturates at the closer end when r_f is out
+ * of reach). */
 typedef struct fts_hysteresis_spec {
     fts_play_form form;
     const double *thresholds;
@@ -135,6 +141,14 @@ typedef struct fts_hysteresis_spec {
     size_t input_dead_zone_thresholds_len;
     const double *input_dead_zone_weights;
     size_t input_dead_zone_weights_len;
+    const double *rate_weights; /* may be NULL with length 0: rate-independent */
+    size_t rate_weights_len;
+    double rate_ts;
+    double rate_scale;
+    double velocity_gain;
+    int solve;
+    double solve_min;
+    double solve_max;
 } fts_hysteresis_spec;
 
 /* PID on e = r_f - x, derivative on the measurement x:
@@ -313,6 +327,14 @@ typedef struct fts_controller {
     size_t n_input_dead_zones;
     double idz_thresholds[FTS_MAX_DEAD_ZONES];
     double idz_weights[FTS_MAX_DEAD_ZONES];
+    int has_rate;
+    double rate_weights[FTS_MAX_OPERATORS];
+    double rate_denominator; /* rate_ts rate_scale */
+    double velocity_gain;
+    double previous_input; /* x(k-1) */
+    int solve;
+    double solve_min;
+    double solve_max;
 
     fts_feedback fb; /* the feedback stage */
 

@@ -47,8 +47,7 @@ pub unsafe extern "C" fn fts_rs_init(storage: *mut MaybeUninit<RuntimeController
             input_offset: 0.0,
             dead_zone_thresholds: &[],
             dead_zone_weights: &[],
-            input_dead_zone_thresholds: &[],
-            input_dead_zone_weights: &[],
+            ..HysteresisSpec::EMPTY
         }),
         feedback: FeedbackSpec::Pid(PidSpec {
             kp: 0.05,

@@ -181,9 +181,14 @@ pub struct ZpetcSpec<'a> {
     pub den: &'a [f64],
 }
 
-/// Inverse hysteresis block coefficients (borrowed):
-/// `u_ff = offset + c cbrt(x) + Out[sum_i w_i F_{r_i}[In[x]]]`, `x = r_f - input_offset`,
-/// `Out` and `In` dead-zone stages `sum_j g_j S_{d_j}[.]` or the identity.
+/// Hysteresis compensation block coefficients (borrowed): a model
+/// `Y(u) = offset + c cbrt(x) + Out[sum_i (w_i + w1_i |s|) F_{r_i}[In[x]]] + g s`,
+/// `x = u - input_offset`, `Out` and `In` dead-zone stages or the identity, `s(k) = (x(k) - x(k-1)) / (rate_ts rate_scale)`
+/// (`x(-1) = 0`; `w1_i`, `g` and `s` absent without rate weights;
+/// docs/math.md §1.7), used one of two ways:
+/// * `solve: None`: the model is an inverse model, `u_ff = Y(r_f)`;
+/// * `solve: Some((lo, hi))`: the model is the forward model and
+///   `u_ff` is its root `Y(u_ff) = r_f` on `[lo, hi]` ([`hysteresis_solve`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HysteresisSpec<'a> {
     /// Play operator form.
@@ -207,6 +212,40 @@ pub struct HysteresisSpec<'a> {
     pub input_dead_zone_thresholds: &'a [f64],
     /// Input dead-zone weights.
     pub input_dead_zone_weights: &'a [f64],
+    /// Rate weights `w1_i`, one per play operator (empty: rate-independent).
+    pub rate_weights: &'a [f64],
+    /// Sample time of the rate stage, s (unused without rate weights).
+    pub rate_ts: f64,
+    /// Input rate at which `|s| = 1`, input units per second.
+    pub rate_scale: f64,
+    /// Velocity gain `g`, output units.
+    pub velocity_gain: f64,
+    /// `None`: evaluate the model (an inverse model). `Some((lo, hi))`:
+    /// invert the (forward) model per sample on the command bracket
+    /// `[lo, hi]`, finite with `lo < hi`.
+    pub solve: Option<(f64, f64)>,
+}
+
+impl HysteresisSpec<'_> {
+    /// A rate-independent, directly evaluated block with no operators:
+    /// the base for struct-update syntax.
+    pub const EMPTY: HysteresisSpec<'static> = HysteresisSpec {
+        form: PlayForm::Lower,
+        thresholds: &[],
+        weights: &[],
+        cbrt_gain: 0.0,
+        offset: 0.0,
+        input_offset: 0.0,
+        dead_zone_thresholds: &[],
+        dead_zone_weights: &[],
+        input_dead_zone_thresholds: &[],
+        input_dead_zone_weights: &[],
+        rate_weights: &[],
+        rate_ts: 0.0,
+        rate_scale: 0.0,
+        velocity_gain: 0.0,
+        solve: None,
+    };
 }
 
 /// PID block coefficients (\[Li21\] Eq. 5).
@@ -350,6 +389,16 @@ struct HysteresisBlock {
     input_offset: f64,
     output_stage: DeadZoneBank,
     input_stage: DeadZoneBank,
+    /// Whether the rate stage is present.
+    rate: bool,
+    rate_weights: [f64; MAX_OPERATORS],
+    /// `rate_ts * rate_scale`, the denominator of `s`.
+    rate_denominator: f64,
+    velocity_gain: f64,
+    /// `x(k-1)`, 0 at rest.
+    previous_input: f64,
+    /// The command bracket of the per-sample solve, if solving.
+    solve: Option<(f64, f64)>,
 }
 
 /// A dead-zone stage `sum_j g_j S_{d_j}[v]`; `n == 0` is the identity.
@@ -594,6 +643,53 @@ fn copy_into<const N: usize>(
     Ok(src.len())
 }
 
+/// The rate stage of a hysteresis spec: absent (no rate weights) or one
+/// finite weight per play operator, positive `rate_ts` and `rate_scale`
+/// and a finite velocity gain.
+fn rate_stage(
+    h: &HysteresisSpec<'_>,
+    n: usize,
+) -> Result<(bool, [f64; MAX_OPERATORS]), RuntimeError> {
+    let mut w = [0.0; MAX_OPERATORS];
+    if h.rate_weights.is_empty() {
+        return Ok((false, w));
+    }
+    if copy_into("hysteresis.rate_weights", h.rate_weights, &mut w)? != n {
+        return Err(RuntimeError::LengthMismatch {
+            field: "hysteresis.rate_weights",
+        });
+    }
+    finite("hysteresis.velocity_gain", h.velocity_gain)?;
+    for (field, v) in [
+        ("hysteresis.rate_ts", h.rate_ts),
+        ("hysteresis.rate_scale", h.rate_scale),
+    ] {
+        finite(field, v)?;
+        if v <= 0.0 {
+            return Err(RuntimeError::Invalid { field });
+        }
+    }
+    Ok((true, w))
+}
+
+/// A solve bracket must be finite and ordered.
+fn solve_bracket(b: Option<(f64, f64)>) -> Result<Option<(f64, f64)>, RuntimeError> {
+    match b {
+        Some((lo, hi)) => {
+            finite("hysteresis.solve", lo)?;
+            finite("hysteresis.solve", hi)?;
+            if lo < hi {
+                Ok(b)
+            } else {
+                Err(RuntimeError::Invalid {
+                    field: "hysteresis.solve",
+                })
+            }
+        }
+        None => Ok(None),
+    }
+}
+
 fn finite(field: &'static str, v: f64) -> Result<(), RuntimeError> {
     if v.is_finite() {
         Ok(())
@@ -680,6 +776,7 @@ impl RuntimeController {
                     h.input_dead_zone_thresholds,
                     h.input_dead_zone_weights,
                 )?;
+                let (rate, rate_weights) = rate_stage(h, n)?;
                 Some(HysteresisBlock {
                     form: h.form,
                     n,
@@ -691,6 +788,12 @@ impl RuntimeController {
                     input_offset: h.input_offset,
                     output_stage,
                     input_stage,
+                    rate,
+                    rate_weights,
+                    rate_denominator: h.rate_ts * h.rate_scale,
+                    velocity_gain: h.velocity_gain,
+                    previous_input: 0.0,
+                    solve: solve_bracket(h.solve)?,
                 })
             }
         };
@@ -720,6 +823,7 @@ impl RuntimeController {
         }
         if let Some(h) = &mut self.hysteresis {
             h.play = [0.0; MAX_OPERATORS];
+            h.previous_input = 0.0;
         }
         self.feedback.reset();
         if let Some(r) = &mut self.repetitive {
@@ -1007,10 +1111,31 @@ pub(crate) fn tdf2(n: usize, b: &[f64], a: &[f64], state: &mut [f64], x: f64) ->
     y
 }
 
-/// The inverse hysteresis model, the same arithmetic as
-/// `ident::hysteresis::HysteresisModel::step`.
+/// The hysteresis block's step: the model evaluated at `u`
+/// (`solve: None`) or inverted at `u` ([`hysteresis_solve`]); the play
+/// states and `x(k-1)` advance to the input used.
 #[inline]
 fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
+    let mut next = [0.0; MAX_OPERATORS];
+    let (input, output) = match h.solve {
+        None => (u, hysteresis_eval(h, u, &mut next)),
+        Some((lo, hi)) => {
+            let root = hysteresis_solve(h, u, lo, hi);
+            hysteresis_eval(h, root, &mut next);
+            (root, root)
+        }
+    };
+    let n = h.n;
+    h.play[..n].copy_from_slice(&next[..n]);
+    h.previous_input = input - h.input_offset;
+    output
+}
+
+/// The model `Y(u)` from the block's current state, the same arithmetic as
+/// `ident::hysteresis::HysteresisModel::step`; the play outputs at `u` go
+/// to `next`, the block is not changed (a trial evaluation).
+#[inline]
+fn hysteresis_eval(h: &HysteresisBlock, u: f64, next: &mut [f64; MAX_OPERATORS]) -> f64 {
     let x = u - h.input_offset;
     let z = h.input_stage.apply(x);
     let mut v = 0.0;
@@ -1018,28 +1143,138 @@ fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
     // One loop per form keeps the branch out of the operator loop.
     match h.form {
         PlayForm::Lower => {
-            for ((s, &r), &w) in h.play[..n]
+            for (((s, &p), &r), &w) in next[..n]
                 .iter_mut()
+                .zip(&h.play[..n])
                 .zip(&h.thresholds[..n])
                 .zip(&h.weights[..n])
             {
-                *s = play(z + 0.0, z - r, *s);
+                *s = play(z + 0.0, z - r, p);
                 v += w * *s;
             }
         }
         PlayForm::Symmetric => {
-            for ((s, &r), &w) in h.play[..n]
+            for (((s, &p), &r), &w) in next[..n]
                 .iter_mut()
+                .zip(&h.play[..n])
                 .zip(&h.thresholds[..n])
                 .zip(&h.weights[..n])
             {
-                *s = play(z + r, z - r, *s);
+                *s = play(z + r, z - r, p);
                 v += w * *s;
             }
         }
     }
+    let mut sigma = 0.0;
+    if h.rate {
+        // docs/math.md §1.7: s(k) = (x(k) - x(k-1)) / (ts rate_scale); the
+        // rate part of the weights, summed after the static part.
+        sigma = (x - h.previous_input) / h.rate_denominator;
+        let rho = fabs(sigma);
+        for (s, &w1) in next[..n].iter().zip(&h.rate_weights[..n]) {
+            v += w1 * rho * *s;
+        }
+    }
     let out = h.output_stage.apply(v);
-    h.offset + h.cbrt_gain * cbrt(x) + out
+    if h.rate {
+        h.offset + h.cbrt_gain * cbrt(x) + out + h.velocity_gain * sigma
+    } else {
+        h.offset + h.cbrt_gain * cbrt(x) + out
+    }
+}
+
+/// `|x|` by clearing the sign bit (`f64::abs` needs `std`; C `fabs`).
+#[inline(always)]
+fn fabs(x: f64) -> f64 {
+    f64::from_bits(x.to_bits() & !(1u64 << 63))
+}
+
+/// Most steps of one [`hysteresis_solve`] after the evaluations at the
+/// bracket ends. A bisection step halves the bracket, so about 60 of them
+/// take a command range of ~100 V to the resolution of a double; the
+/// Illinois steps converge superlinearly on the piecewise-smooth `Y`
+/// (tens of steps at most in the tests). The bound keeps the step's
+/// worst-case time fixed.
+pub const MAX_SOLVE_ITERATIONS: usize = 100;
+
+/// Per-sample inversion of the forward model (docs/math.md §1.6): the
+/// command `u` in `[lo, hi]` with `Y(u; F(k-1), x(k-1)) = target`.
+///
+/// Every trial is [`hysteresis_eval`] from the committed state (each play's
+/// trial output is `play(x ± r, F_i(k-1))`), so trials do not move the
+/// state. For a PI on the lower or symmetric play with `r_0 = 0`,
+/// `w_0 > 0` and positive partial sums `W_j = w_0 + .. + w_j`, `c >= 0`,
+/// and (MPI-deadzone) positive dead-zone partial sums, `Y` is strictly
+/// increasing in `u` from any state: the plays that move when `u` moves
+/// away from `x(k-1)` are a prefix `0..=j` of the threshold order, so the
+/// slope of the play sum is some `W_j >= w_0 > 0` (and the dead-zone
+/// stage's slope a positive prefix sum of its weights), while `c cbrt` is
+/// non-decreasing. The root is then unique. With rate weights the slope
+/// gains `sign(s) w1_i F_i / (ts rate_scale) + g / (ts rate_scale)`,
+/// which need not be positive; the solve still returns a root of the
+/// bracket (docs/math.md §1.7 for what the identified models do).
+///
+/// Illinois regula falsi (the retained end's residual halved when the same
+/// end is kept twice), a bisection whenever the secant point is not
+/// strictly inside the bracket, at most [`MAX_SOLVE_ITERATIONS`] steps,
+/// stopping when the residual is within `8 eps max(|Y(lo)|, |Y(hi)|)` or
+/// the bracket is two adjacent doubles. When `target` is outside
+/// `(Y(lo), Y(hi))` (or NaN) the result is the end that is closer: it
+/// saturates at `lo` or `hi` and is never NaN.
+fn hysteresis_solve(h: &HysteresisBlock, target: f64, lo: f64, hi: f64) -> f64 {
+    let mut trial = [0.0; MAX_OPERATORS];
+    let y_lo = hysteresis_eval(h, lo, &mut trial);
+    let mut f_a = y_lo - target;
+    // NaN compares as neither: saturate.
+    if f_a.partial_cmp(&0.0) != Some(core::cmp::Ordering::Less) {
+        return lo;
+    }
+    let y_hi = hysteresis_eval(h, hi, &mut trial);
+    let mut f_b = y_hi - target;
+    if f_b.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+        return hi;
+    }
+    let scale = if fabs(y_lo) > fabs(y_hi) {
+        fabs(y_lo)
+    } else {
+        fabs(y_hi)
+    };
+    let tolerance = 8.0 * f64::EPSILON * scale;
+    let (mut a, mut b) = (lo, hi);
+    // -1: `a` was kept last time, 1: `b`, 0: neither yet.
+    let mut kept = 0i32;
+    for _ in 0..MAX_SOLVE_ITERATIONS {
+        let mut x = (a * f_b - b * f_a) / (f_b - f_a);
+        if !(x > a && x < b) {
+            x = a + 0.5 * (b - a);
+            if !(x > a && x < b) {
+                break;
+            }
+        }
+        let f_x = hysteresis_eval(h, x, &mut trial) - target;
+        if fabs(f_x) <= tolerance {
+            return x;
+        }
+        if f_x < 0.0 {
+            a = x;
+            f_a = f_x;
+            if kept == 1 {
+                f_b *= 0.5;
+            }
+            kept = 1;
+        } else {
+            b = x;
+            f_b = f_x;
+            if kept == -1 {
+                f_a *= 0.5;
+            }
+            kept = -1;
+        }
+    }
+    // Bracket exhausted: the end with the smaller (true) residual.
+    let r_a = fabs(hysteresis_eval(h, a, &mut trial) - target);
+    let r_b = fabs(hysteresis_eval(h, b, &mut trial) - target);
+    if r_a <= r_b { a } else { b }
 }
 
 /// One play-operator update `max(lower, min(upper, previous))`, written with
@@ -1208,8 +1443,7 @@ mod tests {
                 input_offset: 0.0,
                 dead_zone_thresholds: &[],
                 dead_zone_weights: &[],
-                input_dead_zone_thresholds: &[],
-                input_dead_zone_weights: &[],
+                ..HysteresisSpec::EMPTY
             }),
             feedback: FeedbackSpec::Pid(PID),
             repetitive: None,

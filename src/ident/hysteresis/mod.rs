@@ -13,6 +13,7 @@ pub mod inverse;
 pub mod lsq;
 pub mod model;
 pub mod operators;
+pub mod solve;
 
 pub use identify::{
     Fit, Identified, IdentifyError, IdentifyInfo, IdentifyParams, Method, identify,
@@ -21,3 +22,4 @@ pub use identify::{
 pub use inverse::{InverseError, analytic_inverse};
 pub use model::{DeadZoneStage, HysteresisModel, ModelError, ModelKind, ModelState, RateStage};
 pub use operators::PlayOperator;
+pub use solve::{check_solvable, solve_inverse};

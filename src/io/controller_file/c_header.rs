@@ -5,9 +5,9 @@
 
 use super::document::{anti_windup_name, operator_name};
 use super::{
-    CONTROLLER_FORMAT, ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock,
-    PARALLEL_PID_DISCRETISATION, ParallelPid, Provenance, RepetitiveBlock, StateSpaceBlock, Units,
-    ZpetcBlock,
+    CONTROLLER_FORMAT, ControllerFile, Feedback, FeedforwardTableBlock, HysteresisBlock, Inversion,
+    PARALLEL_PID_DISCRETISATION, ParallelPid, Provenance, RateBlock, RepetitiveBlock,
+    StateSpaceBlock, Units, ZpetcBlock,
 };
 use crate::io::InputError;
 use crate::runtime::{PidSpec, PlayForm, SsAntiWindup};
@@ -174,6 +174,34 @@ fn write_hysteresis(out: &mut String, h: &HysteresisBlock) {
         out,
         "FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS",
         &h.input_dead_zone_weights,
+    );
+    // docs/math.md §1.7: weights w_i + w1_i |s|, s = (x(k) - x(k-1)) / (RATE_TS RATE_SCALE), plus VELOCITY_GAIN s.
+    let rate = h.rate_dependent.as_ref();
+    c_array(
+        out,
+        "FTS_HYST_RATE_WEIGHTS",
+        rate.map_or(&[][..], |r| &r.weights),
+    );
+    write_defines(
+        out,
+        &[
+            ("FTS_HYST_RATE_TS", rate.map_or(0.0, |r| r.ts)),
+            ("FTS_HYST_RATE_SCALE", rate.map_or(0.0, |r| r.rate_scale)),
+            (
+                "FTS_HYST_VELOCITY_GAIN",
+                rate.map_or(0.0, |r| r.velocity_gain),
+            ),
+        ],
+    );
+    // docs/math.md §1.6: with SOLVE 1 the model is the forward model and u_ff solves Y(u_ff) = r_f on [SOLVE_MIN, SOLVE_MAX].
+    let (solve, [lo, hi]) = match h.solve_bracket() {
+        Some((lo, hi)) => (1, [lo, hi]),
+        None => (0, [0.0, 0.0]),
+    };
+    let _ = writeln!(out, "#define FTS_HYST_SOLVE {solve}");
+    write_defines(
+        out,
+        &[("FTS_HYST_SOLVE_MIN", lo), ("FTS_HYST_SOLVE_MAX", hi)],
     );
 }
 
@@ -369,7 +397,7 @@ fn c_loader(file: &ControllerFile) -> String {
         };
         let _ = write!(
             body,
-            "    hysteresis.form = {form};\n    hysteresis.thresholds = FTS_HYST_THRESHOLDS;\n    hysteresis.thresholds_len = FTS_HYST_THRESHOLDS_LEN;\n    hysteresis.weights = FTS_HYST_WEIGHTS;\n    hysteresis.weights_len = FTS_HYST_WEIGHTS_LEN;\n    hysteresis.cbrt_gain = FTS_HYST_CBRT_GAIN;\n    hysteresis.offset = FTS_HYST_OFFSET;\n    hysteresis.input_offset = FTS_HYST_INPUT_OFFSET;\n    hysteresis.dead_zone_thresholds = FTS_HYST_DEAD_ZONE_THRESHOLDS;\n    hysteresis.dead_zone_thresholds_len = FTS_HYST_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.dead_zone_weights = FTS_HYST_DEAD_ZONE_WEIGHTS;\n    hysteresis.dead_zone_weights_len = FTS_HYST_DEAD_ZONE_WEIGHTS_LEN;\n    hysteresis.input_dead_zone_thresholds = FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS;\n    hysteresis.input_dead_zone_thresholds_len = FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.input_dead_zone_weights = FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS;\n    hysteresis.input_dead_zone_weights_len = FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS_LEN;\n    spec.hysteresis = &hysteresis;\n"
+            "    hysteresis.form = {form};\n    hysteresis.thresholds = FTS_HYST_THRESHOLDS;\n    hysteresis.thresholds_len = FTS_HYST_THRESHOLDS_LEN;\n    hysteresis.weights = FTS_HYST_WEIGHTS;\n    hysteresis.weights_len = FTS_HYST_WEIGHTS_LEN;\n    hysteresis.cbrt_gain = FTS_HYST_CBRT_GAIN;\n    hysteresis.offset = FTS_HYST_OFFSET;\n    hysteresis.input_offset = FTS_HYST_INPUT_OFFSET;\n    hysteresis.dead_zone_thresholds = FTS_HYST_DEAD_ZONE_THRESHOLDS;\n    hysteresis.dead_zone_thresholds_len = FTS_HYST_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.dead_zone_weights = FTS_HYST_DEAD_ZONE_WEIGHTS;\n    hysteresis.dead_zone_weights_len = FTS_HYST_DEAD_ZONE_WEIGHTS_LEN;\n    hysteresis.input_dead_zone_thresholds = FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS;\n    hysteresis.input_dead_zone_thresholds_len = FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS_LEN;\n    hysteresis.input_dead_zone_weights = FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS;\n    hysteresis.input_dead_zone_weights_len = FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS_LEN;\n    hysteresis.rate_weights = FTS_HYST_RATE_WEIGHTS;\n    hysteresis.rate_weights_len = FTS_HYST_RATE_WEIGHTS_LEN;\n    hysteresis.rate_ts = FTS_HYST_RATE_TS;\n    hysteresis.rate_scale = FTS_HYST_RATE_SCALE;\n    hysteresis.velocity_gain = FTS_HYST_VELOCITY_GAIN;\n    hysteresis.solve = FTS_HYST_SOLVE;\n    hysteresis.solve_min = FTS_HYST_SOLVE_MIN;\n    hysteresis.solve_max = FTS_HYST_SOLVE_MAX;\n    spec.hysteresis = &hysteresis;\n"
         );
     }
     let pid = |kind: &str| {
@@ -604,6 +632,34 @@ impl<'a> Header<'a> {
             dead_zone_weights: self.array("FTS_HYST_DEAD_ZONE_WEIGHTS"),
             input_dead_zone_thresholds: self.array("FTS_HYST_INPUT_DEAD_ZONE_THRESHOLDS"),
             input_dead_zone_weights: self.array("FTS_HYST_INPUT_DEAD_ZONE_WEIGHTS"),
+            inversion: if self.flag("FTS_HYST_SOLVE") {
+                Inversion::Solve
+            } else {
+                Inversion::Model
+            },
+            command_range: if self.flag("FTS_HYST_SOLVE") {
+                Some([
+                    self.number("FTS_HYST_SOLVE_MIN")?,
+                    self.number("FTS_HYST_SOLVE_MAX")?,
+                ])
+            } else {
+                None
+            },
+            rate_dependent: self.rate_block()?,
+        }))
+    }
+
+    /// The rate stage (absent with no rate weights; older headers have none).
+    fn rate_block(&self) -> Result<Option<RateBlock>, InputError> {
+        let weights = self.array("FTS_HYST_RATE_WEIGHTS");
+        if weights.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(RateBlock {
+            ts: self.number("FTS_HYST_RATE_TS")?,
+            rate_scale: self.number("FTS_HYST_RATE_SCALE")?,
+            weights,
+            velocity_gain: self.number("FTS_HYST_VELOCITY_GAIN")?,
         }))
     }
 
