@@ -17,11 +17,11 @@ use crate::lti::ss::StateSpace;
 use crate::sim::disturbance::Disturbance;
 use crate::sim::virtual_fts::VirtualFtsParams;
 use crate::synth::zpetc::{self as zpetc_mod, Zpetc, ZpetcParams};
+use crate::workflow::contour::DobSettings;
 use crate::workflow::learning::RepetitiveFile;
 use crate::workflow::{
     ReferenceShape, SimController, SimPlant, Simulate, SimulateInputs, SimulateReport, StageModels,
 };
-use crate::workflow::contour::DobSettings;
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -114,10 +114,20 @@ pub struct LoopArgs {
     #[arg(long, value_name = "SPEC")]
     input_disturbance: Option<String>,
     /// Q cut-off of a `dob` controller's disturbance observer, Hz [1000].
-    #[arg(id = "dob.q_hz", long = "dob-q-hz", value_name = "HZ", conflicts_with = "controller_file")]
+    #[arg(
+        id = "dob.q_hz",
+        long = "dob-q-hz",
+        value_name = "HZ",
+        conflicts_with = "controller_file"
+    )]
     dob_q_hz: Option<f64>,
     /// Q order (binomial low-pass) [2].
-    #[arg(id = "dob.q_order", long = "dob-q-order", value_name = "R", conflicts_with = "controller_file")]
+    #[arg(
+        id = "dob.q_order",
+        long = "dob-q-order",
+        value_name = "R",
+        conflicts_with = "controller_file"
+    )]
     dob_q_order: Option<usize>,
     /// Coulomb friction feedforward Fc of a `dob` controller, V [0].
     #[arg(
@@ -138,7 +148,12 @@ pub struct LoopArgs {
     )]
     dob_viscous: Option<f64>,
     /// Smoothing velocity of the feedforward's sign v/(|v| + v_eps), um/s [10].
-    #[arg(id = "dob.smoothing", long = "dob-smoothing", value_name = "UM/S", conflicts_with = "controller_file")]
+    #[arg(
+        id = "dob.smoothing",
+        long = "dob-smoothing",
+        value_name = "UM/S",
+        conflicts_with = "controller_file"
+    )]
     dob_smoothing: Option<f64>,
 }
 

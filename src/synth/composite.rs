@@ -186,6 +186,9 @@ mod tests {
         assert!(Stages::parse("pid+ss").is_err());
         assert!(Stages::parse("ss+pid").is_err());
         assert!(Stages::parse("dob+ss").is_err());
-        assert_eq!(Stages::parse("DOB+zpetc").unwrap().feedback, FeedbackKind::Dob);
+        assert_eq!(
+            Stages::parse("DOB+zpetc").unwrap().feedback,
+            FeedbackKind::Dob
+        );
     }
 }

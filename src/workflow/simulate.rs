@@ -10,10 +10,10 @@ use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::{
     ControllerFile, DobBlock, Feedback, Provenance, RepetitiveBlock, StateSpaceBlock,
 };
-use crate::runtime::SsAntiWindup;
 use crate::lti::DiscreteTf;
 use crate::lti::response::NoStepInfo;
 use crate::lti::ss::StateSpace;
+use crate::runtime::SsAntiWindup;
 use crate::runtime::{PidSpec, RuntimeController};
 use crate::sim::disturbance::{Disturbance, Disturbed};
 use crate::sim::experiment::{self, DEFAULT_PID, ExperimentParams, IdentifiedModels};
