@@ -295,6 +295,8 @@ mod tests {
             "the manifest's own table; the command uses the bridge's hinge",
         ),
         ("contour", "dob", "the --dob-* options"),
+        ("simulate", "dob", "the --dob-* options"),
+        ("learning", "dob", "the --dob-* options"),
         ("ding22", "pid", "--no-pid"),
         ("trajectory", "shape", "the positional <SHAPE>"),
         ("contour", "shape", "the positional <SHAPE>"),

@@ -1,4 +1,4 @@
-//! `fts simulate --controller pid|pid+hc|pid+zpec|pid+hc+zpec|ss[+hc][+zpec] [--ss K.json] [--reference ...]`:
+//! `fts simulate --controller pid|pid+hc|pid+zpec|pid+hc+zpec|ss[+hc][+zpec]|dob[+hc][+zpec] [--ss K.json] [--reference ...]`:
 //! flags into [`Simulate`] (a closed-loop tracking run through the runtime
 //! controller step, fed by the coefficient file fts emits or by one built
 //! from the stages exactly as `fts emit` builds it); the files read here, the
@@ -17,6 +17,7 @@ use crate::lti::ss::StateSpace;
 use crate::sim::disturbance::Disturbance;
 use crate::sim::virtual_fts::VirtualFtsParams;
 use crate::synth::zpetc::{self as zpetc_mod, Zpetc, ZpetcParams};
+use crate::workflow::contour::DobSettings;
 use crate::workflow::learning::RepetitiveFile;
 use crate::workflow::{
     ReferenceShape, SimController, SimPlant, Simulate, SimulateInputs, SimulateReport, StageModels,
@@ -112,6 +113,48 @@ pub struct LoopArgs {
     /// Disturbance added to the command at the plant's input, V (same forms as --output-disturbance).
     #[arg(long, value_name = "SPEC")]
     input_disturbance: Option<String>,
+    /// Q cut-off of a `dob` controller's disturbance observer, Hz [1000].
+    #[arg(
+        id = "dob.q_hz",
+        long = "dob-q-hz",
+        value_name = "HZ",
+        conflicts_with = "controller_file"
+    )]
+    dob_q_hz: Option<f64>,
+    /// Q order (binomial low-pass) [2].
+    #[arg(
+        id = "dob.q_order",
+        long = "dob-q-order",
+        value_name = "R",
+        conflicts_with = "controller_file"
+    )]
+    dob_q_order: Option<usize>,
+    /// Coulomb friction feedforward Fc of a `dob` controller, V [0].
+    #[arg(
+        id = "dob.coulomb",
+        long = "dob-coulomb",
+        value_name = "FC",
+        allow_hyphen_values = true,
+        conflicts_with = "controller_file"
+    )]
+    dob_coulomb: Option<f64>,
+    /// Viscous friction feedforward Fv of a `dob` controller, V per um/s [0].
+    #[arg(
+        id = "dob.viscous",
+        long = "dob-viscous",
+        value_name = "FV",
+        allow_hyphen_values = true,
+        conflicts_with = "controller_file"
+    )]
+    dob_viscous: Option<f64>,
+    /// Smoothing velocity of the feedforward's sign v/(|v| + v_eps), um/s [10].
+    #[arg(
+        id = "dob.smoothing",
+        long = "dob-smoothing",
+        value_name = "UM/S",
+        conflicts_with = "controller_file"
+    )]
+    dob_smoothing: Option<f64>,
 }
 
 #[derive(Debug, Args)]
@@ -121,6 +164,10 @@ pub struct SimulateArgs {
     /// Write the trace (t, r, u, y, e) here.
     #[arg(short = 'o', long = "out", value_name = "TRACE.csv")]
     output: Option<PathBuf>,
+    /// Write the coefficient file the run executed (`fts.controller/1`)
+    /// here; `--controller-file` replays it.
+    #[arg(long, value_name = "CTRL.json")]
+    controller_out: Option<PathBuf>,
     /// Plot reference, measurement and error to this SVG.
     #[arg(long, value_name = "TRACK.svg|png", value_parser = super::common::plot_path)]
     plot: Option<PathBuf>,
@@ -153,7 +200,19 @@ impl LoopArgs {
             ss_anti_windup: self.ss.ss_anti_windup,
             output_disturbance: read_disturbance("--output-disturbance", &self.output_disturbance)?,
             input_disturbance: read_disturbance("--input-disturbance", &self.input_disturbance)?,
+            dob: self.dob(),
         })
+    }
+
+    fn dob(&self) -> DobSettings {
+        let d = DobSettings::default();
+        DobSettings {
+            q_hz: self.dob_q_hz.unwrap_or(d.q_hz),
+            q_order: self.dob_q_order.unwrap_or(d.q_order),
+            coulomb: self.dob_coulomb.unwrap_or(d.coulomb),
+            viscous: self.dob_viscous.unwrap_or(d.viscous),
+            smoothing: self.dob_smoothing.unwrap_or(d.smoothing),
+        }
     }
 
     /// The plant, the controller and the reference samples these flags name.
@@ -336,6 +395,7 @@ fn read_controller(args: &LoopArgs, ts: f64) -> anyhow::Result<SimController> {
         hysteresis,
         zpetc: read_zpetc(args)?,
         repetitive,
+        nominal: None,
         closed_loop: read_closed_loop(args)?,
         provenance,
     }))
@@ -389,7 +449,10 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     write_outputs(&args, &report)?;
     print_report(&report, args.json)?;
     if !args.json {
-        for p in [&args.output, &args.plot].into_iter().flatten() {
+        for p in [&args.output, &args.controller_out, &args.plot]
+            .into_iter()
+            .flatten()
+        {
             say!("wrote {}", p.display());
         }
     }
@@ -400,6 +463,9 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
 fn write_outputs(args: &SimulateArgs, report: &SimulateReport) -> anyhow::Result<()> {
     if let Some(path) = &args.output {
         write_atomic(path, report.trace_csv().as_bytes())?;
+    }
+    if let Some(path) = &args.controller_out {
+        write_atomic(path, report.file.to_json_string().as_bytes())?;
     }
     if let Some(path) = &args.plot {
         write_plot(path, report)?;

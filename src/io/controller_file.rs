@@ -767,8 +767,8 @@ impl ControllerFile {
         crate::synth::composite::Stages {
             feedback: match self.feedback {
                 Feedback::None => FeedbackKind::None,
-                // The DOB's outer controller is a PID.
-                Feedback::Pid(_) | Feedback::ParallelPid(_) | Feedback::Dob(_) => FeedbackKind::Pid,
+                Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
+                Feedback::Dob(_) => FeedbackKind::Dob,
                 Feedback::StateSpace(_) => FeedbackKind::StateSpace,
             },
             hysteresis_compensation: self.hysteresis.is_some(),

@@ -368,8 +368,9 @@ pub fn build_controller(
     let feedback = feedback.into();
     let kind = match feedback {
         Feedback::None => FeedbackKind::None,
-        Feedback::Pid(_) | Feedback::ParallelPid(_) | Feedback::Dob(_) => FeedbackKind::Pid,
+        Feedback::Pid(_) | Feedback::ParallelPid(_) => FeedbackKind::Pid,
         Feedback::StateSpace(_) => FeedbackKind::StateSpace,
+        Feedback::Dob(_) => FeedbackKind::Dob,
     };
     if kind != stages.feedback {
         return Err(format!(
@@ -378,6 +379,7 @@ pub fn build_controller(
             match stages.feedback {
                 FeedbackKind::Pid => "PID gains, not a state-space controller",
                 FeedbackKind::StateSpace => "a state-space controller",
+                FeedbackKind::Dob => "a disturbance-observer block",
                 FeedbackKind::None => "no feedback controller",
             }
         ));

@@ -1,9 +1,11 @@
 //! The composite controller of \[Li21\] Fig. 5 and its stage grammar:
-//! a feedback stage (`pid`, or `ss` for a discrete state-space controller
-//! such as an H2 / H-infinity / mixsyn design), optionally followed by
+//! a feedback stage (`pid`, `ss` for a discrete state-space controller
+//! such as an H2 / H-infinity / mixsyn design, or `dob` for either inside
+//! \[Karagoz18\]'s disturbance observer), optionally followed by
 //! hysteresis compensation feedforward (`hc`) and the ZPETC reference
 //! pre-filter (`zpec`): `pid`, `pid+hc`, `pid+zpec`, `pid+hc+zpec`, `ss`,
-//! `ss+hc`, `ss+zpec`, `ss+hc+zpec`; or feedforward only, without a
+//! `ss+hc`, `ss+zpec`, `ss+hc+zpec`, `dob`, `dob+hc`, `dob+zpec`,
+//! `dob+hc+zpec`; or feedforward only, without a
 //! feedback stage: `hc`, `zpec`, `hc+zpec`.
 
 /// The feedback controller of a composite controller.
@@ -13,6 +15,9 @@ pub enum FeedbackKind {
     Pid,
     /// A discrete state-space controller (`state_space` block).
     StateSpace,
+    /// The PID or a state-space controller inside a disturbance observer
+    /// with friction feedforward (`dob` block, `synth::dob`).
+    Dob,
     /// None: a feedforward-only controller (`no_feedback` block).
     None,
 }
@@ -30,7 +35,7 @@ pub struct Stages {
 }
 
 /// The forms `--controller` accepts, in order.
-pub const VALID_STAGE_STRINGS: [&str; 11] = [
+pub const VALID_STAGE_STRINGS: [&str; 15] = [
     "pid",
     "pid+hc",
     "pid+zpec",
@@ -39,6 +44,10 @@ pub const VALID_STAGE_STRINGS: [&str; 11] = [
     "ss+hc",
     "ss+zpec",
     "ss+hc+zpec",
+    "dob",
+    "dob+hc",
+    "dob+zpec",
+    "dob+hc+zpec",
     "hc",
     "zpec",
     "hc+zpec",
@@ -62,13 +71,13 @@ impl Stages {
         }
     }
 
-    /// Parses `pid|ss[+hc][+zpec]` (case-insensitive; `zpetc` is accepted
+    /// Parses `pid|ss|dob[+hc][+zpec]` (case-insensitive; `zpetc` is accepted
     /// for `zpec`, `state_space` for `ss`).
     pub fn parse(text: &str) -> Result<Stages, StageError> {
         let lower = text.trim().to_ascii_lowercase();
         let parts: Vec<&str> = lower.split('+').map(str::trim).collect();
-        // pid and ss share rank 0: the feedback stage.
-        let known = [("pid", 0), ("ss", 0), ("hc", 1), ("zpec", 2)];
+        // pid, ss and dob share rank 0: the feedback stage.
+        let known = [("pid", 0), ("ss", 0), ("dob", 0), ("hc", 1), ("zpec", 2)];
         let mut ranks = Vec::new();
         let mut feedback = FeedbackKind::Pid;
         for p in &parts {
@@ -79,8 +88,10 @@ impl Stages {
             };
             match known.iter().find(|(k, _)| *k == p) {
                 Some((k, r)) => {
-                    if *k == "ss" {
-                        feedback = FeedbackKind::StateSpace;
+                    match *k {
+                        "ss" => feedback = FeedbackKind::StateSpace,
+                        "dob" => feedback = FeedbackKind::Dob,
+                        _ => {}
                     }
                     ranks.push(*r);
                 }
@@ -97,7 +108,7 @@ impl Stages {
         if ranks.windows(2).any(|w| w[0] >= w[1]) {
             return Err(StageError {
                 message: format!(
-                    "stages in {text:?} are repeated or out of order (pid or ss if any, then hc, then zpec)"
+                    "stages in {text:?} are repeated or out of order (pid, ss or dob if any, then hc, then zpec)"
                 ),
             });
         }
@@ -115,7 +126,11 @@ impl Stages {
             // Feedforward only ("" cannot be parsed: there is no empty controller).
             return ["", "hc", "zpec", "hc+zpec"][i];
         }
-        let i = i + 4 * usize::from(self.feedback == FeedbackKind::StateSpace);
+        let i = i + 4 * match self.feedback {
+            FeedbackKind::StateSpace => 1,
+            FeedbackKind::Dob => 2,
+            _ => 0,
+        };
         [
             "pid",
             "pid+hc",
@@ -125,6 +140,10 @@ impl Stages {
             "ss+hc",
             "ss+zpec",
             "ss+hc+zpec",
+            "dob",
+            "dob+hc",
+            "dob+zpec",
+            "dob+hc+zpec",
         ][i]
     }
 }
@@ -166,5 +185,10 @@ mod tests {
         assert!(Stages::parse("pid+hc+hc").is_err());
         assert!(Stages::parse("pid+ss").is_err());
         assert!(Stages::parse("ss+pid").is_err());
+        assert!(Stages::parse("dob+ss").is_err());
+        assert_eq!(
+            Stages::parse("DOB+zpetc").unwrap().feedback,
+            FeedbackKind::Dob
+        );
     }
 }

@@ -165,7 +165,7 @@ pub fn design(g: &StateSpace, cutoff_hz: f64, order: usize, ts: f64) -> Result<D
 }
 
 /// A system `num/den` (ascending `z^-1`) at `ts`.
-fn tf_ss(num: &[f64], den: &[f64], ts: f64) -> Result<StateSpace, String> {
+pub fn tf_ss(num: &[f64], den: &[f64], ts: f64) -> Result<StateSpace, String> {
     let n = num.len().max(den.len());
     let pad = |p: &[f64]| {
         let mut v = p.to_vec();

@@ -99,7 +99,8 @@ impl Default for DobSettings {
 }
 
 impl DobSettings {
-    fn validate(&self, ts: f64) -> Result<(), StepError> {
+    /// Each setting in range at sample time `ts`.
+    pub(crate) fn validate(&self, ts: f64) -> Result<(), StepError> {
         crate::synth::dob::q_filter(1.0 / (4.0 * ts), self.q_order, ts)
             .map_err(|e| StepError::setting("dob.q_order", e))?;
         crate::synth::dob::q_filter(self.q_hz, self.q_order, ts)

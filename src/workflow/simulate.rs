@@ -3,15 +3,17 @@
 //! `controller` stages exactly as `fts emit` builds it; the plant is the
 //! virtual FTS or a discrete linear model.
 
+use super::contour::DobSettings;
 use super::{AntiWindup, Discretisation, SsController, StepError, Validate};
 use crate::ident::excite::ExciteError;
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::{
-    ControllerFile, Feedback, Provenance, RepetitiveBlock, StateSpaceBlock,
+    ControllerFile, DobBlock, Feedback, Provenance, RepetitiveBlock, StateSpaceBlock,
 };
 use crate::lti::DiscreteTf;
 use crate::lti::response::NoStepInfo;
 use crate::lti::ss::StateSpace;
+use crate::runtime::SsAntiWindup;
 use crate::runtime::{PidSpec, RuntimeController};
 use crate::sim::disturbance::{Disturbance, Disturbed};
 use crate::sim::experiment::{self, DEFAULT_PID, ExperimentParams, IdentifiedModels};
@@ -57,7 +59,9 @@ impl super::Choices for ReferenceShape {
 #[serde(deny_unknown_fields, default)]
 pub struct Simulate {
     /// Controller stages: `pid`, `pid+hc`, `pid+zpec`, `pid+hc+zpec`, `ss`,
-    /// `ss+hc`, `ss+zpec`, `ss+hc+zpec`, or feedforward only (`hc`, `zpec`,
+    /// `ss+hc`, `ss+zpec`, `ss+hc+zpec`, `dob[+hc][+zpec]` (the PID, or the
+    /// state-space controller when one is given, inside a disturbance
+    /// observer on the plant model), or feedforward only (`hc`, `zpec`,
     /// `hc+zpec`); default `pid+hc+zpec`, or `ss` with a state-space
     /// controller.
     pub controller: Option<String>,
@@ -109,6 +113,8 @@ pub struct Simulate {
     pub output_disturbance: Option<Disturbance>,
     /// Disturbance added to the command at the plant's input (V); default none.
     pub input_disturbance: Option<Disturbance>,
+    /// The observer and friction feedforward of a `dob` controller.
+    pub dob: DobSettings,
 }
 
 impl Default for Simulate {
@@ -134,6 +140,7 @@ impl Default for Simulate {
             ss_anti_windup: AntiWindup::ConditionalUpdate,
             output_disturbance: None,
             input_disturbance: None,
+            dob: DobSettings::default(),
         }
     }
 }
@@ -201,6 +208,9 @@ pub struct StageModels {
     pub zpetc: Option<Zpetc>,
     /// Plug-in repetitive compensator, added to any stages.
     pub repetitive: Option<RepetitiveBlock>,
+    /// The nominal model of a `dob` controller's observer and its name;
+    /// default the plant model (`plant_tf`).
+    pub nominal: Option<(DiscreteTf, String)>,
     /// The closed-loop model (loop reference to output), given or
     /// identified with the other models; for learning control.
     pub closed_loop: Option<DiscreteTf>,
@@ -318,6 +328,11 @@ impl Simulate {
                 format!("coefficient file {source}"),
             ),
             SimController::Stages(mut m) => {
+                if m.nominal.is_none()
+                    && let SimPlant::Model { tf, source, .. } = &inputs.plant
+                {
+                    m.nominal = Some((tf.clone(), source.clone()));
+                }
                 let built = self.controller(&mut m, &vparams, ts, model_plant, note)?;
                 loop_model = m.closed_loop.take();
                 built
@@ -477,6 +492,16 @@ impl Simulate {
             note(&warning);
         }
         let pid = self.pid(plant)?;
+        // Built before any identification: a refused observer costs nothing.
+        let feedback = match (block, stages.feedback) {
+            (outer, FeedbackKind::Dob) => {
+                let outer = outer.unwrap_or_else(|| pid_block(&pid));
+                Feedback::Dob(self.dob_block(outer, m.nominal.as_ref(), ts)?)
+            }
+            (Some(k), _) => Feedback::StateSpace(k),
+            (None, FeedbackKind::None) => Feedback::None,
+            (None, _) => Feedback::Pid(pid),
+        };
         let mut origin = match &m.ss {
             Some((_, source)) => format!("state-space controller {source}, models from files"),
             None => String::from("models from files"),
@@ -498,11 +523,6 @@ impl Simulate {
             );
             origin = identify_missing(m, plant, pid)?;
         }
-        let feedback = match (block, stages.feedback) {
-            (Some(k), _) => Feedback::StateSpace(k),
-            (None, FeedbackKind::None) => Feedback::None,
-            (None, _) => Feedback::Pid(pid),
-        };
         let mut file = experiment::build_controller(
             stages,
             ts,
@@ -536,7 +556,10 @@ impl Simulate {
         let bad = |message: String| Err(StepError::setting("controller", message));
         match (stages.feedback, &m.ss) {
             (FeedbackKind::Pid | FeedbackKind::None, Some(_)) => bad(format!(
-                "`controller` {name}: `ss` gives a state-space controller; use `controller` ss[+hc][+zpec]"
+                "`controller` {name}: `ss` gives a state-space controller; use `controller` ss[+hc][+zpec] or dob[+hc][+zpec]"
+            )),
+            (FeedbackKind::Dob, _) if needs_zpetc => bad(format!(
+                "`controller` {name}: give the ZPETC of this loop (`zpetc` or `closed_loop`); the one fts identifies is for the PID loop"
             )),
             (FeedbackKind::StateSpace, None) => bad(format!(
                 "`controller` {name}: needs the controller (`ss` K.json)"
@@ -547,7 +570,7 @@ impl Simulate {
             (FeedbackKind::None, None) if needs_zpetc => bad(format!(
                 "`controller` {name}: give the ZPETC of the loop it feeds (`zpetc` or `closed_loop`); the one fts identifies is for its PID loop"
             )),
-            (FeedbackKind::StateSpace, Some((sys, source))) => {
+            (FeedbackKind::StateSpace | FeedbackKind::Dob, Some((sys, source))) => {
                 let limits = if model_plant {
                     (self.output_min, self.output_max)
                 } else {
@@ -558,8 +581,48 @@ impl Simulate {
                 };
                 self.ss_step(limits).block(sys, ts, source).map(Some)
             }
-            (FeedbackKind::Pid | FeedbackKind::None, None) => Ok(None),
+            (FeedbackKind::Pid | FeedbackKind::None | FeedbackKind::Dob, None) => Ok(None),
         }
+    }
+
+    /// The disturbance-observer block around `outer` (`synth::dob`), its
+    /// nominal model the plant model.
+    fn dob_block(
+        &self,
+        outer: StateSpaceBlock,
+        nominal: Option<&(DiscreteTf, String)>,
+        ts: f64,
+    ) -> Result<DobBlock, StepError> {
+        let Some((tf, source)) = nominal else {
+            return Err(StepError::setting(
+                "controller",
+                "`controller` dob: the observer's nominal model is the plant model; give one (`plant_tf`, a discrete model)",
+            ));
+        };
+        self.dob.validate(ts)?;
+        let nominal_error =
+            |e: String| StepError::setting("plant_tf", format!("{source}: DOB nominal model: {e}"));
+        let mut num = vec![0.0; tf.delay()];
+        num.extend_from_slice(tf.num().coeffs());
+        let g = crate::synth::dob::tf_ss(&num, tf.den().coeffs(), ts).map_err(nominal_error)?;
+        let f = crate::synth::dob::design(&g, self.dob.q_hz, self.dob.q_order, ts)
+            .map_err(nominal_error)?;
+        let d = &self.dob;
+        Ok(DobBlock {
+            outer,
+            q_num: f.q_num,
+            q_den: f.q_den,
+            inverse_num: f.inverse_num,
+            inverse_den: f.inverse_den,
+            delay: f.delay,
+            coulomb: d.coulomb,
+            viscous: d.viscous,
+            smoothing: d.smoothing,
+            design: format!(
+                "Q binomial order {} at {} Hz; nominal inverse of {source}",
+                d.q_order, d.q_hz
+            ),
+        })
     }
 
     /// The state-space controller settings, with these command limits.
@@ -701,6 +764,37 @@ fn fast_poles_warning(sys: &StateSpace, ts: f64, source: &str) -> Option<String>
         pole.re,
         pole.im
     ))
+}
+
+/// \[Li21\] Eq. 5's PID as a state-space block on the error (the DOB's
+/// outer controller sees only the error, so its derivative acts on the
+/// error, not the measurement): `I(k) = I(k-1) + ki e(k)`,
+/// `u = kp e + I(k) + kd (e(k) - e(k-1))`; states `I(k-1)` and, with a
+/// derivative, `e(k-1)`; conditional update as the PID's conditional
+/// integration.
+fn pid_block(pid: &PidSpec) -> StateSpaceBlock {
+    let (a, b, c) = if pid.kd == 0.0 {
+        (vec![1.0], vec![pid.ki], vec![1.0])
+    } else {
+        (
+            vec![1.0, 0.0, 0.0, 0.0],
+            vec![pid.ki, 1.0],
+            vec![1.0, -pid.kd],
+        )
+    };
+    StateSpaceBlock {
+        a,
+        b,
+        c,
+        d: pid.kp + pid.ki + pid.kd,
+        output_min: Some(pid.output_min),
+        output_max: Some(pid.output_max),
+        anti_windup: SsAntiWindup::ConditionalUpdate,
+        discretisation: format!(
+            "[Li21] Eq. 5 PID kp {} ki {} kd {} per sample (derivative on the error)",
+            pid.kp, pid.ki, pid.kd
+        ),
+    }
 }
 
 /// A coefficient file runs at the plant's sample time or not at all.

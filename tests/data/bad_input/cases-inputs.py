@@ -231,6 +231,28 @@ case("simulate --output-disturbance file:t.csv", 2, ["t.csv", "column 2"], {"t.c
 case("simulate --output-disturbance file:d.csv", 2, ["d.csv", "line 3"], {"d.csv": "t,d\n0,1\n0,2\n"})
 case("simulate --input-disturbance file:d.csv", 2, ["d.csv"], {"d.csv": "time_ms,d\n0,1\n-1,2\n"})
 
+# The disturbance-observer block (contour axes, simulate's dob stages).
+case("contour circle --axis-controller dob --dob-q-hz 0", 2, ["--dob-q-hz", "Nyquist", "got 0"])
+case("contour circle --axis-controller dob --dob-q-order 0", 2, ["--dob-q-order", "got 0"])
+case("contour circle --axis-controller dob --dob-smoothing -1", 2, ["--dob-smoothing", "-1"])
+case("contour circle --friction-viscous -1", 2, ["--friction-viscous", "-1"])
+case("contour circle --axis-controller dob --plant-x rel3.json --pid-x 1,0,0,100", 2,
+     ["axis x", "not minimum phase", "-3.732048009"])
+PLANT = '{"format": "fts.tf/1", "var": "z^-1", "ts": 0.0001, "num": [0.5], "den": [1, -0.5], "delay": 1}'
+NMP = '{"format": "fts.tf/1", "var": "z^-1", "ts": 0.0001, "num": [0.5, 1], "den": [1, -0.5], "delay": 1}'
+for opt, value, expect in [
+    ("--dob-q-hz", "0", ["Nyquist", "got 0"]),
+    ("--dob-q-hz", "6000", ["Nyquist", "got 6000"]),
+    ("--dob-q-order", "0", ["got 0"]),
+    ("--dob-smoothing", "-1", ["-1"]),
+    ("--dob-coulomb", "nan", ["NaN"]),
+    ("--dob-viscous", "inf", ["inf"]),
+]:
+    case(f"simulate --plant-tf p.json --controller dob {opt} {value}", 2, [opt] + expect, {"p.json": PLANT})
+case("simulate --plant-tf p.json --controller dob", 2, ["--plant-tf", "p.json", "not minimum phase"], {"p.json": NMP})
+case("simulate --controller dob", 2, ["--controller dob", "--plant-tf"])
+case("simulate --controller dob+ss", 2, ["--controller", "out of order"])
+
 out = ["# Time bases, units and settings read, never assumed; contradictions",
        "# refused (issue #27 item 6): --plot extensions, reference and record",
        "# files (binary, MATLAB v4, time columns), frequency-response rows,",
