@@ -297,7 +297,7 @@ mod tests {
     /// the bound to the last digit.
     #[test]
     fn a_bound_met_with_equality_is_accepted() {
-        let s = [24.42686, 0.5731395];
+        let s: [f64; 2] = [24.42686, 0.5731395];
         let b = [(2.0 * s[0]).sqrt(), (20.0 * s[1]).sqrt()];
         let g = balanced_with(&s, &b);
         let red = balred(&g, 1).unwrap();
