@@ -164,14 +164,21 @@ pub fn zpk(g: &TransferFunction) -> Result<Zpk, ConvertError> {
 
 /// Orthonormal basis of the reachable subspace of `(a, b)`: the block
 /// Krylov sequence `b, a b, a^2 b, ...` orthogonalised as it is built
-/// (Gram-Schmidt twice); a vector whose new part is below `tol` times the
-/// scale it came from is dependent.
+/// (Gram-Schmidt twice); a vector whose new part is below `tol` times
+/// `max(||A||, ||B||)` is dependent. That is the scale of the rank
+/// decisions of the staircase form SLICOT `TB01PD` computes for
+/// python-control's `minreal` (tolerance relative to the norms of `A` and
+/// `B`, or `C`), and MATLAB's: "increasing this tolerance forces
+/// additional cancellations". Measuring `B` against its own norm instead
+/// kept every mode of a system whose modes are all equally weak (a
+/// discrete system with both pole-zero pairs matched within 1e-10 has
+/// `||C|| ~ 1e-10 ||A||`, and kept both states at any tolerance).
 fn reachable_basis(a: &Mat<f64>, b: &Mat<f64>, tol: f64) -> Vec<Vec<f64>> {
     let n = a.nrows();
     let mut basis: Vec<Vec<f64>> = Vec::new();
     let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     let a_scale = a.norm_l2().max(f64::MIN_POSITIVE);
-    let b_scale = b.norm_l2();
+    let b_scale = b.norm_l2().max(a_scale);
     let mut block: Vec<(Vec<f64>, f64)> = (0..b.ncols())
         .map(|j| ((0..n).map(|i| b[(i, j)]).collect(), b_scale))
         .collect();
@@ -218,8 +225,13 @@ fn project(sys: &StateSpace, basis: &[Vec<f64>]) -> Result<StateSpace, SsError> 
 }
 
 /// A minimal realisation: the reachable part, then its observable part
-/// (the reachable part of the dual). `tol` is relative (default in the
-/// commands: `sqrt(eps)`, about 1.5e-8).
+/// (the reachable part of the dual), MATLAB `minreal` for state space
+/// ("eliminates uncontrollable or unobservable state in state-space
+/// models ... The default value is tol = sqrt(eps) and increasing this
+/// tolerance forces additional cancellations", MATLAB `minreal`
+/// reference; python-control `minreal(sys, tol)` likewise). `tol` is
+/// relative to `max(||A||, ||B||)` and `max(||A||, ||C||)` (default in
+/// the commands: `sqrt(eps)`, about 1.5e-8).
 pub fn minreal(sys: &StateSpace, tol: f64) -> Result<StateSpace, SsError> {
     let reach = reachable_basis(&sys.a, &sys.b, tol);
     let r = project(sys, &reach)?;
@@ -377,6 +389,24 @@ mod tests {
         assert!(matches!(d2c(&g), Err(ConvertError::Refused(_))));
         let h = StateSpace::from_tf(&[1.0], &[1.0, 0.0], Some(0.1)).unwrap();
         assert!(matches!(d2c(&h), Err(ConvertError::Refused(_))));
+    }
+
+    /// `G(z) = (z - 0.5 - 1e-10)(z + 0.3 + 1e-10) / ((z - 0.5)(z + 0.3))`:
+    /// both pole-zero pairs match within 1e-10, so MATLAB's and
+    /// python-control's `minreal` (tolerance `sqrt(eps)`) leave the gain 1;
+    /// a tolerance below the mismatch (1e-12) keeps both states.
+    #[test]
+    fn minreal_cancels_pairs_matched_within_the_tolerance() {
+        let (p1, p2, d) = (0.5, -0.3, 1e-10);
+        // z^2 + a1 z + a2 with roots p1, p2 and p1 + d, p2 - d.
+        let num = [1.0, -(p1 + d) - (p2 - d), (p1 + d) * (p2 - d)];
+        let den = [1.0, -p1 - p2, p1 * p2];
+        let g = StateSpace::from_tf(&num, &den, Some(1e-3)).unwrap();
+        assert_eq!(g.nx(), 2);
+        let m = minreal(&g, f64::EPSILON.sqrt()).unwrap();
+        assert_eq!(m.nx(), 0, "{m:?}");
+        assert!((m.d[(0, 0)] - 1.0).abs() < 1e-15);
+        assert_eq!(minreal(&g, 1e-12).unwrap().nx(), 2);
     }
 
     #[test]

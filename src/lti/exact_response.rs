@@ -435,10 +435,10 @@ impl Trace<'_> {
         Some(self.crossing(a, b, g))
     }
 
-    /// The time after which `|y/y_f - 1| < 0.02` up to `t_k1` (`None` when
+    /// The time after which `|y - y_f| <= band` up to `t_k1` (`None` when
     /// `y(t_k1)` is outside the band).
-    fn settling(&self, k1: usize, y_f: f64) -> Option<f64> {
-        let out = |y: f64| (y / y_f - 1.0).abs() - 0.02;
+    fn settling(&self, k1: usize, y_f: f64, band: f64) -> Option<f64> {
+        let out = |y: f64| (y - y_f).abs() - band;
         if out(self.y[k1]) >= 0.0 {
             return None;
         }
@@ -448,7 +448,7 @@ impl Trace<'_> {
         let from = last.unwrap_or(0);
         let mut outside = last.map(|k| (self.t[k], self.y[k]));
         for s in [1.0, -1.0] {
-            let edge = s * y_f + 0.02 * y_f.abs();
+            let edge = s * y_f + band;
             let found = self
                 .maxima(from, k1, s)
                 .collect::<Vec<_>>()
@@ -495,9 +495,13 @@ impl Trace<'_> {
         let dy = os.1.abs() - y_f.abs();
         let us = self.extreme(0, k1, -s);
         let peak = if os.1.abs() >= us.1.abs() { os } else { us };
+        // The band is 2 % of the peak error max |y - y_f| (MATLAB
+        // `stepinfo`), reached at the largest or the smallest value.
+        let peak_error = (os.1 - y_f).abs().max((us.1 - y_f).abs());
+        let band = super::response::SETTLING_THRESHOLD * peak_error;
         Ok(StepInfo {
             rise_time,
-            settling_time: self.settling(k1, y_f),
+            settling_time: self.settling(k1, y_f, band),
             settling_min: after.map(|a| a.0),
             settling_max: after.map(|a| a.1),
             overshoot: if dy > 0.0 {

@@ -286,16 +286,17 @@ pub fn closed_loop(g: &StateSpace, k: &StateSpace) -> Result<StateSpace, SsError
     l.feedback(&StateSpace::gain(unity, l.ts))
 }
 
-/// The step-response figures of one channel (MATLAB `stepinfo`,
-/// python-control `step_info`; docs/responses.md §2). Times in seconds,
+/// The step-response figures of one channel (MATLAB `stepinfo`'s
+/// definitions; docs/responses.md §2). Times in seconds,
 /// overshoot and undershoot in percent of the final value.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StepInfo {
     /// From the first sample at 10 % to the first at 90 % of the final value;
     /// `None` when 90 % is not reached within the horizon.
     pub rise_time: Option<f64>,
-    /// First sample after which the response stays within 2 % of the final
-    /// value; `None` when it has not settled by the end of the horizon.
+    /// First sample (time) after which `|y - y_final|` stays within 2 % of
+    /// its peak `max |y - y_final|` (MATLAB `stepinfo`); `None` when it
+    /// has not settled by the end of the horizon.
     pub settling_time: Option<f64>,
     /// Smallest value after the rise (from the 90 % sample on), with the final value.
     pub settling_min: Option<f64>,
@@ -336,8 +337,17 @@ impl std::fmt::Display for NoStepInfo {
 }
 
 /// Step-response figures of `y` (a step response sampled at `t`) towards
-/// the final value `y_final`, exactly as python-control `step_info` computes
-/// them from a sampled response (no interpolation between samples).
+/// the final value `y_final`, as MATLAB `stepinfo` defines them for a
+/// model (initial offset `y_init = 0`, the value before the step) and
+/// computes them from samples (no interpolation between samples): rise
+/// from the first sample at 10 % to the first at 90 % of `y_final`;
+/// settling at the sample after the last one where `|y - y_final|`
+/// exceeds [`SETTLING_THRESHOLD`] of its peak `max |y - y_final|` ("the
+/// time it takes for the error e(t) = |y(t) - yfinal| ... to fall below 2%
+/// of the peak value of e(t)", MATLAB R2021a `stepinfo` reference; its
+/// discrete MIMO example prints 2.8 s and 3.6 s, tested below);
+/// overshoot and undershoot in percent of `|y_final|`. python-control
+/// `step_info` takes the band as 2 % of `y_final` instead.
 pub fn step_info(t: &[f64], y: &[f64], y_final: f64) -> Result<StepInfo, NoStepInfo> {
     if !y_final.is_finite() {
         return Err(NoStepInfo::Unstable);
@@ -349,10 +359,12 @@ pub fn step_info(t: &[f64], y: &[f64], y_final: f64) -> Result<StepInfo, NoStepI
     let first_at = |frac: f64| y.iter().position(|&v| sgn * (v - frac * y_final) >= 0.0);
     let (lo, hi) = (first_at(0.1), first_at(0.9));
     let rise_time = lo.zip(hi).map(|(l, h)| t[h] - t[l]);
-    // Settled from the sample after the last one outside the 2 % band.
+    // Settled from the sample after the last one outside the band, 2 % of
+    // the peak error (MATLAB `stepinfo`).
+    let band = SETTLING_THRESHOLD * peak_error(y, y_final);
     let settled = y
         .iter()
-        .rposition(|&v| (v / y_final - 1.0).abs() >= 0.02)
+        .rposition(|&v| (v - y_final).abs() > band)
         .map_or(0, |k| k + 1);
     let settling_time = (settled < t.len()).then(|| t[settled]);
     let after_rise = hi.map(|h| &y[h..]);
@@ -385,6 +397,17 @@ pub fn step_info(t: &[f64], y: &[f64], y_final: f64) -> Result<StepInfo, NoStepI
         steady_state: y_final,
         steady_state_error: 1.0 - y_final,
     })
+}
+
+/// MATLAB `stepinfo`'s default `SettlingTimeThreshold`: the response has
+/// settled once `|y - y_final|` stays within this fraction of its peak
+/// `max |y - y_final|`.
+pub const SETTLING_THRESHOLD: f64 = 0.02;
+
+/// `max |y - y_final|` over the samples: the peak error the settling band
+/// is a fraction of.
+pub fn peak_error(y: &[f64], y_final: f64) -> f64 {
+    y.iter().map(|v| (v - y_final).abs()).fold(0.0, f64::max)
 }
 
 /// Index of the first largest `key(y[k])`.
@@ -445,6 +468,40 @@ mod tests {
         assert!((info.settling_time.unwrap() - 50f64.ln()).abs() < 2e-3);
         assert_eq!(info.overshoot, 0.0);
         assert!((info.steady_state - 1.0).abs() < 1e-15);
+    }
+
+    /// MATLAB's `stepinfo` reference example "Step-Response
+    /// Characteristics of MIMO System": `ss(A,B,C,D,0.2)` with the matrices
+    /// below. The page prints `S(2,1)`: RiseTime 0.4000, SettlingTime
+    /// 2.8000, SettlingMin -0.6724, SettlingMax -0.5188, Overshoot 24.6476,
+    /// Undershoot 11.1224, Peak 0.6724, PeakTime 1; and 3.6 s to settle for
+    /// `S(1,2)`. A band of 2 % of the final value gives 3.0 s and 3.8 s.
+    #[test]
+    fn matlab_discrete_mimo_example() {
+        let m = |r: usize, c: usize, v: &[f64]| faer::Mat::from_fn(r, c, |i, j| v[i * c + j]);
+        let sys = StateSpace::new(
+            m(2, 2, &[0.68, -0.34, 0.34, 0.68]),
+            m(2, 2, &[0.18, -0.05, 0.04, 0.11]),
+            m(2, 2, &[0.0, -1.53, -1.12, -1.10]),
+            m(2, 2, &[0.0, 0.0, 0.06, -0.37]),
+            Some(0.2),
+        )
+        .unwrap();
+        let grid = TimeGrid::discrete(40.0, 0.2).unwrap();
+        let r = time_response(&sys, ResponseKind::Step, &grid).unwrap();
+        let info = step_info_of(&sys, &r).unwrap();
+        let s21 = info[1][0].clone().unwrap();
+        let close = |got: f64, want: f64, digits: f64| (got - want).abs() <= 0.5 * digits;
+        assert!(close(s21.rise_time.unwrap(), 0.4, 1e-4), "{s21:?}");
+        assert!(close(s21.settling_time.unwrap(), 2.8, 1e-4), "{s21:?}");
+        assert!(close(s21.settling_min.unwrap(), -0.6724, 1e-4), "{s21:?}");
+        assert!(close(s21.settling_max.unwrap(), -0.5188, 1e-4), "{s21:?}");
+        assert!(close(s21.overshoot, 24.6476, 1e-4), "{s21:?}");
+        assert!(close(s21.undershoot, 11.1224, 1e-4), "{s21:?}");
+        assert!(close(s21.peak, 0.6724, 1e-4), "{s21:?}");
+        assert!(close(s21.peak_time, 1.0, 1e-4), "{s21:?}");
+        let s12 = info[0][1].clone().unwrap();
+        assert!(close(s12.settling_time.unwrap(), 3.6, 1e-4), "{s12:?}");
     }
 
     #[test]

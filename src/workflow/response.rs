@@ -306,10 +306,10 @@ impl Response {
         if let (Some(Ok(here)), Some(Ok(far))) = (&c.info, &c.info_searched) {
             match (here.settling_time, far.settling_time) {
                 (None, Some(ts)) => out.push(format!(
-                    "{label}{by} {horizon} s ends before the response settles: it stays within 2 % of its final value only from {ts:.6} s; the settling time is not reported"
+                    "{label}{by} {horizon} s ends before the response settles: it stays within 2 % of its peak error |y - y_final| only from {ts:.6} s; the settling time is not reported"
                 )),
                 (None, None) => out.push(format!(
-                    "{label}the response has not settled within 2 % of its final value by {:.6e} s",
+                    "{label}the response has not settled within 2 % of its peak error |y - y_final| by {:.6e} s",
                     c.searched_to
                 )),
                 _ => {}

@@ -98,9 +98,11 @@ def figures(num, den):
         return None
 
     t10, t90 = first_crossing(yf / 10), first_crossing(yf * 9 / 10)
-    # Settling: the last time |y/yf - 1| = 0.02.
-    last = max(k for k in range(len(ts)) if abs(ys[k] / yf - 1) >= mp.mpf("0.02"))
-    edge = yf * (1 + mp.mpf("0.02") * mp.sign(ys[last] - yf))
+    # Settling (MATLAB stepinfo): the last time |y - yf| equals 2 % of its
+    # peak max |y - yf|, reached at an extremum or an end.
+    band = mp.mpf("0.02") * max(abs(c[1] - yf) for c in cands)
+    last = max(k for k in range(len(ts)) if abs(ys[k] - yf) >= band)
+    edge = yf + band * mp.sign(ys[last] - yf)
     tset = refine(lambda t: y(t) - edge, ts[last], ts[last + 1])
     return {
         "poles": [[float(mp.re(p)), float(mp.im(p))] for p in poles],
