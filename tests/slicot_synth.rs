@@ -363,15 +363,7 @@ fn sb10fd_continuous_central_controller_matches_slicot() {
     let theirs = slicot_controller("SB10FD", None);
     let dk = max_abs_diff(&k.d, &theirs.d);
     let kd = max_response_diff(&k, &theirs);
-    // The closed-loop poles SLICOT prints (5 significant digits).
-    let re = read_res("SB10FD", "real parts");
-    let im = read_res("SB10FD", "imaginary parts");
-    let published: Vec<c64> = re
-        .concat()
-        .iter()
-        .zip(im.concat())
-        .map(|(&a, b)| c64::new(a, b))
-        .collect();
+    let published = sb10fd_published_poles();
     let cl = ex.plant.lft(&k).unwrap();
     let ours = cl.poles().unwrap();
     let pd = pole_distance(&published, &ours, 1e-4);
@@ -383,6 +375,17 @@ fn sb10fd_continuous_central_controller_matches_slicot() {
         "poles differ by {pd} units of the printed precision"
     );
     assert!(closed_loop_norm(&cl) < gamma);
+}
+
+/// The closed-loop poles SB10FD.res prints (5 significant digits).
+fn sb10fd_published_poles() -> Vec<c64> {
+    let re = read_res("SB10FD", "real parts");
+    let im = read_res("SB10FD", "imaginary parts");
+    re.concat()
+        .iter()
+        .zip(im.concat())
+        .map(|(&a, b)| c64::new(a, b))
+        .collect()
 }
 
 /// `fts hinf --gamma 15` (MATLAB's `hinfsyn(P, ny, nu, gamTry)`) on the
@@ -411,14 +414,7 @@ fn sb10fd_cli_at_gamma_15_gives_the_published_closed_loop_poles() {
         .iter()
         .map(|p| c64::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
         .collect();
-    let re = read_res("SB10FD", "real parts");
-    let im = read_res("SB10FD", "imaginary parts");
-    let published: Vec<c64> = re
-        .concat()
-        .iter()
-        .zip(im.concat())
-        .map(|(&a, b)| c64::new(a, b))
-        .collect();
+    let published = sb10fd_published_poles();
     let pd = pole_distance(&published, &ours, 1e-4);
     assert!(
         pd < 1.0,
