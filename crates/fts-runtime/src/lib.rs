@@ -188,7 +188,7 @@ pub struct ZpetcSpec<'a> {
 /// docs/math.md §1.7), used one of two ways:
 /// * `solve: None`: the model is an inverse model, `u_ff = Y(r_f)`;
 /// * `solve: Some((lo, hi))`: the model is the forward model and
-///   `u_ff` is its root `Y(u_ff) = r_f` on `[lo, hi]` ([`hysteresis_solve`]).
+///   `u_ff` is its root `Y(u_ff) = r_f` on `[lo, hi]` (`hysteresis_solve`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HysteresisSpec<'a> {
     /// Play operator form.
@@ -1112,7 +1112,7 @@ pub(crate) fn tdf2(n: usize, b: &[f64], a: &[f64], state: &mut [f64], x: f64) ->
 }
 
 /// The hysteresis block's step: the model evaluated at `u`
-/// (`solve: None`) or inverted at `u` ([`hysteresis_solve`]); the play
+/// (`solve: None`) or inverted at `u` (`hysteresis_solve`); the play
 /// states and `x(k-1)` advance to the input used.
 #[inline]
 fn hysteresis_step(h: &mut HysteresisBlock, u: f64) -> f64 {
@@ -1189,7 +1189,7 @@ fn fabs(x: f64) -> f64 {
     f64::from_bits(x.to_bits() & !(1u64 << 63))
 }
 
-/// Most steps of one [`hysteresis_solve`] after the evaluations at the
+/// Most steps of one `hysteresis_solve` after the evaluations at the
 /// bracket ends. A bisection step halves the bracket, so about 60 of them
 /// take a command range of ~100 V to the resolution of a double; the
 /// Illinois steps converge superlinearly on the piecewise-smooth `Y`
@@ -1200,7 +1200,7 @@ pub const MAX_SOLVE_ITERATIONS: usize = 100;
 /// Per-sample inversion of the forward model (docs/math.md §1.6): the
 /// command `u` in `[lo, hi]` with `Y(u; F(k-1), x(k-1)) = target`.
 ///
-/// Every trial is [`hysteresis_eval`] from the committed state (each play's
+/// Every trial is `hysteresis_eval` from the committed state (each play's
 /// trial output is `play(x ± r, F_i(k-1))`), so trials do not move the
 /// state. For a PI on the lower or symmetric play with `r_0 = 0`,
 /// `w_0 > 0` and positive partial sums `W_j = w_0 + .. + w_j`, `c >= 0`,
