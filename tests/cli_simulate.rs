@@ -412,3 +412,70 @@ fn simulate_dob_replays_from_its_controller_file_to_the_last_digit() {
         assert_eq!(built[key], replayed[key], "{key}");
     }
 }
+
+/// `--hc-solve` (docs/math.md §1.6): HC by inverting the forward model per
+/// sample gives the loop the analytic inverse gives (a symmetric-play PI
+/// with positive partial sums: the per-sample root is the analytic
+/// inverse's output to rounding), and both beat the PID alone. Without an
+/// hc stage the option is refused, exit 2.
+#[test]
+fn simulate_hc_solve_matches_the_analytic_inverse() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fts()
+        .current_dir(d)
+        .args(["virtual", "triangles", "-o", "tri.csv"])
+        .assert()
+        .success();
+    fts()
+        .current_dir(d)
+        .args(["identify", "hysteresis", "tri.csv", "--model", "pi"])
+        .args([
+            "--operator",
+            "play-symmetric",
+            "--invertible",
+            "-o",
+            "fwd.json",
+        ])
+        .assert()
+        .success();
+    fts()
+        .current_dir(d)
+        .args(["hysteresis", "invert", "fwd.json", "-o", "inv.json"])
+        .assert()
+        .success();
+    let run = |extra: &[&str]| {
+        json_of(
+            fts()
+                .current_dir(d)
+                .args(["simulate", "--freq", "10", "--json"])
+                .args(extra),
+        )["rms_error"]
+            .as_f64()
+            .unwrap()
+    };
+    let analytic = run(&["--controller", "pid+hc", "--hysteresis", "inv.json"]);
+    let solved = run(&[
+        "--controller",
+        "pid+hc",
+        "--hysteresis",
+        "fwd.json",
+        "--hc-solve",
+    ]);
+    let pid = run(&["--controller", "pid"]);
+    assert!((solved - analytic).abs() < 1e-6, "{solved} vs {analytic}");
+    assert!(solved < pid / 5.0, "{solved} vs PID {pid}");
+    fts()
+        .current_dir(d)
+        .args([
+            "simulate",
+            "--controller",
+            "pid",
+            "--hysteresis",
+            "fwd.json",
+            "--hc-solve",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--hc-solve"));
+}

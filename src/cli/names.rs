@@ -296,7 +296,7 @@ mod tests {
         ),
         ("contour", "dob", "the --dob-* options"),
         ("simulate", "dob", "the --dob-* options"),
-        ("learning", "dob", "the --dob-* options"),
+        ("ilc", "dob", "the --dob-* options"),
         ("ding22", "pid", "--no-pid"),
         ("trajectory", "shape", "the positional <SHAPE>"),
         ("contour", "shape", "the positional <SHAPE>"),

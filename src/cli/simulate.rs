@@ -86,6 +86,10 @@ pub struct LoopArgs {
     /// Inverse hysteresis model for HC (`fts.hysteresis/1`); default: identified from the virtual FTS.
     #[arg(long, value_name = "INV.json")]
     hysteresis: Option<PathBuf>,
+    /// HC by per-sample inversion: --hysteresis is the *forward* model, and
+    /// the HC block solves Y(u) = r_f each sample on the command range.
+    #[arg(long, requires = "hysteresis")]
+    hc_solve: bool,
     /// ZPETC filter (`fts.zpetc/1`); default: identified from the virtual FTS.
     #[arg(long, value_name = "ZPETC.json")]
     zpetc: Option<PathBuf>,
@@ -201,6 +205,7 @@ impl LoopArgs {
             output_disturbance: read_disturbance("--output-disturbance", &self.output_disturbance)?,
             input_disturbance: read_disturbance("--input-disturbance", &self.input_disturbance)?,
             dob: self.dob(),
+            hc_solve: self.hc_solve,
         })
     }
 

@@ -115,6 +115,11 @@ pub struct Simulate {
     pub input_disturbance: Option<Disturbance>,
     /// The observer and friction feedforward of a `dob` controller.
     pub dob: DobSettings,
+    /// HC by per-sample inversion (docs/math.md §1.6): the `hysteresis`
+    /// model is the *forward* model, and the HC block solves `Y(u) = r_f`
+    /// each sample on the PID's command range instead of evaluating an
+    /// inverse model; default false.
+    pub hc_solve: bool,
 }
 
 impl Default for Simulate {
@@ -141,6 +146,7 @@ impl Default for Simulate {
             output_disturbance: None,
             input_disturbance: None,
             dob: DobSettings::default(),
+            hc_solve: false,
         }
     }
 }
@@ -506,6 +512,13 @@ impl Simulate {
             Some((_, source)) => format!("state-space controller {source}, models from files"),
             None => String::from("models from files"),
         };
+        if self.hc_solve && !(stages.hysteresis_compensation && m.hysteresis.is_some()) {
+            return Err(StepError::setting(
+                "hc_solve",
+                "`hc_solve` inverts a given forward model: it needs an hc stage and `hysteresis`"
+                    .to_string(),
+            ));
+        }
         let missing = (stages.hysteresis_compensation && m.hysteresis.is_none())
             || (stages.zpetc && m.zpetc.is_none());
         if missing {
@@ -532,6 +545,9 @@ impl Simulate {
             m.provenance.clone(),
         )
         .map_err(StepError::input)?;
+        if self.hc_solve {
+            solve_hc(&mut file, m.hysteresis.as_ref(), &pid)?;
+        }
         if let Some(r) = m.repetitive.clone() {
             file.repetitive = Some(r);
             file.validate("repetitive")
@@ -754,6 +770,27 @@ impl Simulate {
 
 /// The warning that a continuous controller has poles no discretisation at
 /// `ts` reproduces (beyond the Nyquist frequency), if it has.
+/// `hc_solve`: the HC block holds the forward `model` and inverts it per
+/// sample on the PID's command range; the file is round-tripped, so the
+/// block's own checks (a model strictly increasing in its input) apply.
+fn solve_hc(
+    file: &mut ControllerFile,
+    model: Option<&HysteresisModel>,
+    pid: &PidSpec,
+) -> Result<(), StepError> {
+    let Some(model) = model else {
+        return Ok(());
+    };
+    file.hysteresis = Some(crate::io::controller_file::HysteresisBlock::solving(
+        model,
+        pid.output_min,
+        pid.output_max,
+    ));
+    *file = crate::io::controller_file::parse_controller(&file.to_json_string(), "<emitted>")
+        .map_err(|e| StepError::setting("hysteresis", e.to_string()))?;
+    Ok(())
+}
+
 fn fast_poles_warning(sys: &StateSpace, ts: f64, source: &str) -> Option<String> {
     let fast = SsController::poles_beyond_nyquist(sys, ts);
     let (pole, hz) = fast.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
