@@ -107,3 +107,71 @@ mod tests {
         assert_eq!(p[(0, 0)], -2f64.powi(-80));
     }
 }
+
+/// The frequency response `C (s I - A)^-1 B + D` of `sys` at the complex
+/// point `s` (`z` for a discrete system), with the solve and the products in
+/// double-double arithmetic (faer's `fx128`; Gaussian elimination with
+/// partial pivoting) and the result rounded to `f64`. The data are exact in
+/// both precisions, so this is the response of the stored realisation to
+/// about `1e-32 cond(s I - A)`: a stiff closed loop whose plain evaluation
+/// loses three digits to a realisation with entries of 1e12 beside a pole at
+/// 0.02 (cheap-control H-infinity controllers) is evaluated to full double
+/// precision. `None` when `s I - A` is singular to that precision.
+pub(crate) fn response_extended(
+    sys: &crate::lti::StateSpace,
+    s: crate::lti::c64,
+) -> Option<Mat<crate::lti::c64>> {
+    type Cx = num_complex::Complex<faer::fx128>;
+    let cx = |re: f64, im: f64| Cx::new(re.into(), im.into());
+    let (n, m) = (sys.a.nrows(), sys.b.ncols());
+    // [s I - A | B], reduced to [U | U^-1 L^-1 P B] in place.
+    let mut w: Vec<Vec<Cx>> = (0..n)
+        .map(|i| {
+            (0..n + m)
+                .map(|j| match j {
+                    j if j < n && i == j => cx(s.re - sys.a[(i, j)], s.im),
+                    j if j < n => cx(-sys.a[(i, j)], 0.0),
+                    j => cx(sys.b[(i, j - n)], 0.0),
+                })
+                .collect()
+        })
+        .collect();
+    let size = |z: &Cx| z.re.0.abs() + z.im.0.abs();
+    for k in 0..n {
+        let p = (k..n).max_by(|&a, &b| size(&w[a][k]).total_cmp(&size(&w[b][k])))?;
+        if !(size(&w[p][k]) > 0.0) {
+            return None;
+        }
+        w.swap(k, p);
+        let pivot = w[k][k];
+        for i in k + 1..n {
+            let f = w[i][k] / pivot;
+            for j in k..n + m {
+                let t = w[k][j];
+                w[i][j] = w[i][j] - f * t;
+            }
+        }
+    }
+    // Back substitution: x = U^-1 (the right-hand side).
+    let mut x = vec![vec![cx(0.0, 0.0); m]; n];
+    for i in (0..n).rev() {
+        for c in 0..m {
+            let mut acc = w[i][n + c];
+            for j in i + 1..n {
+                acc = acc - w[i][j] * x[j][c];
+            }
+            x[i][c] = acc / w[i][i];
+        }
+    }
+    let out = Mat::from_fn(sys.c.nrows(), m, |i, j| {
+        let mut acc = cx(sys.d[(i, j)], 0.0);
+        for (k, row) in x.iter().enumerate() {
+            acc = acc + cx(sys.c[(i, k)], 0.0) * row[j];
+        }
+        crate::lti::c64::new(acc.re.0 + acc.re.1, acc.im.0 + acc.im.1)
+    });
+    let finite = out
+        .col_iter()
+        .all(|c| c.iter().all(|z| z.re.is_finite() && z.im.is_finite()));
+    finite.then_some(out)
+}

@@ -169,7 +169,7 @@ pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
     let (lo, hi) = found.bracket;
     let (mut peak, mut omega) = (sigma_at_or_d(sys, found.omega), found.omega);
     if hi.is_finite() && hi > lo {
-        let (w, s) = golden_max(sys, lo, hi);
+        let (w, s) = golden_max(|w| sys.sigma_at(w), lo, hi);
         if s > peak {
             (peak, omega) = (s, w);
         }
@@ -202,12 +202,12 @@ fn sigma_at_or_d(sys: &StateSpace, w: f64) -> f64 {
 
 /// Maximum of `sigma_max(G(j w))` over `[lo, hi]` by golden-section search
 /// (the bracket of a converged Bruinsma–Steinbuch step holds one peak).
-fn golden_max(sys: &StateSpace, lo: f64, hi: f64) -> (f64, f64) {
+fn golden_max(sigma: impl Fn(f64) -> f64, lo: f64, hi: f64) -> (f64, f64) {
     const INV_PHI: f64 = 0.618_033_988_749_894_8;
     let (mut a, mut b) = (lo, hi);
     let mut x1 = b - INV_PHI * (b - a);
     let mut x2 = a + INV_PHI * (b - a);
-    let (mut f1, mut f2) = (sys.sigma_at(x1), sys.sigma_at(x2));
+    let (mut f1, mut f2) = (sigma(x1), sigma(x2));
     for _ in 0..200 {
         if b - a <= 1e-15 * b.abs().max(f64::MIN_POSITIVE) {
             break;
@@ -215,16 +215,16 @@ fn golden_max(sys: &StateSpace, lo: f64, hi: f64) -> (f64, f64) {
         if f1 >= f2 {
             (b, x2, f2) = (x2, x1, f1);
             x1 = b - INV_PHI * (b - a);
-            f1 = sys.sigma_at(x1);
+            f1 = sigma(x1);
         } else {
             (a, x1, f1) = (x1, x2, f2);
             x2 = a + INV_PHI * (b - a);
-            f2 = sys.sigma_at(x2);
+            f2 = sigma(x2);
         }
     }
     [
-        (lo, sys.sigma_at(lo)),
-        (hi, sys.sigma_at(hi)),
+        (lo, sigma(lo)),
+        (hi, sigma(hi)),
         (x1, f1),
         (x2, f2),
     ]
@@ -672,4 +672,68 @@ mod tests {
         assert_eq!(hinf_norm(&g, 1e-6), Err(NormError::Unstable));
         assert_eq!(h2_norm(&g), Err(NormError::Unstable));
     }
+}
+
+/// `sigma_max` of the frequency response at `omega` rad/s evaluated in
+/// double-double arithmetic ([`crate::lti::accurate::response_extended`]);
+/// infinite where `s I - A` is singular.
+pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
+    let p = match sys.ts {
+        None => c64::new(0.0, omega),
+        Some(t) => c64::from_polar(1.0, omega * t),
+    };
+    crate::lti::accurate::response_extended(sys, p)
+        .map_or(f64::INFINITY, |g| crate::lti::ss::sigma_max_c(&g))
+}
+
+/// Whether a norm computed in double precision on `sys` can be trusted:
+/// `sigma_max` at the peak, at DC and at seven frequencies of `grid` agrees
+/// with its double-double value ([`sigma_extended`]) to 1e-9. When it does
+/// not (a stiff realisation: a cheap-control H-infinity loop whose entries
+/// reach 1e12 beside a pole at 0.02 loses three digits of its DC gain), the
+/// peak is searched again in double-double: on every fourth point of
+/// `grid`, refined by golden section around the three largest local maxima,
+/// and at DC. `h` then holds that attained peak, and its upper bound is
+/// withdrawn (the Hamiltonian's certificate was computed in double).
+/// Returns `true` when the double-precision result stood.
+pub fn confirm_extended(sys: &StateSpace, grid: &[f64], h: &mut HinfNorm) -> bool {
+    let mut probes: Vec<f64> = vec![0.0];
+    if h.omega.is_finite() {
+        probes.push(h.omega);
+    }
+    if !grid.is_empty() {
+        probes.extend((0..7).map(|k| grid[k * (grid.len() - 1) / 6]));
+    }
+    let agrees = |w: f64| {
+        let (d, e) = (sys.sigma_at(w), sigma_extended(sys, w));
+        (d - e).abs() <= 1e-9 * e.abs().max(f64::MIN_POSITIVE)
+    };
+    if probes.into_iter().all(agrees) {
+        return true;
+    }
+    let coarse: Vec<(f64, f64)> = grid
+        .iter()
+        .step_by(4)
+        .map(|&w| (w, sigma_extended(sys, w)))
+        .collect();
+    let mut best = (0.0, sigma_extended(sys, 0.0));
+    let mut maxima: Vec<(usize, f64)> = (0..coarse.len())
+        .filter(|&i| {
+            let left = i == 0 || coarse[i - 1].1 <= coarse[i].1;
+            let right = i + 1 == coarse.len() || coarse[i + 1].1 <= coarse[i].1;
+            left && right
+        })
+        .map(|i| (i, coarse[i].1))
+        .collect();
+    maxima.sort_by(|a, b| b.1.total_cmp(&a.1));
+    for &(i, _) in maxima.iter().take(3) {
+        let lo = coarse[i.saturating_sub(1)].0;
+        let hi = coarse[(i + 1).min(coarse.len() - 1)].0;
+        let (w, s) = golden_max(|w| sigma_extended(sys, w), lo, hi);
+        if s > best.1 {
+            best = (w, s);
+        }
+    }
+    (h.peak, h.omega, h.upper) = (best.1, best.0, f64::INFINITY);
+    false
 }
