@@ -4,8 +4,10 @@ each with its optimum gamma bracketed at 40 digits and a controller whose
 closed-loop norm is verified at 40 digits. Read by tests/hinf_certified.rs.
 
     python3 tests/data/hinf_certified/generate.py   # writes cases.json beside it
-    (numpy, scipy, mpmath 1.3, python-control 0.10.2, slycot; about 10 min
-    on two cores; resumable through cases.partial.json)
+    (numpy, scipy, mpmath 1.3, python-control 0.10.2, slycot; about 20 min
+    on a loaded two-core machine: SB10AD for every problem first, then the
+    certificates on JOBS=2 processes, 15-35 s each; resumable through
+    cases.partial.json; `generate.py "<name>"` certifies one problem)
 
 The problems (z = [W_s e; W_u u], y = e = w - G u, one w, one u, one y):
 * A (13): the DC servo G = 11.2/((s + 0.12)(s + 1e-6)), W_s = (s/1.5 + 20)/(s + p),
@@ -16,6 +18,7 @@ The problems (z = [W_s e; W_u u], y = e = w - G u, one w, one u, one y):
   G = (548000 s + 13670)/(s^3 + 1.644 s^2 + 8.198 s + 0.06571) with
   W_s = (s/2 + 1000)/(s + 1e-3) (bandwidth 1000 rad/s, so that W_u = 1 costs
   something: gamma 1.71; with 100 rad/s every W_u gives nearly the D11 bound 0.5).
+  (B "dc-servo wu=1" is A "p/wb=1e-05" again, as are their C versions.)
 * C (14): discrete versions of six A and eight B problems: the zero-order hold
   of the continuous augmented plant (exp of the block matrix [A B; 0 0] Ts in
   mpmath, rounded to double), Ts = 1e-3 s for the DC servo (closed-loop
