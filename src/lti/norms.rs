@@ -222,16 +222,11 @@ fn golden_max(sigma: impl Fn(f64) -> f64, lo: f64, hi: f64) -> (f64, f64) {
             f2 = sigma(x2);
         }
     }
-    [
-        (lo, sigma(lo)),
-        (hi, sigma(hi)),
-        (x1, f1),
-        (x2, f2),
-    ]
-    .into_iter()
-    .fold((lo, f64::NEG_INFINITY), |best, (w, s)| {
-        if s > best.1 { (w, s) } else { best }
-    })
+    [(lo, sigma(lo)), (hi, sigma(hi)), (x1, f1), (x2, f2)]
+        .into_iter()
+        .fold((lo, f64::NEG_INFINITY), |best, (w, s)| {
+            if s > best.1 { (w, s) } else { best }
+        })
 }
 
 /// `count` log-spaced frequencies from `margin` times below the slowest
@@ -693,7 +688,8 @@ pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
 /// reach 1e12 beside a pole at 0.02 loses three digits of its DC gain), the
 /// peak is searched again in double-double: on every fourth point of
 /// `grid`, refined by golden section around the three largest local maxima,
-/// and at DC. `h` then holds that attained peak, and its upper bound is
+/// at the double search's peak frequency, at DC and at the top of the grid
+/// (and the Nyquist frequency). `h` then holds that attained peak, and its upper bound is
 /// withdrawn (the Hamiltonian's certificate was computed in double).
 /// Returns `true` when the double-precision result stood.
 pub fn confirm_extended(sys: &StateSpace, grid: &[f64], h: &mut HinfNorm) -> bool {
@@ -716,7 +712,23 @@ pub fn confirm_extended(sys: &StateSpace, grid: &[f64], h: &mut HinfNorm) -> boo
         .step_by(4)
         .map(|&w| (w, sigma_extended(sys, w)))
         .collect();
+    // DC, the double search's peak and the top of the grid (the Nyquist
+    // frequency of a discrete system) are attained values too.
     let mut best = (0.0, sigma_extended(sys, 0.0));
+    let ends = [h.omega, grid.last().copied().unwrap_or(0.0)];
+    for w in ends.into_iter().filter(|w| w.is_finite()) {
+        let s = sigma_extended(sys, w);
+        if s > best.1 {
+            best = (w, s);
+        }
+    }
+    if let Some(t) = sys.ts {
+        let w = std::f64::consts::PI / t;
+        let s = sigma_extended(sys, w);
+        if s > best.1 {
+            best = (w, s);
+        }
+    }
     let mut maxima: Vec<(usize, f64)> = (0..coarse.len())
         .filter(|&i| {
             let left = i == 0 || coarse[i - 1].1 <= coarse[i].1;
