@@ -107,15 +107,16 @@ proptest! {
         let p = StateSpace::new(a, b, c, d, None).unwrap();
         if let Ok(r) = hinfsyn(&p, 1, 1, HinfOptions::default()) {
             prop_assert!(r.stable);
-            // hinfsyn accepts a controller that achieves its level to 1e-6
-            // (relative) or lies within twice the backoff of the bisection
-            // bound (level = bound (1 + backoff)); 1e-8 is the tolerance of
-            // the norm computation itself.
-            let backoff = r.design_level / r.bisection_bound - 1.0;
-            let limit = (r.design_level * (1.0 + 1e-6))
-                .max(r.bisection_bound * (1.0 + 2.0 * backoff))
-                * (1.0 + 1e-8);
-            prop_assert!(r.gamma <= limit, "{} > {limit} (level {})", r.gamma, r.design_level);
+            // hinfsyn returns the controller built at its design level when
+            // it achieves that level to 1e-6 (relative); otherwise the best
+            // of a ladder of levels, whose norm it refuses above 1.2 times
+            // the bisection bound. Either way the gamma it reports is the
+            // closed loop's norm, recomputed here (1e-8: the norm
+            // computation's own tolerance).
+            let recomputed = fts::synth::hinf::closed_loop_norm(&p.lft(&r.k).unwrap());
+            prop_assert!(r.gamma >= recomputed * (1.0 - 1e-8), "{} < recomputed {recomputed}", r.gamma);
+            prop_assert!(r.gamma <= r.bisection_bound * 1.2 * (1.0 + 1e-8),
+                "{} > 1.2 x bound {} (level {})", r.gamma, r.bisection_bound, r.design_level);
             prop_assert!(within("hinf x", r.x_residual, r.residual_floor)
                 && within("hinf y", r.y_residual, r.residual_floor),
                 "{} {} floor {} at gamma {}", r.x_residual, r.y_residual, r.residual_floor, r.gamma);

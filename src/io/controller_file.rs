@@ -326,6 +326,29 @@ pub struct DobBlock {
 }
 
 impl DobBlock {
+    /// The block of the observer `filters` (`synth::dob::design`) around
+    /// `outer`, with the friction feedforward `(Fc, Fv, v_eps)` and the
+    /// design note.
+    pub fn from_filters(
+        outer: StateSpaceBlock,
+        filters: crate::synth::dob::DobFilters,
+        (coulomb, viscous, smoothing): (f64, f64, f64),
+        design: String,
+    ) -> Self {
+        DobBlock {
+            outer,
+            q_num: filters.q_num,
+            q_den: filters.q_den,
+            inverse_num: filters.inverse_num,
+            inverse_den: filters.inverse_den,
+            delay: filters.delay,
+            coulomb,
+            viscous,
+            smoothing,
+            design,
+        }
+    }
+
     /// The runtime's coefficients at `ts` (absent limits infinite).
     pub fn runtime_spec(&self, ts: f64) -> crate::runtime::DobSpec<'_> {
         let k = &self.outer;

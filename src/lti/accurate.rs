@@ -93,21 +93,6 @@ impl Dd {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn cancellation_is_exact() {
-        // (1 + 2^-40)(1 - 2^-40) - 1 = -2^-80, lost entirely in f64.
-        let e = 2f64.powi(-40);
-        let a = Mat::from_fn(1, 2, |_, j| [1.0 + e, 1.0][j]);
-        let b = Mat::from_fn(2, 1, |i, _| [1.0 - e, -1.0][i]);
-        let p = Dd::from(&a).mul(&Dd::from(&b)).round();
-        assert_eq!(p[(0, 0)], -2f64.powi(-80));
-    }
-}
-
 /// The frequency response `C (s I - A)^-1 B + D` of `sys` at the complex
 /// point `s` (`z` for a discrete system), with the solve and the products in
 /// double-double arithmetic (faer's `fx128`; Gaussian elimination with
@@ -139,16 +124,16 @@ pub(crate) fn response_extended(
     let size = |z: &Cx| z.re.0.abs() + z.im.0.abs();
     for k in 0..n {
         let p = (k..n).max_by(|&a, &b| size(&w[a][k]).total_cmp(&size(&w[b][k])))?;
-        if !(size(&w[p][k]) > 0.0) {
+        if size(&w[p][k]).is_nan() || size(&w[p][k]) <= 0.0 {
             return None;
         }
         w.swap(k, p);
-        let pivot = w[k][k];
-        for i in k + 1..n {
-            let f = w[i][k] / pivot;
-            for j in k..n + m {
-                let t = w[k][j];
-                w[i][j] = w[i][j] - f * t;
+        let (top, rest) = w.split_at_mut(k + 1);
+        let pivot_row = &top[k];
+        for row in rest.iter_mut() {
+            let f = row[k] / pivot_row[k];
+            for (x, p) in row[k..].iter_mut().zip(&pivot_row[k..]) {
+                *x -= f * *p;
             }
         }
     }
@@ -158,7 +143,7 @@ pub(crate) fn response_extended(
         for c in 0..m {
             let mut acc = w[i][n + c];
             for j in i + 1..n {
-                acc = acc - w[i][j] * x[j][c];
+                acc -= w[i][j] * x[j][c];
             }
             x[i][c] = acc / w[i][i];
         }
@@ -166,7 +151,7 @@ pub(crate) fn response_extended(
     let out = Mat::from_fn(sys.c.nrows(), m, |i, j| {
         let mut acc = cx(sys.d[(i, j)], 0.0);
         for (k, row) in x.iter().enumerate() {
-            acc = acc + cx(sys.c[(i, k)], 0.0) * row[j];
+            acc += cx(sys.c[(i, k)], 0.0) * row[j];
         }
         crate::lti::c64::new(acc.re.0 + acc.re.1, acc.im.0 + acc.im.1)
     });
@@ -174,4 +159,54 @@ pub(crate) fn response_extended(
         .col_iter()
         .all(|c| c.iter().all(|z| z.re.is_finite() && z.im.is_finite()));
     finite.then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cancellation_is_exact() {
+        // (1 + 2^-40)(1 - 2^-40) - 1 = -2^-80, lost entirely in f64.
+        let e = 2f64.powi(-40);
+        let a = Mat::from_fn(1, 2, |_, j| [1.0 + e, 1.0][j]);
+        let b = Mat::from_fn(2, 1, |i, _| [1.0 - e, -1.0][i]);
+        let p = Dd::from(&a).mul(&Dd::from(&b)).round();
+        assert_eq!(p[(0, 0)], -2f64.powi(-80));
+    }
+
+    /// `G = 1/(s + 1) - 1/(s + a)` with `a` one ulp-scale step above 1:
+    /// `G(0) = (a - 1)/a`, exact in double (Sterbenz) but the difference of
+    /// two terms 1e9 times larger, which a double evaluation gets to about
+    /// 7 digits and the double-double one to the last bit.
+    #[test]
+    fn response_extended_recovers_a_cancelling_dc_gain() {
+        use crate::lti::{StateSpace, c64};
+        let a = 1.0 + 1e-9;
+        let sys = StateSpace::new(
+            Mat::from_fn(2, 2, |i, j| {
+                if i != j {
+                    0.0
+                } else if i == 0 {
+                    -1.0
+                } else {
+                    -a
+                }
+            }),
+            Mat::from_fn(2, 1, |_, _| 1.0),
+            Mat::from_fn(1, 2, |_, j| if j == 0 { 1.0 } else { -1.0 }),
+            Mat::zeros(1, 1),
+            None,
+        )
+        .unwrap();
+        let exact = (a - 1.0) / a;
+        let extended = response_extended(&sys, c64::new(0.0, 0.0)).unwrap()[(0, 0)];
+        assert!(
+            (extended.re / exact - 1.0).abs() < 4.0 * f64::EPSILON,
+            "{extended}"
+        );
+        assert_eq!(extended.im, 0.0);
+        let double = sys.eval(c64::new(0.0, 0.0)).unwrap()[(0, 0)].re;
+        assert!((double / exact - 1.0).abs() > 1e-10, "{double}");
+    }
 }

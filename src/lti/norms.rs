@@ -472,6 +472,87 @@ fn enclosing(ws: &[f64], w: f64, top: f64) -> (f64, f64) {
     (lo, hi)
 }
 
+/// `sigma_max` of the frequency response at `omega` rad/s evaluated in
+/// double-double arithmetic ([`crate::lti::accurate::response_extended`]);
+/// infinite where `s I - A` is singular.
+pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
+    let p = match sys.ts {
+        None => c64::new(0.0, omega),
+        Some(t) => c64::from_polar(1.0, omega * t),
+    };
+    crate::lti::accurate::response_extended(sys, p)
+        .map_or(f64::INFINITY, |g| crate::lti::ss::sigma_max_c(&g))
+}
+
+/// Whether a norm computed in double precision on `sys` can be trusted:
+/// `sigma_max` at the peak, at DC and at seven frequencies of `grid` agrees
+/// with its double-double value ([`sigma_extended`]) to 1e-9. When it does
+/// not (a stiff realisation: a cheap-control H-infinity loop whose entries
+/// reach 1e12 beside a pole at 0.02 loses three digits of its DC gain), the
+/// peak is searched again in double-double: on every fourth point of
+/// `grid`, refined by golden section around the three largest local maxima,
+/// at the double search's peak frequency, at DC and at the top of the grid
+/// (and the Nyquist frequency). `h` then holds that attained peak, and its upper bound is
+/// withdrawn (the Hamiltonian's certificate was computed in double).
+/// Returns `true` when the double-precision result stood.
+pub fn confirm_extended(sys: &StateSpace, grid: &[f64], h: &mut HinfNorm) -> bool {
+    let mut probes: Vec<f64> = vec![0.0];
+    if h.omega.is_finite() {
+        probes.push(h.omega);
+    }
+    if !grid.is_empty() {
+        probes.extend((0..7).map(|k| grid[k * (grid.len() - 1) / 6]));
+    }
+    let agrees = |w: f64| {
+        let (d, e) = (sys.sigma_at(w), sigma_extended(sys, w));
+        (d - e).abs() <= 1e-9 * e.abs().max(f64::MIN_POSITIVE)
+    };
+    if probes.into_iter().all(agrees) {
+        return true;
+    }
+    let coarse: Vec<(f64, f64)> = grid
+        .iter()
+        .step_by(4)
+        .map(|&w| (w, sigma_extended(sys, w)))
+        .collect();
+    // DC, the double search's peak and the top of the grid (the Nyquist
+    // frequency of a discrete system) are attained values too.
+    let mut best = (0.0, sigma_extended(sys, 0.0));
+    let ends = [h.omega, grid.last().copied().unwrap_or(0.0)];
+    for w in ends.into_iter().filter(|w| w.is_finite()) {
+        let s = sigma_extended(sys, w);
+        if s > best.1 {
+            best = (w, s);
+        }
+    }
+    if let Some(t) = sys.ts {
+        let w = std::f64::consts::PI / t;
+        let s = sigma_extended(sys, w);
+        if s > best.1 {
+            best = (w, s);
+        }
+    }
+    let mut maxima: Vec<(usize, f64)> = (0..coarse.len())
+        .filter(|&i| {
+            let left = i == 0 || coarse[i - 1].1 <= coarse[i].1;
+            let right = i + 1 == coarse.len() || coarse[i + 1].1 <= coarse[i].1;
+            left && right
+        })
+        .map(|i| (i, coarse[i].1))
+        .collect();
+    maxima.sort_by(|a, b| b.1.total_cmp(&a.1));
+    for &(i, _) in maxima.iter().take(3) {
+        let lo = coarse[i.saturating_sub(1)].0;
+        let hi = coarse[(i + 1).min(coarse.len() - 1)].0;
+        let (w, s) = golden_max(|w| sigma_extended(sys, w), lo, hi);
+        if s > best.1 {
+            best = (w, s);
+        }
+    }
+    (h.peak, h.omega, h.upper) = (best.1, best.0, f64::INFINITY);
+    false
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -667,85 +748,46 @@ mod tests {
         assert_eq!(hinf_norm(&g, 1e-6), Err(NormError::Unstable));
         assert_eq!(h2_norm(&g), Err(NormError::Unstable));
     }
-}
 
-/// `sigma_max` of the frequency response at `omega` rad/s evaluated in
-/// double-double arithmetic ([`crate::lti::accurate::response_extended`]);
-/// infinite where `s I - A` is singular.
-pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
-    let p = match sys.ts {
-        None => c64::new(0.0, omega),
-        Some(t) => c64::from_polar(1.0, omega * t),
-    };
-    crate::lti::accurate::response_extended(sys, p)
-        .map_or(f64::INFINITY, |g| crate::lti::ss::sigma_max_c(&g))
-}
-
-/// Whether a norm computed in double precision on `sys` can be trusted:
-/// `sigma_max` at the peak, at DC and at seven frequencies of `grid` agrees
-/// with its double-double value ([`sigma_extended`]) to 1e-9. When it does
-/// not (a stiff realisation: a cheap-control H-infinity loop whose entries
-/// reach 1e12 beside a pole at 0.02 loses three digits of its DC gain), the
-/// peak is searched again in double-double: on every fourth point of
-/// `grid`, refined by golden section around the three largest local maxima,
-/// at the double search's peak frequency, at DC and at the top of the grid
-/// (and the Nyquist frequency). `h` then holds that attained peak, and its upper bound is
-/// withdrawn (the Hamiltonian's certificate was computed in double).
-/// Returns `true` when the double-precision result stood.
-pub fn confirm_extended(sys: &StateSpace, grid: &[f64], h: &mut HinfNorm) -> bool {
-    let mut probes: Vec<f64> = vec![0.0];
-    if h.omega.is_finite() {
-        probes.push(h.omega);
+    /// `1/(s + 1) - 1/(s + a)`, `a = 1 + 1e-9`: the peak is at DC,
+    /// `(a - 1)/a` exactly, which double precision gets to 7 digits; the
+    /// double-double check notices and replaces it.
+    #[test]
+    fn confirm_extended_replaces_a_cancelled_peak() {
+        let a = 1.0 + 1e-9;
+        let sys = StateSpace::new(
+            Mat::from_fn(2, 2, |i, j| {
+                if i != j {
+                    0.0
+                } else if i == 0 {
+                    -1.0
+                } else {
+                    -a
+                }
+            }),
+            Mat::from_fn(2, 1, |_, _| 1.0),
+            Mat::from_fn(1, 2, |_, j| if j == 0 { 1.0 } else { -1.0 }),
+            Mat::zeros(1, 1),
+            None,
+        )
+        .unwrap();
+        let exact = (a - 1.0) / a;
+        let mut h = hinf_norm(&sys, 1e-8).unwrap();
+        let grid = log_grid(&sys.poles().unwrap(), 200, 100.0);
+        assert!(!confirm_extended(&sys, &grid, &mut h));
+        assert!(
+            (h.peak / exact - 1.0).abs() < 1e-14,
+            "{} vs {exact}",
+            h.peak
+        );
+        assert_eq!(h.omega, 0.0);
+        assert!(h.upper.is_infinite());
+        // A well-conditioned system stands as computed.
+        let plain = StateSpace::from_tf(&[1.0], &[1.0, 0.2, 1.0], None).unwrap();
+        let mut h = hinf_norm(&plain, 1e-8).unwrap();
+        let before = h;
+        let grid = log_grid(&plain.poles().unwrap(), 200, 100.0);
+        assert!(confirm_extended(&plain, &grid, &mut h));
+        assert_eq!(h, before);
     }
-    if !grid.is_empty() {
-        probes.extend((0..7).map(|k| grid[k * (grid.len() - 1) / 6]));
-    }
-    let agrees = |w: f64| {
-        let (d, e) = (sys.sigma_at(w), sigma_extended(sys, w));
-        (d - e).abs() <= 1e-9 * e.abs().max(f64::MIN_POSITIVE)
-    };
-    if probes.into_iter().all(agrees) {
-        return true;
-    }
-    let coarse: Vec<(f64, f64)> = grid
-        .iter()
-        .step_by(4)
-        .map(|&w| (w, sigma_extended(sys, w)))
-        .collect();
-    // DC, the double search's peak and the top of the grid (the Nyquist
-    // frequency of a discrete system) are attained values too.
-    let mut best = (0.0, sigma_extended(sys, 0.0));
-    let ends = [h.omega, grid.last().copied().unwrap_or(0.0)];
-    for w in ends.into_iter().filter(|w| w.is_finite()) {
-        let s = sigma_extended(sys, w);
-        if s > best.1 {
-            best = (w, s);
-        }
-    }
-    if let Some(t) = sys.ts {
-        let w = std::f64::consts::PI / t;
-        let s = sigma_extended(sys, w);
-        if s > best.1 {
-            best = (w, s);
-        }
-    }
-    let mut maxima: Vec<(usize, f64)> = (0..coarse.len())
-        .filter(|&i| {
-            let left = i == 0 || coarse[i - 1].1 <= coarse[i].1;
-            let right = i + 1 == coarse.len() || coarse[i + 1].1 <= coarse[i].1;
-            left && right
-        })
-        .map(|i| (i, coarse[i].1))
-        .collect();
-    maxima.sort_by(|a, b| b.1.total_cmp(&a.1));
-    for &(i, _) in maxima.iter().take(3) {
-        let lo = coarse[i.saturating_sub(1)].0;
-        let hi = coarse[(i + 1).min(coarse.len() - 1)].0;
-        let (w, s) = golden_max(|w| sigma_extended(sys, w), lo, hi);
-        if s > best.1 {
-            best = (w, s);
-        }
-    }
-    (h.peak, h.omega, h.upper) = (best.1, best.0, f64::INFINITY);
-    false
 }

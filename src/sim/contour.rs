@@ -200,21 +200,15 @@ fn dob_block(
         &format!("{what}: the nominal model"),
     )?;
     let f = crate::synth::dob::design(&g, d.q_hz, d.q_order, ts).map_err(setup)?;
-    Ok(Feedback::Dob(DobBlock {
+    Ok(Feedback::Dob(DobBlock::from_filters(
         outer,
-        q_num: f.q_num,
-        q_den: f.q_den,
-        inverse_num: f.inverse_num,
-        inverse_den: f.inverse_den,
-        delay: f.delay,
-        coulomb: d.coulomb,
-        viscous: d.viscous,
-        smoothing: d.smoothing,
-        design: format!(
+        f,
+        (d.coulomb, d.viscous, d.smoothing),
+        format!(
             "Q binomial order {} at {} Hz; nominal inverse of the ZOH model",
             d.q_order, d.q_hz
         ),
-    }))
+    )))
 }
 
 /// The \[Karagoz18\] Table 2 axis gains `(P, I, D, N)` for X, Y, Z.

@@ -624,21 +624,15 @@ impl Simulate {
         let f = crate::synth::dob::design(&g, self.dob.q_hz, self.dob.q_order, ts)
             .map_err(nominal_error)?;
         let d = &self.dob;
-        Ok(DobBlock {
+        Ok(DobBlock::from_filters(
             outer,
-            q_num: f.q_num,
-            q_den: f.q_den,
-            inverse_num: f.inverse_num,
-            inverse_den: f.inverse_den,
-            delay: f.delay,
-            coulomb: d.coulomb,
-            viscous: d.viscous,
-            smoothing: d.smoothing,
-            design: format!(
+            f,
+            (d.coulomb, d.viscous, d.smoothing),
+            format!(
                 "Q binomial order {} at {} Hz; nominal inverse of {source}",
                 d.q_order, d.q_hz
             ),
-        })
+        ))
     }
 
     /// The state-space controller settings, with these command limits.
