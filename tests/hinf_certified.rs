@@ -27,6 +27,8 @@
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod reference_cases;
+
 use faer::Mat;
 use fts::lti::c64;
 use fts::lti::norms::{hinf_norm, sigma_extended};
@@ -198,18 +200,8 @@ struct Case {
     sb10ad_gamma: Option<f64>,
 }
 
-#[derive(Deserialize)]
-struct Cases {
-    cases: Vec<Case>,
-}
-
 fn cases() -> Vec<Case> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/hinf_certified/cases.json"
-    );
-    let text = std::fs::read_to_string(path).unwrap();
-    serde_json::from_str::<Cases>(&text).unwrap().cases
+    reference_cases::load("hinf_certified")
 }
 
 fn mat(rows: &[Vec<f64>]) -> Mat<f64> {

@@ -21,6 +21,8 @@
 //! fails if any other case fails, and if a known case starts passing (so the
 //! list cannot go stale).
 
+mod reference_cases;
+
 use faer::Mat;
 use fts::lti::norms::{hinf_norm, sigma_extended};
 use fts::lti::ss::StateSpace;
@@ -50,18 +52,8 @@ struct Case {
     slicot_achieves: bool,
 }
 
-#[derive(Deserialize)]
-struct Cases {
-    cases: Vec<Case>,
-}
-
 fn cases() -> Vec<Case> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/hinf_slicot/cases.json"
-    );
-    let text = std::fs::read_to_string(path).unwrap();
-    serde_json::from_str::<Cases>(&text).unwrap().cases
+    reference_cases::load("hinf_slicot")
 }
 
 fn tf(num: &[f64], den: &[f64]) -> StateSpace {

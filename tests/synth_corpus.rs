@@ -24,6 +24,8 @@
 //!   `gamma (1 + 1e-6)`; and no controller may beat the optimum (the sweep
 //!   is at least `gamma_opt (1 - 1e-6)`).
 
+mod reference_cases;
+
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use fts::lti::c64;
@@ -51,18 +53,8 @@ struct Case {
     cross_gamma_opt: Option<f64>,
 }
 
-#[derive(Deserialize)]
-struct Corpus {
-    cases: Vec<Case>,
-}
-
 fn corpus() -> Vec<Case> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/synth_corpus/cases.json"
-    );
-    let text = std::fs::read_to_string(path).unwrap();
-    serde_json::from_str::<Corpus>(&text).unwrap().cases
+    reference_cases::load("synth_corpus")
 }
 
 fn family(name: &str) -> Vec<Case> {

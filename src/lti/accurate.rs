@@ -161,6 +161,29 @@ pub(crate) fn response_extended(
     finite.then_some(out)
 }
 
+/// `G = 1/(s + 1) - 1/(s + a)`, `a = 1 + 1e-9` (as stored), and its exact
+/// DC gain `(a - 1)/a` (exact in double by Sterbenz's lemma): the
+/// difference of two terms 1e9 times larger, for the tests of the
+/// double-double evaluation.
+#[cfg(test)]
+pub(crate) fn cancelling_pair() -> (crate::lti::StateSpace, f64) {
+    let a = 1.0 + 1e-9;
+    let diag = |i: usize, j: usize| match (i == j, i) {
+        (false, _) => 0.0,
+        (true, 0) => -1.0,
+        (true, _) => -a,
+    };
+    let sys = crate::lti::StateSpace::new(
+        Mat::from_fn(2, 2, diag),
+        Mat::from_fn(2, 1, |_, _| 1.0),
+        Mat::from_fn(1, 2, |_, j| if j == 0 { 1.0 } else { -1.0 }),
+        Mat::zeros(1, 1),
+        None,
+    )
+    .unwrap();
+    (sys, (a - 1.0) / a)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -181,25 +204,8 @@ mod tests {
     /// 7 digits and the double-double one to the last bit.
     #[test]
     fn response_extended_recovers_a_cancelling_dc_gain() {
-        use crate::lti::{StateSpace, c64};
-        let a = 1.0 + 1e-9;
-        let sys = StateSpace::new(
-            Mat::from_fn(2, 2, |i, j| {
-                if i != j {
-                    0.0
-                } else if i == 0 {
-                    -1.0
-                } else {
-                    -a
-                }
-            }),
-            Mat::from_fn(2, 1, |_, _| 1.0),
-            Mat::from_fn(1, 2, |_, j| if j == 0 { 1.0 } else { -1.0 }),
-            Mat::zeros(1, 1),
-            None,
-        )
-        .unwrap();
-        let exact = (a - 1.0) / a;
+        use crate::lti::c64;
+        let (sys, exact) = cancelling_pair();
         let extended = response_extended(&sys, c64::new(0.0, 0.0)).unwrap()[(0, 0)];
         assert!(
             (extended.re / exact - 1.0).abs() < 4.0 * f64::EPSILON,

@@ -754,24 +754,7 @@ mod tests {
     /// double-double check notices and replaces it.
     #[test]
     fn confirm_extended_replaces_a_cancelled_peak() {
-        let a = 1.0 + 1e-9;
-        let sys = StateSpace::new(
-            Mat::from_fn(2, 2, |i, j| {
-                if i != j {
-                    0.0
-                } else if i == 0 {
-                    -1.0
-                } else {
-                    -a
-                }
-            }),
-            Mat::from_fn(2, 1, |_, _| 1.0),
-            Mat::from_fn(1, 2, |_, j| if j == 0 { 1.0 } else { -1.0 }),
-            Mat::zeros(1, 1),
-            None,
-        )
-        .unwrap();
-        let exact = (a - 1.0) / a;
+        let (sys, exact) = crate::lti::accurate::cancelling_pair();
         let mut h = hinf_norm(&sys, 1e-8).unwrap();
         let grid = log_grid(&sys.poles().unwrap(), 200, 100.0);
         assert!(!confirm_extended(&sys, &grid, &mut h));

@@ -291,6 +291,22 @@ def ric(h, n):
     return (x + x.T) / 2, None, axis
 
 
+def riccati_data(p, g2):
+    """[B1 B2], [C1; C2], [D11 D12], [D11; D21] and the indefinite weights
+    R = D1.'D1. - diag(g^2 I, 0), R~ = D.1 D.1' - diag(g^2 I, 0)."""
+    bb = block([[p.nb1, p.nb2]])
+    cc = block([[p.nc1], [p.nc2]])
+    d1 = block([[p.nd11, p.nd12]])
+    dd1 = block([[p.nd11], [p.nd21]])
+    r = d1.T * d1
+    for i in range(p.m1):
+        r[i, i] -= g2
+    rt = dd1 * dd1.T
+    for i in range(p.p1):
+        rt[i, i] -= g2
+    return bb, cc, d1, dd1, r, rt
+
+
 def conditions(p, g):
     """Thm 17.1's conditions at level g: (holds, first failure, margins, X, Y)."""
     g2 = g * g
@@ -298,16 +314,7 @@ def conditions(p, g):
     if not g > p.d11_bound:
         return False, "D11 condition", info, None, None
     n, m1, m2, p1, p2 = p.n, p.m1, p.m2, p.p1, p.p2
-    bb = block([[p.nb1, p.nb2]])
-    cc = block([[p.nc1], [p.nc2]])
-    d1 = block([[p.nd11, p.nd12]])
-    dd1 = block([[p.nd11], [p.nd21]])
-    r = d1.T * d1
-    for i in range(m1):
-        r[i, i] -= g2
-    rt = dd1 * dd1.T
-    for i in range(p1):
-        rt[i, i] -= g2
+    bb, cc, d1, dd1, r, rt = riccati_data(p, g2)
     h = block([[p.a, mp.zeros(n, n)], [-p.nc1.T * p.nc1, -p.a.T]]) - \
         block([[bb], [-p.nc1.T * d1]]) * r ** -1 * block([[d1.T * p.nc1, bb.T]])
     j = block([[p.a.T, mp.zeros(n, n)], [-p.nb1 * p.nb1.T, -p.a]]) - \
@@ -362,16 +369,7 @@ def central(p, g):
     assert ok, why
     g2 = g * g
     n, m1, m2, p1, p2 = p.n, p.m1, p.m2, p.p1, p.p2
-    bb = block([[p.nb1, p.nb2]])
-    cc = block([[p.nc1], [p.nc2]])
-    d1 = block([[p.nd11, p.nd12]])
-    dd1 = block([[p.nd11], [p.nd21]])
-    r = d1.T * d1
-    for i in range(m1):
-        r[i, i] -= g2
-    rt = dd1 * dd1.T
-    for i in range(p1):
-        rt[i, i] -= g2
+    bb, cc, d1, dd1, r, rt = riccati_data(p, g2)
     f = -(r ** -1) * (d1.T * p.nc1 + bb.T * x)
     ell = -(p.nb1 * dd1.T + y * cc.T) * rt ** -1
     f12, f2 = sub(f, 0, m1, 0, n), sub(f, m1, m1 + m2, 0, n)
