@@ -473,7 +473,7 @@ fn enclosing(ws: &[f64], w: f64, top: f64) -> (f64, f64) {
 }
 
 /// `sigma_max` of the frequency response at `omega` rad/s evaluated in
-/// double-double arithmetic ([`crate::lti::accurate::response_extended`]);
+/// double-double arithmetic (`lti::accurate::response_extended`);
 /// infinite where `s I - A` is singular.
 pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
     let p = match sys.ts {
