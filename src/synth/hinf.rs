@@ -534,18 +534,21 @@ fn hinfsyn_regularised(
     };
     let norm: Normalised = normalise(&p)?;
     let pss = norm.p.to_ss()?;
-    if let Some(gamma) = opts.gamma {
-        let ctx = Verify {
+    let verify = |iterations, infeasible_below| -> Result<Verify<'_>, SynthError> {
+        Ok(Verify {
             plant,
             norm: &norm,
+            pss: &pss,
             p0,
             discrete: discrete_partition(plant, p0, regularised)?,
             regularised,
-            iterations: 1,
-            infeasible_below: gamma,
+            iterations,
+            infeasible_below,
             opts,
-        };
-        return ctx.at_chosen_level(&pss, gamma);
+        })
+    };
+    if let Some(gamma) = opts.gamma {
+        return verify(1, gamma)?.at_chosen_level(gamma);
     }
     let lo0 = gamma_lower(&norm.p);
     if lo0 >= opts.gamma_max {
@@ -567,23 +570,13 @@ fn hinfsyn_regularised(
         lo0
     };
     let (lo, hi, best) = search.narrow(lo, hi, best, opts.rtol)?;
-    let iterations = search.iterations;
-    let ctx = Verify {
-        plant,
-        norm: &norm,
-        p0,
-        discrete: discrete_partition(plant, p0, regularised)?,
-        regularised,
-        iterations,
-        // The bracket's lower end, unless the bisection stopped short of rtol.
-        infeasible_below: if hi.gamma / lo - 1.0 <= opts.rtol {
-            lo
-        } else {
-            hi.gamma
-        },
-        opts,
+    // The bracket's lower end, unless the bisection stopped short of rtol.
+    let infeasible_below = if hi.gamma / lo - 1.0 <= opts.rtol {
+        lo
+    } else {
+        hi.gamma
     };
-    ctx.choose(hi.gamma, best)
+    verify(search.iterations, infeasible_below)?.choose(hi.gamma, best)
 }
 
 /// A feasible level and its margins.
@@ -755,6 +748,8 @@ const VERIFY_RTOL: f64 = 1e-6;
 struct Verify<'a> {
     plant: &'a StateSpace,
     norm: &'a Normalised,
+    /// `norm`'s plant as a state-space system (for the stability test).
+    pss: &'a StateSpace,
     p0: &'a Partition,
     /// The discrete plant (balanced, regularised like its bilinear
     /// equivalent), for SB10DD's central controller; `None` when continuous.
@@ -809,13 +804,13 @@ impl Verify<'_> {
         } else {
             self.at_level(gamma_opt, self.opts.backoff)?
         };
+        let mut tried = vec![first.0];
         let mut scan = Scan::default();
         if let Some(r) = self.consider(first, gamma_opt, &mut scan)? {
             return Ok(r);
         }
-        let mut tried = vec![first_level(&scan)];
         for backoff in scan_backoffs(self.opts.backoff) {
-            let level = (self.infeasible_below * (1.0 + backoff)).max(gamma_opt);
+            let level = self.level(gamma_opt, backoff);
             if scan.best_norm() <= level {
                 break;
             }
@@ -823,7 +818,7 @@ impl Verify<'_> {
                 continue;
             }
             tried.push(level);
-            match feasible(&self.norm.p, &self.norm.p.to_ss()?, level) {
+            match feasible(&self.norm.p, self.pss, level) {
                 Ok(at) => {
                     if let Some(r) = self.consider((level, at), gamma_opt, &mut scan)? {
                         scan.keep(r);
@@ -864,8 +859,8 @@ impl Verify<'_> {
     /// reported gamma is the achieved norm, and the report warns when it
     /// exceeds `gamma`). No backoff: `design_level` and `bisection_bound`
     /// are both `gamma`.
-    fn at_chosen_level(&self, pss: &StateSpace, gamma: f64) -> Result<HinfResult, SynthError> {
-        let at = feasible(&self.norm.p, pss, gamma)?;
+    fn at_chosen_level(&self, gamma: f64) -> Result<HinfResult, SynthError> {
+        let at = feasible(&self.norm.p, self.pss, gamma)?;
         let built = self.build(&at, gamma)?;
         let tolerance = VERIFY_RTOL.max(self.opts.backoff);
         if built.stable && built.achieved <= gamma * (1.0 + tolerance) {
@@ -881,14 +876,19 @@ impl Verify<'_> {
         )))
     }
 
+    /// The design level for `backoff`: `infeasible_below (1 + backoff)`,
+    /// at least `gamma_opt`.
+    fn level(&self, gamma_opt: f64, backoff: f64) -> f64 {
+        (self.infeasible_below * (1.0 + backoff)).max(gamma_opt)
+    }
+
     /// The central controller (continuous, normalised) at
     /// `infeasible_below (1 + backoff)` (at least `gamma_opt`, the
     /// bisection bound); at the first backoff, the bound's own if that
     /// level fails.
     fn at_level(&self, gamma_opt: f64, backoff: f64) -> Result<(f64, AtGamma), SynthError> {
-        let pss = self.norm.p.to_ss()?;
-        let gb = (self.infeasible_below * (1.0 + backoff)).max(gamma_opt);
-        match feasible(&self.norm.p, &pss, gb) {
+        let gb = self.level(gamma_opt, backoff);
+        match feasible(&self.norm.p, self.pss, gb) {
             Ok(r) => Ok((gb, r)),
             Err(SynthError::Infeasible(_)) if backoff <= self.opts.backoff => {
                 Ok((gamma_opt, central(&self.norm.p, gamma_opt)?))
@@ -961,11 +961,6 @@ fn scan_backoffs(backoff: f64) -> impl Iterator<Item = f64> {
     (0..30)
         .map(move |k| start * [1.0, 2.0, 5.0][k % 3] * 10f64.powi((k / 3) as i32))
         .take_while(|&b| b <= 0.1 * (1.0 + 1e-12))
-}
-
-/// The level of the first candidate [`Verify::choose`] judged.
-fn first_level(scan: &Scan) -> f64 {
-    scan.last.map_or(f64::NAN, |(gamma, _, _)| gamma)
 }
 
 /// The stable candidates [`Verify::choose`] has built: the one with the
