@@ -68,7 +68,7 @@ def reference(folder):
     """SB10AD's claimed gamma and the H-inf norm its own controller achieves
     (python-control `linfnorm` of the closed loop) for the orders stored in
     tests/data/hinf_scaling/, written to sb10ad.json there (read by
-    tests/hinf_scaling.rs)."""
+    tests/suite/hinf_scaling.rs)."""
     import control
     import slycot
     out = {"generator": "benches/hinf_scaling.py reference", "python_control": control.__version__,

@@ -3,7 +3,7 @@
  * Every function mirrors its namesake in crates/fts-runtime/src/lib.rs
  * operation for operation (same sums in the same order, same comparisons),
  * which is what makes the commands bit-identical to the Rust step. Keep the
- * two in step: tests/c_runtime.rs compares them over 1e5-sample traces. */
+ * two in step: tests/suite/c_runtime.rs compares them over 1e5-sample traces. */
 #include "fts_runtime.h"
 
 #include <stdint.h>

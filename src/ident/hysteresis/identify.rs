@@ -756,7 +756,7 @@ struct Candidate {
 /// cost of the model it yields; the best iterate is kept, and the loop stops
 /// when an alternation improves the cost by less than 1e-12 (relative) or
 /// after `params.alternations`. On data from an MPI-deadzone model the cost
-/// falls linearly to round-off (tests/hysteresis_identify.rs).
+/// falls linearly to round-off (tests/suite/hysteresis_identify.rs).
 fn identify_dead_zone<O>(
     u: &[f64],
     y: &[f64],

@@ -18,7 +18,7 @@ def delayed(d):
 out.append("""# Bounded work (docs/formats.md, Bounds): every size a file or option asks
 # for is refused before the work, naming the field or option, the value and
 # the bound; and output-path conflicts write nothing. Run alone with
-# FTS_BAD_INPUT_TABLE=cases-bounds cargo test --test bad_input -- newer
+# FTS_BAD_INPUT_TABLE=cases-bounds cargo test --test suite bad_input -- newer
 """)
 
 # 1. Delays realised as states: at most 200 (docs/formats.md, Bounds).

@@ -1,4 +1,4 @@
-"""Reference values for fts contour (tests/contour.rs), computed independently
+"""Reference values for fts contour (tests/suite/contour.rs), computed independently
 of fts with numpy and python-control.
 
 Case: the Karagoz18 X/Y/Z plants (Eq. 2-4) under the Table 2 axis PIDs

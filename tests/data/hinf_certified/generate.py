@@ -1,7 +1,7 @@
 """A certified H-infinity synthesis test family (issue #29): mixed-sensitivity
 problems with near-integrating performance weights and cheap-control weights,
 each with its optimum gamma bracketed at 40 digits and a controller whose
-closed-loop norm is verified at 40 digits. Read by tests/hinf_certified.rs.
+closed-loop norm is verified at 40 digits. Read by tests/suite/hinf_certified.rs.
 
     python3 tests/data/hinf_certified/generate.py   # writes cases.json beside it
     (numpy, scipy, mpmath 1.3, python-control 0.10.2, slycot; about 20 min

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference loops for `tests/loop_margins.rs`, computed with python-control.
+"""Reference loops for `tests/suite/loop_margins.rs`, computed with python-control.
 
 For each loop L = G K (negative feedback, SISO) this stores G and K as
 transfer-function coefficients (continuous: descending powers of s;

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the MAT-file fixtures of the `fts::io::mat` tests (tests/mat_reader.rs).
+"""Writes the MAT-file fixtures of the `fts::io::mat` tests (tests/suite/mat_reader.rs).
 
     pip install numpy scipy
     python3 tests/data/mat/make_mat_fixtures.py

@@ -1,5 +1,5 @@
 """SLICOT SB10AD's gammas (through python-control's mixsyn, slycot) for the
-DC-servo mixed-sensitivity family of tests/hinf_near_integrator.rs:
+DC-servo mixed-sensitivity family of tests/suite/hinf_near_integrator.rs:
 G = 11.2 / ((s + 0.12)(s + 1e-6)), W_s = (s/1.5 + 20)/(s + p), W_u = 1.
 Run once (python-control 0.10.2, slycot 0.7.1); the values are committed in
 sb10ad.csv. SB10AD's gamma is a peer's claim (its own controllers can miss

@@ -1,5 +1,5 @@
 """Writes the DaISy hair-dryer record (data/daisy-hairdryer/dryer.dat,
-Ts = 0.08 s) in the layouts users export, for tests/cli_records.rs:
+Ts = 0.08 s) in the layouts users export, for tests/suite/cli_records.rs:
 
 * dryer.csv            comma, header t,u,y, time in seconds
 * dryer-ms.csv         comma, header time_ms,u,y (time in milliseconds)

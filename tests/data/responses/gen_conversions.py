@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference conversions for `tests/conversions.rs`, computed with
+"""Reference conversions for `tests/suite/conversions.rs`, computed with
 python-control (with slycot) and scipy.
 
 * `tf2ss` / `ss2tf`: state-space realisations are not unique, so the test

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Exact step-response figures of continuous transfer functions for
-`tests/responses.rs` (docs/responses.md §2), computed independently of fts
+`tests/suite/responses.rs` (docs/responses.md §2), computed independently of fts
 with mpmath at 30 digits from the partial-fraction closed form
 
     y(t) = N(0)/D(0) + sum_k N(p_k) / (p_k D'(p_k)) e^{p_k t}   (simple poles p_k)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference step and impulse responses for `tests/responses.rs`, computed
+"""Reference step and impulse responses for `tests/suite/responses.rs`, computed
 with python-control (0.10.2 when generated).
 
 Each case stores a system as state-space matrices (`a`, `b`, `c`, `d`,

@@ -1,4 +1,4 @@
-"""Reference verdicts for tests/exact_stability.rs: clustered discrete poles.
+"""Reference verdicts for tests/suite/exact_stability.rs: clustered discrete poles.
 
 Each case is numpy's float expansion of (z - r)^k (np.poly), stored as the
 exact floats a user's file would hold; its largest root modulus is computed

@@ -1,4 +1,4 @@
-"""Reference root counts for tests/exact_stability.rs: high-degree discrete
+"""Reference root counts for tests/suite/exact_stability.rs: high-degree discrete
 denominators expanded from lightly damped pole sets.
 
 For seeds 1-3 and degrees 60 to 160, complex pole pairs r e^{+-j theta} are

@@ -1,4 +1,4 @@
-"""Synthesis corpus for tests/synth_corpus.rs (issue #19): random continuous
+"""Synthesis corpus for tests/suite/synth_corpus.rs (issue #19): random continuous
 and discrete generalised plants, orders 2 to 40, with reference figures
 computed here from the Riccati theory with SciPy, fixed seed. Run once:
 `python3 generate.py` writes `cases.json` beside this file. No test needs

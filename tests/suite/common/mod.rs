@@ -1,4 +1,4 @@
-//! Shared by the property tests.
+//! Shared helpers: property-test configuration and the C compiler driver.
 
 use proptest::prelude::ProptestConfig;
 use proptest::test_runner::RngSeed;
@@ -22,3 +22,4 @@ pub fn proptest_config(cases: u32) -> ProptestConfig {
         ..ProptestConfig::default()
     }
 }
+pub mod cc;

@@ -12,7 +12,7 @@ use std::cell::Cell;
 use std::io::Write;
 use std::path::PathBuf;
 
-mod common;
+use crate::common;
 use common::proptest_config as config;
 
 /// Tracks the largest single allocation of the current thread.

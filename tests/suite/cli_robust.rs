@@ -409,7 +409,7 @@ fn h2_and_hinf_accept_discrete_plants() {
         v["h2_norm"].as_f64().unwrap(),
         v["h2_optimum"].as_f64().unwrap(),
     );
-    // SLICOT SB10ED's example (tests/slicot_synth.rs): 78.6033163702.
+    // SLICOT SB10ED's example (tests/suite/slicot_synth.rs): 78.6033163702.
     assert!((h2 / 78.6033163702 - 1.0).abs() < 1e-9, "{h2}");
     assert!((h2 / opt - 1.0).abs() < 1e-10);
     let rho = v["closed_loop_spectral_radius"].as_f64().unwrap();

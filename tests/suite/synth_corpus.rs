@@ -24,7 +24,7 @@
 //!   `gamma (1 + 1e-6)`; and no controller may beat the optimum (the sweep
 //!   is at least `gamma_opt (1 - 1e-6)`).
 
-mod reference_cases;
+use crate::reference_cases;
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;

@@ -13,7 +13,7 @@ use fts::lti::c64;
 use fts::lti::schur::{OrderedRealSchur, ordered_real_schur, real_schur};
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 use common::proptest_config as config;
 
 /// Checks everything about an ordered Schur form of `a` with `select`.

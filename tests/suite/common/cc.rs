@@ -1,5 +1,5 @@
 //! The C compiler the C-runtime tests build with, shared by
-//! `tests/c_runtime.rs` and `tests/c_runtime_multiaxis.rs`.
+//! `tests/suite/c_runtime.rs` and `tests/suite/c_runtime_multiaxis.rs`.
 
 use std::process::Command;
 

@@ -11,8 +11,7 @@
 //! Without a C compiler the tests say so loudly on stderr and pass: CI
 //! machines always have gcc.
 
-#[path = "common/cc.rs"]
-mod cc;
+use crate::common::cc;
 
 use fts::io::controller_file::{
     ControllerFile, DobBlock, Feedback, FeedforwardTableBlock, HysteresisBlock, Inversion,

@@ -14,8 +14,7 @@
 //! realisation of the Table 2 PID, a \[Li21\]-form PID, and a filtered PID
 //! as the coupling. Without a C compiler the C half says so on stderr.
 
-#[path = "common/cc.rs"]
-mod cc;
+use crate::common::cc;
 
 use assert_cmd::Command as Fts;
 use fts::io::controller_file::{

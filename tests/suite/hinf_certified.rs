@@ -27,7 +27,7 @@
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-mod reference_cases;
+use crate::reference_cases;
 
 use faer::Mat;
 use fts::lti::c64;

@@ -21,7 +21,7 @@
 //! fails if any other case fails, and if a known case starts passing (so the
 //! list cannot go stale).
 
-mod reference_cases;
+use crate::reference_cases;
 
 use faer::Mat;
 use fts::lti::norms::{hinf_norm, sigma_extended};

@@ -15,7 +15,7 @@ use fts::lti::lyapunov::{dlyap, lyap, sylvester};
 use fts::lti::riccati::{care, dare};
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 use common::proptest_config as config;
 
 /// `residual < max(1e-10, floor)`, reporting floor-limited cases.
