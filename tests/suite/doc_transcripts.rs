@@ -11,6 +11,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 mod transcript {
@@ -422,33 +424,77 @@ fn unprinted_verdict_figures(printed: &HashMap<String, Vec<String>>) -> Vec<Stri
     missing
 }
 
+/// What one page's transcripts did: how many ran, how each that differs
+/// differs, and every output line (for the verdict table's check).
+struct PageRun {
+    count: usize,
+    failures: Vec<String>,
+    printed: Vec<String>,
+}
+
+/// Runs one page's transcripts in order in a folder of their own.
+fn run_page(page: &Path) -> PageRun {
+    let text = std::fs::read_to_string(page).unwrap();
+    let dir = workdir();
+    let name = page.strip_prefix(repo()).unwrap().display().to_string();
+    let mut run_of_page = PageRun {
+        count: 0,
+        failures: Vec::new(),
+        printed: Vec::new(),
+    };
+    for t in &parse(&text) {
+        run_of_page.count += 1;
+        let (success, actual) = run(dir.path(), &t.args);
+        if let Err(why) = check(t, success, &actual) {
+            run_of_page.failures.push(format!(
+                "{name} line {}: fts {}: {why}",
+                t.line,
+                t.args.join(" ")
+            ));
+        }
+        run_of_page.printed.extend(actual);
+    }
+    run_of_page
+}
+
+/// Every page's run, the pages shared out over the machine's cores (pages
+/// are independent: each has its own folder), in page order.
+fn run_pages(pages: &[PathBuf]) -> Vec<PageRun> {
+    let workers = std::thread::available_parallelism().map_or(1, usize::from);
+    let next = AtomicUsize::new(0);
+    let runs: Mutex<Vec<Option<PageRun>>> = Mutex::new(pages.iter().map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..workers.min(pages.len()) {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(page) = pages.get(i) else { break };
+                    let page_run = run_page(page);
+                    runs.lock().unwrap()[i] = Some(page_run);
+                }
+            });
+        }
+    });
+    runs.into_inner()
+        .unwrap()
+        .into_iter()
+        .map(|r| r.expect("every page ran"))
+        .collect()
+}
+
 #[test]
 fn every_transcript_in_the_docs_prints_what_the_page_quotes() {
+    let started = Instant::now();
+    let pages = pages();
+    let runs = run_pages(&pages);
     let mut failures = Vec::new();
     let mut printed: HashMap<String, Vec<String>> = HashMap::new();
     let mut count = 0;
-    let started = Instant::now();
-    for page in pages() {
-        let text = std::fs::read_to_string(&page).unwrap();
-        let transcripts = parse(&text);
-        if transcripts.is_empty() {
-            continue;
-        }
-        let dir = workdir();
-        let name = page.strip_prefix(repo()).unwrap().display().to_string();
-        for t in &transcripts {
-            count += 1;
-            let (success, actual) = run(dir.path(), &t.args);
-            if let Err(why) = check(t, success, &actual) {
-                failures.push(format!(
-                    "{name} line {}: fts {}: {why}",
-                    t.line,
-                    t.args.join(" ")
-                ));
-            }
-            let file = page.file_name().unwrap().to_string_lossy().into_owned();
-            printed.entry(file).or_default().extend(actual);
-        }
+    for (page, page_run) in pages.iter().zip(runs) {
+        count += page_run.count;
+        failures.extend(page_run.failures);
+        let file = page.file_name().unwrap().to_string_lossy().into_owned();
+        printed.entry(file).or_default().extend(page_run.printed);
     }
     eprintln!(
         "doc transcripts: {count} commands in {:.1} s, {} differ",
