@@ -490,7 +490,7 @@ mod tests {
     #[test]
     fn a_descending_z_file_is_the_same_system() {
         for (num, den, delay) in [
-            (vec![0.0, 0.5, 0.3], vec![1.0, -1.2, 0.5, 0.1], 1),
+            (vec![0.0, 0.5, 0.3], vec![1.0, -1.2, 0.5, 0.1], 2),
             (vec![2.0, -1.0], vec![1.0, -0.9], 0),
             (vec![0.0, 0.0, 1.0], vec![0.0, 1.0, -0.5, 0.25], 2),
         ] {
