@@ -9,14 +9,17 @@ use crate::io::timeseries::{
 use clap::Args;
 use std::path::Path;
 
-/// `--no-header/--delimiter/--skip-rows/--time-unit/--time-jitter`: how a
+/// `--no-header/--header-row/--delimiter/--skip-rows/--time-unit/--time-jitter`: how a
 /// record file is laid out. Everything is detected when not given.
 #[derive(Debug, Clone, Args)]
 pub struct LayoutArgs {
     /// The file has no header row (default: detected).
     #[arg(long)]
     pub no_header: bool,
-    /// Field separator: comma, semicolon, tab or whitespace (default: sniffed from the first line).
+    /// 1-based line number of the header line; the lines above it (a DAQ preamble) are skipped.
+    #[arg(long, value_name = "LINE", conflicts_with = "no_header")]
+    pub header_row: Option<usize>,
+    /// Field separator: comma, semicolon, tab or whitespace (default: an Excel `sep=X` first line, else sniffed from the header line).
     #[arg(long, value_name = "SEP", value_parser = parse_delimiter)]
     pub delimiter: Option<Delimiter>,
     /// Rows to skip after the header, e.g. units or descriptions (default: one units row is detected).
@@ -64,14 +67,16 @@ impl LayoutArgs {
             } else {
                 HeaderMode::Detect
             },
+            header_row: self.header_row,
             delimiter: self.delimiter,
             skip_rows: self.skip_rows,
             time_unit: self.time_unit,
             time_jitter: self.time_jitter,
         };
-        layout
-            .validate()
-            .map_err(|m| bad(format!("--{}", m.replacen("time jitter", "time-jitter", 1))))?;
+        layout.validate().map_err(|m| {
+            let m = m.replacen("time jitter", "time-jitter", 1);
+            bad(format!("--{}", m.replacen("header row", "header-row", 1)))
+        })?;
         Ok(layout)
     }
 }

@@ -192,7 +192,7 @@ fn read_filter(args: &EmitArgs, inputs: &mut Vec<InputHash>) -> anyhow::Result<O
         Ok(Some(zpetc_json::parse_zpetc(&text, &source)?))
     } else if let Some(p) = &args.closed_loop {
         let (text, source) = hashed(p, "closed_loop", inputs)?;
-        let model = tf_json::parse_tf(&text, &source)?;
+        let model = super::common::parse_tf(&text, &source)?;
         Ok(Some(
             closed_loop_zpetc(&model, &source).map_err(step_error)?,
         ))

@@ -123,6 +123,7 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
         input: forward.output.clone(),
         output: forward.input.clone(),
         fit: None,
+        input_range: None,
     };
     if let Some(path) = &args.out {
         write_atomic(path, model_to_string(&file).as_bytes())?;
@@ -216,6 +217,9 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
         None => None,
     };
     let u = table.columns.pop().unwrap_or_default();
+    if let Some(excursion) = model_file.range_excursion(&u) {
+        eprintln!("warning: {}: {source}: {excursion}", args.model.display());
+    }
     // Allocation-free per-sample evaluation with explicit state, as a
     // real-time loop would run it.
     let model = &model_file.model;

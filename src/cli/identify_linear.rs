@@ -342,6 +342,7 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
     step.validate().map_err(step_error)?;
     let inputs = a.data.inputs()?;
     let report = observed(|observe| step.run_observed(inputs, observe))?;
+    warn_grid_edges(&report.grid_edges);
     if let Some(path) = &a.out {
         write_atomic(
             path,
@@ -355,9 +356,17 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The searched structure on an edge of its grid, said on stderr.
+fn warn_grid_edges(edges: &[String]) {
+    for edge in edges {
+        eprintln!("warning: {edge}");
+    }
+}
+
 /// Writes the model and the plots, then prints the report.
 fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
     let p = &r.prepared;
+    warn_grid_edges(&r.grid_edges);
     if let Some(path) = &out.out {
         write_atomic(
             path,

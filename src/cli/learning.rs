@@ -52,7 +52,7 @@ pub struct RepetitiveArgs {
 
 fn read_discrete(path: &Path, what: &str) -> anyhow::Result<DiscreteTf> {
     let source = path.display().to_string();
-    match tf_json::parse_tf(&read_input(path)?, &source)? {
+    match super::common::parse_tf(&read_input(path)?, &source)? {
         TransferFunction::Discrete(g) => Ok(g),
         _ => Err(bad(format!(
             "{source} field 'var': the {what} must be discrete (\"z^-1\")"

@@ -74,7 +74,7 @@ pub fn read_loop_system(path: &Path) -> anyhow::Result<LoopSystem> {
         .and_then(|v| v.get("format").and_then(|f| f.as_str().map(str::to_owned)))
         .is_some_and(|f| f == tf_json::TF_FORMAT);
     Ok(if is_tf {
-        LoopSystem::Tf(tf_json::parse_tf(&text, &source)?)
+        LoopSystem::Tf(super::common::parse_tf(&text, &source)?)
     } else {
         LoopSystem::Ss(ss_json::parse_ss(&text, &source)?)
     })

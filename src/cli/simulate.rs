@@ -279,7 +279,8 @@ fn read_plant(args: &LoopArgs) -> anyhow::Result<SimPlant> {
         return Ok(SimPlant::Virtual(virtual_params(args)?));
     };
     let source = path.display().to_string();
-    let TransferFunction::Discrete(tf) = tf_json::parse_tf(&read_input(path)?, &source)? else {
+    let TransferFunction::Discrete(tf) = super::common::parse_tf(&read_input(path)?, &source)?
+    else {
         return Err(bad(format!(
             "{source} field 'var': the plant model must be discrete (\"z^-1\")"
         )));
@@ -358,7 +359,8 @@ fn read_zpetc(args: &LoopArgs) -> anyhow::Result<Option<Zpetc>> {
     }
     if let Some(path) = &args.closed_loop {
         let source = path.display().to_string();
-        let TransferFunction::Discrete(g) = tf_json::parse_tf(&read_input(path)?, &source)? else {
+        let TransferFunction::Discrete(g) = super::common::parse_tf(&read_input(path)?, &source)?
+        else {
             return Err(bad(format!(
                 "{source} field 'var': the closed-loop model must be discrete (\"z^-1\")"
             )));
@@ -420,7 +422,7 @@ fn read_closed_loop(args: &LoopArgs) -> anyhow::Result<Option<crate::lti::Discre
         return Ok(None);
     };
     let source = path.display().to_string();
-    match tf_json::parse_tf(&read_input(path)?, &source)? {
+    match super::common::parse_tf(&read_input(path)?, &source)? {
         TransferFunction::Discrete(g) => Ok(Some(g)),
         _ => Err(bad(format!(
             "{source} field 'var': the closed-loop model must be discrete (\"z^-1\")"

@@ -41,7 +41,7 @@ pub fn run(cmd: TfCommand) -> anyhow::Result<()> {
 
 fn info(args: InfoArgs) -> anyhow::Result<()> {
     let source = args.tf.display().to_string();
-    let g = tf_json::parse_tf(&read_input(&args.tf)?, &source)?;
+    let g = super::common::parse_tf(&read_input(&args.tf)?, &source)?;
     if let Some(f) = args.freq.iter().find(|f| !(f.is_finite() && **f >= 0.0)) {
         return Err(super::common::bad(format!(
             "--freq: expected a non-negative frequency in Hz, got {f}"

@@ -57,7 +57,7 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
     let step = args.step();
     let source = args.tf.display().to_string();
     let text = read_input(&args.tf)?;
-    let model = tf_json::parse_tf(&text, &source)?;
+    let model = super::common::parse_tf(&text, &source)?;
     let report = step.run(&model, &source).map_err(step_error)?;
     if let Some(path) = &args.output {
         write_atomic(path, zpetc_json::zpetc_to_string(&report.filter).as_bytes())?;

@@ -59,6 +59,10 @@ pub struct ModelFile {
     pub output: SignalInfo,
     /// The fit achieved at identification, if recorded.
     pub fit: Option<FitRecord>,
+    /// `[min, max]` of the input the model was identified on, if recorded
+    /// (files written before it was, and analytic inverses, have none):
+    /// beyond it the model extrapolates.
+    pub input_range: Option<[f64; 2]>,
 }
 
 impl ModelFile {
@@ -83,9 +87,37 @@ impl ModelFile {
                 condition_number: info.condition_number,
                 iterations: info.iterations,
             }),
+            input_range: None,
         }
     }
 
+    /// How far `u` leaves the identified input range, as a sentence naming
+    /// the range and the excursion; `None` inside it or without a range.
+    pub fn range_excursion(&self, u: &[f64]) -> Option<String> {
+        let [lo, hi] = self.input_range?;
+        let (min, max) = value_range(u)?;
+        if min >= lo && max <= hi {
+            return None;
+        }
+        let unit = &self.input.unit;
+        let beyond = (lo - min).max(max - hi);
+        Some(format!(
+            "the input spans [{min}, {max}] {unit}, beyond the range [{lo}, {hi}] {unit} the model was identified on by up to {beyond} {unit}: the model extrapolates there"
+        ))
+    }
+}
+
+/// `(min, max)` of finite samples, `None` for none.
+pub fn value_range(u: &[f64]) -> Option<(f64, f64)> {
+    u.iter()
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, &v| match acc {
+            None => Some((v, v)),
+            Some((a, b)) => Some((v.min(a), v.max(b))),
+        })
+}
+
+impl ModelFile {
     /// `input->output`, e.g. `voltage->displacement`.
     pub fn mapping(&self) -> String {
         format!("{}->{}", self.input.quantity, self.output.quantity)
@@ -137,6 +169,9 @@ struct Doc<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     rate_dependent: Option<RateDoc<'a>>,
     fit: Option<&'a FitRecord>,
+    /// Left out when unknown, so older files keep their bytes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    input_range: Option<[f64; 2]>,
 }
 
 /// The document (keys in documented order).
@@ -163,6 +198,7 @@ pub fn model_to_value(file: &ModelFile) -> Value {
             velocity_gain: r.velocity_gain,
         }),
         fit: file.fit.as_ref(),
+        input_range: file.input_range,
     })
     .expect("numbers serialise")
 }
@@ -208,6 +244,9 @@ struct ModelDoc {
     rate_dependent: Option<Object<RateIn>>,
     #[serde(default)]
     fit: Option<Object<FitDoc>>,
+    /// Absent or `null` in files written before it was recorded.
+    #[serde(default)]
+    input_range: Option<[f64; 2]>,
 }
 
 /// `input` or `output`; an absent or empty `quantity` reads as the default.
@@ -346,7 +385,19 @@ pub fn parse_model(text: &str, source: &str) -> Result<ModelFile, InputError> {
         input: SignalDoc::info(doc.input, "input"),
         output: SignalDoc::info(doc.output, "output"),
         fit: doc.fit.map(|f| f.0.record()),
+        input_range: input_range(doc.input_range, at)?,
     })
+}
+
+/// The identified input range as read: finite, `min <= max`.
+fn input_range(range: Option<[f64; 2]>, at: At<'_>) -> Result<Option<[f64; 2]>, InputError> {
+    match range {
+        Some([lo, hi]) if !(lo.is_finite() && hi.is_finite() && lo <= hi) => Err(at.err(
+            "input_range",
+            format!("expected [min, max], finite with min <= max, found [{lo}, {hi}]"),
+        )),
+        other => Ok(other),
+    }
 }
 
 /// The rate stage, its numbers bounded and its scales positive.
@@ -468,7 +519,35 @@ mod tests {
                 condition_number: 123.0,
                 iterations: 0,
             }),
+            input_range: Some([-150.0, 150.0]),
         }
+    }
+
+    /// An input beyond the identified range is named with the range and the
+    /// excursion; inside it, or without a recorded range, nothing is said;
+    /// a file without `input_range` still loads.
+    #[test]
+    fn an_input_beyond_the_identified_range_is_named() {
+        let mut f = file();
+        let note = f.range_excursion(&[0.0, 218.0, -20.0]).unwrap();
+        assert!(note.contains("[-20, 218] V"), "{note}");
+        assert!(note.contains("[-150, 150] V"), "{note}");
+        assert!(note.contains("by up to 68 V"), "{note}");
+        assert!(f.range_excursion(&[-150.0, 150.0]).is_none());
+        let back = parse_model(&model_to_string(&f), "m.json").unwrap();
+        assert_eq!(back.input_range, Some([-150.0, 150.0]));
+        f.input_range = None;
+        let text = model_to_string(&f);
+        assert!(!text.contains("input_range"));
+        assert!(
+            parse_model(&text, "m.json")
+                .unwrap()
+                .range_excursion(&[1e3])
+                .is_none()
+        );
+        let bad = text.replacen("\"fit\"", "\"input_range\": [2, 1], \"fit\"", 1);
+        let e = parse_model(&bad, "m.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("input_range"));
     }
 
     #[test]

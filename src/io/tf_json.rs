@@ -90,15 +90,81 @@ pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError
     check_poly(source, "den", &doc.den)?;
     match doc.var.as_str() {
         "z^-1" => doc.discrete(at),
+        "z" => doc.from_descending_z(at)?.discrete(at),
         "s" => doc.continuous(at),
         other => Err(at.err(
             "var",
-            format!("expected \"z^-1\" (discrete) or \"s\" (continuous), found {other:?}"),
+            format!("expected \"z^-1\" or \"z\" (discrete) or \"s\" (continuous), found {other:?}"),
         )),
     }
 }
 
+/// The note a reader states for a file in descending powers of `z`
+/// (MATLAB's `tf(num, den, Ts)` convention), `None` for any other file or
+/// one that does not parse.
+pub fn tf_conversion_note(text: &str) -> Option<String> {
+    let doc: Value = serde_json::from_str(text).ok()?;
+    if doc.get("var")?.as_str()? != "z" {
+        return None;
+    }
+    let TransferFunction::Discrete(g) = parse_tf(text, "").ok()? else {
+        return None;
+    };
+    Some(format!(
+        "\"var\": \"z\" (descending powers of z) read as ascending powers of z^-1 with delay {} (the relative degree{})",
+        g.delay(),
+        if doc.get("delay").is_some() {
+            " plus the file's delay"
+        } else {
+            ""
+        }
+    ))
+}
+
+/// Strips leading zeros of a descending-power polynomial (they do not
+/// change its degree's meaning, only pad it).
+fn strip_leading_zeros(c: &[f64]) -> &[f64] {
+    let first = c.iter().position(|&v| v != 0.0).unwrap_or(c.len());
+    &c[first..]
+}
+
 impl TfDoc {
+    /// `"var": "z"`: `num(z)/den(z)` in descending powers of `z`. Divided
+    /// through by `z^deg(den)`, the coefficients read unchanged as ascending
+    /// powers of `z^-1`, and the relative degree `deg(den) - deg(num)`
+    /// becomes the delay (added to a `delay` the file gives). An improper
+    /// model (`deg(num) > deg(den)`) is not causal and is refused.
+    fn from_descending_z(mut self, at: At<'_>) -> Result<Self, InputError> {
+        let num = strip_leading_zeros(&self.num).to_vec();
+        let den = strip_leading_zeros(&self.den).to_vec();
+        if num.is_empty() || den.is_empty() {
+            return Ok(Self {
+                var: "z^-1".into(),
+                ..self
+            }); // refused as z^-1
+        }
+        let (m, n) = (num.len() - 1, den.len() - 1);
+        if m > n {
+            return Err(at.err(
+                "num",
+                format!(
+                    "degree {m} in z above the denominator's degree {n} (\"var\": \"z\", descending powers): the model is improper, not causal"
+                ),
+            ));
+        }
+        let given = match &self.delay {
+            None => 0,
+            Some(d) => d.as_u64().ok_or_else(|| {
+                at.err("delay", "expected a non-negative whole number of samples")
+            })?,
+        };
+        self.delay = Some(Number::from(given.saturating_add((n - m) as u64)));
+        self.num = num;
+        self.den = den;
+        self.var = "z^-1".into();
+        Ok(self)
+    }
+
     fn discrete(self, at: At<'_>) -> Result<TransferFunction, InputError> {
         let ts = self.ts.ok_or_else(|| {
             at.err(
@@ -404,5 +470,51 @@ mod tests {
         // Without a delay the file keeps its old bytes: no `delay` key.
         let plain = TransferFunction::Continuous(c.rational());
         assert!(!tf_to_string(&plain).contains("delay"));
+    }
+    /// `num(z)/den(z)` evaluated directly at `z = e^{j omega}` from the
+    /// descending coefficients (Horner in `z`), independent of the reader.
+    fn descending_at(num: &[f64], den: &[f64], omega: f64) -> crate::lti::c64 {
+        let z = crate::lti::c64::from_polar(1.0, omega);
+        let horner = |c: &[f64]| {
+            c.iter()
+                .fold(crate::lti::c64::new(0.0, 0.0), |acc, &v| acc * z + v)
+        };
+        horner(num) / horner(den)
+    }
+
+    /// MATLAB's descending-power discrete TF (`"var": "z"`) is read as the
+    /// same system: its frequency response equals the direct evaluation of
+    /// `num(z)/den(z)` at several frequencies, the relative degree becomes
+    /// the delay, leading zeros are dropped, and an improper model is refused
+    /// naming `num`.
+    #[test]
+    fn a_descending_z_file_is_the_same_system() {
+        for (num, den, delay) in [
+            (vec![0.0, 0.5, 0.3], vec![1.0, -1.2, 0.5, 0.1], 2),
+            (vec![2.0, -1.0], vec![1.0, -0.9], 0),
+            (vec![0.0, 0.0, 1.0], vec![0.0, 1.0, -0.5, 0.25], 2),
+        ] {
+            let text = format!(
+                r#"{{"format": "fts.tf/1", "var": "z", "ts": 0.001, "num": {num:?}, "den": {den:?}}}"#
+            );
+            let TransferFunction::Discrete(g) = parse_tf(&text, "g.json").unwrap() else {
+                panic!("discrete expected");
+            };
+            assert_eq!(g.delay(), delay, "{text}");
+            for omega in [0.0, 0.1, 0.7, 1.9, 3.0] {
+                let (got, want) = (g.response_at_omega(omega), descending_at(&num, &den, omega));
+                assert!(
+                    (got - want).norm() <= 1e-12 * want.norm(),
+                    "{text} at {omega}: {got} vs {want}"
+                );
+            }
+            let note = tf_conversion_note(&text).unwrap();
+            assert!(note.contains(&format!("delay {delay}")), "{note}");
+        }
+        let improper = r#"{"format": "fts.tf/1", "var": "z", "ts": 0.001, "num": [1, 0, 1], "den": [0, 1, 0.5]}"#;
+        let e = parse_tf(improper, "g.json").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("num"));
+        assert!(e.to_string().contains("improper"), "{e}");
+        assert!(tf_conversion_note(LI21).is_none());
     }
 }

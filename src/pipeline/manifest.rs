@@ -425,12 +425,14 @@ impl<'a> Fields<'a> {
             ],
         )?;
         let jitter_line = self.line("time_jitter");
+        let header_row_line = self.line("header_row");
         let layout = Layout {
             header: if self.bool("no_header", false)? {
                 HeaderMode::Absent
             } else {
                 HeaderMode::Detect
             },
+            header_row: self.usize_opt("header_row")?,
             delimiter,
             skip_rows: self.usize_opt("skip_rows")?,
             time_unit,
@@ -438,7 +440,10 @@ impl<'a> Fields<'a> {
         };
         layout
             .validate()
-            .map_err(|m| self.err("time_jitter", jitter_line, m))?;
+            .map_err(|m| match m.strip_prefix("header row: ") {
+                Some(m) => self.err("header_row", header_row_line, m.to_owned()),
+                None => self.err("time_jitter", jitter_line, m),
+            })?;
         let columns = IoColumns {
             input: self.column("input_col")?,
             output: self.column("output_col")?,

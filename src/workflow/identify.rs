@@ -659,6 +659,7 @@ impl IdentifyArx {
         let p = self.record().prepare(inputs)?;
         let mut ap = ArxParams::new(Orders::new(0, 1, 0));
         let mut details = MethodDetails::default();
+        let mut edges = Vec::new();
         ap.orders = if self.auto {
             let sp = StructParams {
                 ts: p.ts,
@@ -668,6 +669,9 @@ impl IdentifyArx {
             let (o, rule) = self.rule.pick(&s)?;
             ap.start = Some(s.start);
             details.selection = Some(Selection::of(&s, rule));
+            edges = grid_edges(o, &sp, |name| {
+                format!("`fts identify arx-struct --{name} LO:HI`, whose grid --auto searches")
+            });
             o
         } else {
             self.orders()?
@@ -675,7 +679,9 @@ impl IdentifyArx {
         ap.ts = p.ts;
         let est = arx(&p.est.u, &p.est.y, &ap).map_err(ident_err(&p.source))?;
         if !self.refine_oe {
-            return LinearReport::new(p, arx_estimate(est, ap.orders, details));
+            let mut report = LinearReport::new(p, arx_estimate(est, ap.orders, details))?;
+            report.grid_edges = edges;
+            return Ok(report);
         }
         let mut op = OeParams::new(ap.orders);
         op.ts = p.ts;
@@ -692,6 +698,7 @@ impl IdentifyArx {
         };
         let mut report = LinearReport::new(p, chosen)?;
         report.refinement = Some(doc);
+        report.grid_edges = edges;
         Ok(report)
     }
 }
@@ -810,6 +817,38 @@ fn parse_range(text: &str, name: &'static str) -> Result<Vec<usize>, StepError> 
     Ok(v)
 }
 
+/// Where a structure chosen by a search sits on an edge of the searched
+/// grid: an order or delay at the top of its range (or at the bottom of a
+/// range that starts above the smallest sensible value, 1 for `na`/`nb`, 0
+/// for `nk`) may be a corner of the grid rather than the optimum. One
+/// sentence per edge, naming the range and `widen(name)`, the setting that
+/// widens it.
+fn grid_edges(o: Orders, sp: &StructParams, widen: impl Fn(&str) -> String) -> Vec<String> {
+    let axes = [
+        ("na", o.na, &sp.na, 1),
+        ("nb", o.nb, &sp.nb, 1),
+        ("nk", o.nk, &sp.nk, 0),
+    ];
+    let mut edges = Vec::new();
+    for (name, value, range, floor) in axes {
+        let (Some(&lo), Some(&hi)) = (range.iter().min(), range.iter().max()) else {
+            continue;
+        };
+        let edge = if hi > lo && value == hi {
+            "upper"
+        } else if hi > lo && value == lo && lo > floor {
+            "lower"
+        } else {
+            continue;
+        };
+        edges.push(format!(
+            "{name} = {value} lies on the {edge} edge of the searched range {lo}..{hi}: the best structure may lie beyond it; widen the range with {}",
+            widen(name)
+        ));
+    }
+    edges
+}
+
 impl ArxStruct {
     fn grid(&self, ts: f64) -> Result<StructParams, StepError> {
         Ok(StructParams {
@@ -848,7 +887,9 @@ impl ArxStruct {
             .as_ref()
             .map(|v| fits(&est.model, NoiseModel::Arx, &v.u, &v.y).simulation_percent);
         let fit = fits(&est.model, NoiseModel::Arx, &p.est.u, &p.est.y).simulation_percent;
+        let grid_edges = grid_edges(best, &sp, |name| format!("--{name} LO:HI"));
         Ok(StructReport {
+            grid_edges,
             model_doc: tf_json::tf_to_value(&TransferFunction::Discrete(tf.clone())),
             recommended: best,
             rule,
@@ -1092,6 +1133,10 @@ pub struct LinearReport {
     /// warnings beside the model written.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
+    /// `auto`: the chosen structure on an edge of the searched grid, one
+    /// sentence per edge (printed as warnings).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub grid_edges: Vec<String>,
     /// Method-specific figures.
     #[serde(flatten)]
     pub details: MethodDetails,
@@ -1182,6 +1227,7 @@ impl LinearReport {
             dc_gain: tf.dc_gain(),
             notes,
             warnings: crate::lti::model_check::warnings(&tf),
+            grid_edges: Vec::new(),
             details: e.details,
             refinement: None,
             tf,
@@ -1381,6 +1427,10 @@ pub struct StructReport {
     pub rows: Vec<StructRow>,
     /// Candidates skipped.
     pub skipped: Vec<Skipped>,
+    /// The recommended structure on an edge of the searched grid, one
+    /// sentence per edge (printed as warnings).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub grid_edges: Vec<String>,
     /// The recommended model.
     #[serde(skip)]
     pub tf: DiscreteTf,

@@ -7,7 +7,7 @@ use crate::ident::hysteresis::gd::{GdState, Silent};
 use crate::ident::hysteresis::{
     IdentifyError, IdentifyInfo, IdentifyParams, Method, ModelKind, PlayOperator, identify_observed,
 };
-use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_value};
+use crate::io::hysteresis_json::{ModelFile, SignalInfo, model_to_value, value_range};
 use crate::io::timeseries::{IoData, Timing};
 use argmin::core::observers::Observe;
 use serde::{Deserialize, Serialize};
@@ -257,7 +257,8 @@ impl IdentifyHysteresis {
             IdentifyError::InvalidParams(m) => StepError::input(m),
             other => StepError::input(format!("{source}: {other}")),
         })?;
-        let file = ModelFile::identified(&identified, &params, model_in, model_out);
+        let mut file = ModelFile::identified(&identified, &params, model_in, model_out);
+        file.input_range = value_range(u).map(|(lo, hi)| [lo, hi]);
         Ok(HysteresisReport {
             model_doc: model_doc(&file),
             fit: FitDoc {

@@ -514,3 +514,54 @@ fn rate_dependent_model_round_trips_and_is_refused_where_unsupported() {
         .code(2)
         .stderr(predicate::str::contains("--rate-dependent"));
 }
+
+/// A model records the input range it was identified on (`input_range`),
+/// and `hysteresis apply` warns, naming that range and the excursion, when
+/// an input leaves it (issue #31): ±15 V on a model identified on ±10 V.
+#[test]
+fn apply_warns_beyond_the_identified_input_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, _, u) = record();
+    let data = write(dir.path(), "data.csv", &csv);
+    let model = dir.path().join("model.json");
+    fts()
+        .args(["identify", "hysteresis"])
+        .arg(&data)
+        .args(["--model", "pi", "--operator", "play-symmetric"])
+        .args(["--operators", "6", "-o"])
+        .arg(&model)
+        .assert()
+        .success();
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(doc["input_range"], serde_json::json!([-10.0, 10.0]));
+    let apply = |record: &Path| {
+        let out = fts()
+            .args(["hysteresis", "apply"])
+            .arg(&model)
+            .arg(record)
+            .args(["--input-col", "u"])
+            .assert()
+            .success()
+            .get_output()
+            .clone();
+        String::from_utf8(out.stderr).unwrap()
+    };
+    assert_eq!(apply(&data), "", "inside the range nothing is said");
+    let mut wide = String::from("u\n");
+    for v in &u {
+        wide.push_str(&format!("{}\n", 1.5 * v));
+    }
+    let wide = write(dir.path(), "wide.csv", &wide);
+    let warning = apply(&wide);
+    assert_eq!(warning.lines().count(), 1, "{warning}");
+    for needle in [
+        "warning:",
+        "wide.csv",
+        "[-15, 15] V",
+        "[-10, 10] V",
+        "by up to 5 V",
+    ] {
+        assert!(warning.contains(needle), "{needle:?} not in {warning}");
+    }
+}

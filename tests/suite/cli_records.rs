@@ -576,3 +576,130 @@ fn emit_names_a_bad_gain_or_limit() {
         assert!(!out.exists());
     }
 }
+
+/// The dryer record (tests/data/records/dryer.csv) rewritten with `map`.
+fn dryer_as(dir: &Path, name: &str, map: impl Fn(&str) -> String) -> PathBuf {
+    let csv = std::fs::read_to_string(repo("tests/data/records/dryer.csv")).unwrap();
+    write(dir, name, &map(&csv))
+}
+
+/// The ARX model file of `fts identify arx FILE EXTRA...` (orders 2 2 3).
+fn arx_model(file: &Path, extra: &[&str], out: &Path) -> Vec<u8> {
+    fts()
+        .args(["identify", "arx"])
+        .arg(file)
+        .args(["--na", "2", "--nb", "2", "--nk", "3", "-o"])
+        .arg(out)
+        .args(extra)
+        .assert()
+        .success();
+    std::fs::read(out).unwrap()
+}
+
+/// Records as instruments write them (issue #31): a tab-separated file whose
+/// header names hold spaces, a DAQ preamble above the header skipped with
+/// `--header-row`, and an Excel `sep=,` first line each give the model of
+/// the plain CSV to the byte.
+#[test]
+fn instrument_layouts_of_the_dryer_record_give_the_same_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let plain = arx_model(
+        &repo("tests/data/records/dryer.csv"),
+        &[],
+        &d.join("plain.json"),
+    );
+    let tab = dryer_as(d, "tab.txt", |csv| {
+        csv.replacen("t,u,y", "time [s],drive voltage,position", 1)
+            .replace(',', "\t")
+    });
+    let named = ["--input-col", "drive voltage", "--output-col", "position"];
+    assert_eq!(arx_model(&tab, &named, &d.join("tab.json")), plain);
+    let preamble = dryer_as(d, "daq.csv", |csv| {
+        format!("Instrument: DAQ 9000, serial 17\nDate: 2026-11-28\n\n{csv}")
+    });
+    assert_eq!(
+        arx_model(&preamble, &["--header-row", "4"], &d.join("daq.json")),
+        plain
+    );
+    let excel = dryer_as(d, "excel.csv", |csv| format!("sep=,\r\n{csv}"));
+    assert_eq!(arx_model(&excel, &[], &d.join("excel.json")), plain);
+    // The same semicolon export, its `sep=;` line overriding nothing else.
+    let semi = dryer_as(d, "excel-semi.csv", |csv| {
+        format!("sep=;\n{}", csv.replace(',', ";"))
+    });
+    assert_eq!(arx_model(&semi, &[], &d.join("semi.json")), plain);
+}
+
+/// A preamble keeps the file's line numbers in errors, and without
+/// `--header-row` the preamble is not taken for column names silently.
+#[test]
+fn a_preamble_keeps_the_files_line_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bad = write(
+        d,
+        "daq.csv",
+        "Instrument: DAQ 9000\nDate: 2026-11-28\n\nt,u,y\n0,1,2\n1,x,3\n2,3,4\n",
+    );
+    let arx = |extra: &[&str]| {
+        let mut cmd = fts();
+        cmd.args(["identify", "arx"])
+            .arg(&bad)
+            .args(["--na", "1", "--nb", "1", "--nk", "1"])
+            .args(extra);
+        cmd
+    };
+    fails_with(
+        &mut arx(&["--header-row", "4"]),
+        &["daq.csv line 6, field 'u': not a number"],
+    );
+    fails_with(&mut arx(&[]), &["daq.csv"]);
+    let tab = write(
+        d,
+        "tab.txt",
+        "time [ms]\tdrive\tposition\n0\t1\t2\n1\t2\n2\t3\t4\n",
+    );
+    fails_with(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&tab)
+            .args(["--input-col", "drive", "--output-col", "position"])
+            .args(["--na", "1", "--nb", "1", "--nk", "1"]),
+        &["tab.txt line 3, field 'position'", "the line has 2 fields"],
+    );
+}
+
+/// A structure search whose choice lies on an edge of its grid says so on
+/// stderr and in the JSON report, naming the edge and the option that
+/// widens it (issue #31): the dryer's delay is 3 samples, so a delay range
+/// 0..2 is chosen at its top; with the delay inside 0..6 nothing is said.
+#[test]
+fn a_structure_search_says_when_its_choice_is_on_the_grid_edge() {
+    let dryer = repo("tests/data/records/dryer.csv");
+    let search = |nk: &str| {
+        let out = fts()
+            .args(["identify", "arx-struct"])
+            .arg(&dryer)
+            .args(["--na", "2", "--nb", "2", "--nk", nk, "--json"])
+            .assert()
+            .success()
+            .get_output()
+            .clone();
+        let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+        (report, String::from_utf8(out.stderr).unwrap())
+    };
+    let (report, stderr) = search("0:2");
+    assert_eq!(report["recommended"]["nk"], 2, "{report}");
+    for needle in [
+        "warning: nk = 2 lies on the upper edge of the searched range 0..2",
+        "--nk LO:HI",
+    ] {
+        assert!(stderr.contains(needle), "{needle:?} not in {stderr}");
+    }
+    assert!(report["grid_edges"][0].as_str().unwrap().contains("nk = 2"));
+    let (report, stderr) = search("0:6");
+    assert_eq!(report["recommended"]["nk"], 3, "{report}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    assert!(report.get("grid_edges").is_none(), "{report}");
+}

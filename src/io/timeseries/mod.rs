@@ -3,8 +3,9 @@
 //! One row per sample, read in one streaming pass over a buffered reader:
 //! memory grows with the columns kept, not with the file. Text files are
 //! comma-, semicolon-, tab- or whitespace-separated; the separator is sniffed
-//! from the first non-comment line (a header or the first data row) or
-//! forced with [`Layout::delimiter`]. Delimited files go through the `csv`
+//! from the header line (or the first data row; an Excel `sep=X` first line
+//! names it) or forced with [`Layout::delimiter`]. A preamble above the
+//! header is skipped with [`Layout::header_row`]. Delimited files go through the `csv`
 //! crate (quoting, an empty first field as in the SmartHysteresis piezo
 //! record) with one reused record; whitespace files (DaISy `.dat`, MATLAB
 //! `save -ascii`) are split by hand. Lines starting with `#` and blank lines
@@ -75,6 +76,9 @@ pub enum HeaderMode {
 pub struct Layout {
     /// Header handling (default: detect).
     pub header: HeaderMode,
+    /// 1-based line number of the header line (default `None`: the first
+    /// non-comment line); the lines above it (a DAQ preamble) are skipped.
+    pub header_row: Option<usize>,
     /// Field separator (default `None`: sniffed from the first non-comment line).
     pub delimiter: Option<Delimiter>,
     /// Rows to skip after the header (or at the top without one); `None`
@@ -92,6 +96,7 @@ impl Default for Layout {
     fn default() -> Self {
         Self {
             header: HeaderMode::Detect,
+            header_row: None,
             delimiter: None,
             skip_rows: None,
             time_unit: None,
@@ -103,6 +108,15 @@ impl Default for Layout {
 impl Layout {
     /// Checks the settings that do not depend on a file.
     pub fn validate(&self) -> Result<(), String> {
+        match (self.header_row, self.header) {
+            (Some(0), _) => {
+                return Err("header row: line numbers are 1-based; 0 is not a line".into());
+            }
+            (Some(_), HeaderMode::Absent) => {
+                return Err("header row: given for a file declared to have no header".into());
+            }
+            _ => {}
+        }
         if !(self.time_jitter.is_finite() && self.time_jitter >= 0.0 && self.time_jitter < 1.0) {
             return Err(format!(
                 "time jitter: expected a fraction of the step in [0, 1), got {}",
@@ -325,6 +339,7 @@ fn read_head<R: BufRead>(
     let mut have = rows.next()?;
     let had_header = have
         && match layout.header {
+            _ if layout.header_row.is_some() => true,
             HeaderMode::Present => true,
             HeaderMode::Absent => false,
             HeaderMode::Detect => !rows.is_numeric_row(),
@@ -401,7 +416,8 @@ fn read_table_with<R: BufRead>(
     if let Some(reason) = super::mat::binary_reason(peek) {
         return Err(InputError::new(source, reason));
     }
-    let Some(mut rows) = RowReader::open(reader, source, layout.delimiter)? else {
+    let Some(mut rows) = RowReader::open(reader, source, layout.delimiter, layout.header_row)?
+    else {
         return Err(InputError::new(
             source,
             "no data rows (the file is empty or all comments)",

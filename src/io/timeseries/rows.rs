@@ -32,18 +32,45 @@ impl Delimiter {
         }
     }
 
-    /// The separator of a file whose first non-comment line is `line`:
+    /// The separator of a file whose header (or first data row) is `line`:
     /// a semicolon wins over a comma (which may then be a decimal comma),
-    /// a comma over whitespace. Tabs count as whitespace: a tab-separated
-    /// file with a trailing tab (DaISy) would otherwise grow an empty column.
+    /// a comma over tabs and spaces. Tabs count as whitespace (a
+    /// tab-separated file with a trailing tab, as DaISy writes, would
+    /// otherwise grow an empty column) unless a tab-separated field holds a
+    /// space, as a header name such as `time [ms]` does: then only tabs
+    /// separate.
     pub fn sniff(line: &[u8]) -> Self {
         if line.contains(&b';') {
             Self::Semicolon
         } else if line.contains(&b',') {
             Self::Comma
+        } else if line
+            .trim_ascii()
+            .split(|&b| b == b'\t')
+            .any(|field| field.trim_ascii().contains(&b' '))
+            && line.contains(&b'\t')
+        {
+            Self::Tab
         } else {
             Self::Whitespace
         }
+    }
+
+    /// The separator an Excel `sep=X` first line names: `None` when the line
+    /// is no such line, `Some(Err(text))` when it names a separator that is
+    /// not read.
+    fn from_excel_line(line: &[u8]) -> Option<Result<Self, String>> {
+        let line = line.strip_suffix(b"\n").unwrap_or(line);
+        let line = line.strip_suffix(b"\r").unwrap_or(line);
+        let sep = line.strip_prefix(b"sep=")?;
+        let text = String::from_utf8_lossy(sep);
+        Some(match sep {
+            [b',' | b';' | b'\t' | b' '] => Ok(Self::from_name(&text).unwrap_or(Self::Comma)),
+            _ => Err(format!(
+                "the first line 'sep={text}' names a separator that is not read ({})",
+                Self::NAMES
+            )),
+        })
     }
 
     fn byte(self) -> Option<u8> {
@@ -116,31 +143,65 @@ fn is_skipped(line: &[u8]) -> bool {
 }
 
 impl<'s, R: BufRead> RowReader<'s, R> {
-    /// Reads up to the first non-comment line, sniffs the separator and sets
-    /// up the row reader; `None` when the file has no data line.
+    /// Reads up to the header line (`header_row`, 1-based, or else the
+    /// first non-comment line), sniffs the separator from it and sets up the
+    /// row reader; `None` when the file has no data line. An Excel `sep=X`
+    /// first line names the separator (unless `forced`) and is skipped.
+    /// Skipped lines stay in the count, so rows keep the line numbers of the
+    /// file.
     pub(super) fn open(
         mut reader: R,
         source: &'s str,
         forced: Option<Delimiter>,
+        header_row: Option<usize>,
     ) -> Result<Option<Self>, InputError> {
         let io_err = |e: std::io::Error| InputError::new(source, format!("cannot read: {e}"));
+        // What the CSV reader sees first: an empty line for each skipped
+        // line (so its line count stays the file's), then the header line.
         let mut preamble = Vec::new();
         let mut line_no = 0;
+        let mut excel_sep = None;
         let first = loop {
             let start = preamble.len();
             if reader.read_until(b'\n', &mut preamble).map_err(io_err)? == 0 {
-                return Ok(None);
+                return match header_row {
+                    Some(h) => Err(InputError::new(
+                        source,
+                        format!("header row {h}: the file has only {line_no} lines"),
+                    )),
+                    None => Ok(None),
+                };
             }
             line_no += 1;
             if line_no == 1 && preamble.starts_with(b"\xEF\xBB\xBF") {
                 preamble.drain(..3); // UTF-8 byte order mark (spreadsheet exports)
             }
             let line = &preamble[start.min(preamble.len())..];
-            if !is_skipped(line) {
+            if line_no == 1
+                && let Some(sep) = Delimiter::from_excel_line(line)
+            {
+                excel_sep = Some(sep.map_err(|m| InputError::new(source, m).at_line(1))?);
+            }
+            let skipped = match header_row {
+                Some(h) if line_no < h => true,
+                Some(_) if is_skipped(line) => {
+                    return Err(InputError::new(
+                        source,
+                        "the header row is blank or a comment, not column names",
+                    )
+                    .at_line(line_no));
+                }
+                _ => is_skipped(line) || (line_no == 1 && excel_sep.is_some()),
+            };
+            if !skipped {
                 break start.min(preamble.len());
             }
+            preamble.truncate(start);
+            preamble.push(b'\n');
         };
-        let delimiter = forced.unwrap_or_else(|| Delimiter::sniff(&preamble[first..]));
+        let delimiter = forced
+            .or(excel_sep)
+            .unwrap_or_else(|| Delimiter::sniff(&preamble[first..]));
         let rows = match delimiter.byte() {
             Some(byte) => Rows::Delimited {
                 reader: csv::ReaderBuilder::new()
