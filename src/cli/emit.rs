@@ -17,7 +17,7 @@ use crate::io::controller_file::{
     C_RUNTIME_C, C_RUNTIME_H, parse_multiaxis, to_multiaxis_c_header,
 };
 use crate::io::controller_file::{ControllerFile, InputHash, Provenance, sha256_hex, to_c_header};
-use crate::io::{hysteresis_json, tf_json, zpetc_json};
+use crate::io::{hysteresis_json, zpetc_json};
 use crate::lti::ss::StateSpace;
 use crate::synth::zpetc::Zpetc;
 use crate::workflow::controller::closed_loop_zpetc;

@@ -4,7 +4,7 @@
 
 use super::common::{bad, print_report, read_input, step_error, write_atomic};
 use super::simulate::LoopArgs;
-use crate::io::{plot, tf_json};
+use crate::io::plot;
 use crate::lti::{DiscreteTf, TransferFunction};
 use crate::workflow::learning::{DesignRepetitive, Ilc, IlcReport};
 use clap::Args;

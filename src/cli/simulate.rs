@@ -11,7 +11,7 @@ use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::RepetitiveBlock;
 use crate::io::controller_file::{InputHash, Provenance, parse_controller, sha256_hex};
 use crate::io::timeseries::{ColumnRef, ReadParams, TimeColumn, read_table};
-use crate::io::{hysteresis_json, plot, tf_json, zpetc_json};
+use crate::io::{hysteresis_json, plot, zpetc_json};
 use crate::lti::TransferFunction;
 use crate::lti::ss::StateSpace;
 use crate::sim::disturbance::Disturbance;

@@ -2,7 +2,7 @@
 //! flags into [`DesignZpetc`], the report rendered.
 
 use super::common::{print_report, read_input, step_error, write_atomic};
-use crate::io::{plot, tf_json, zpetc_json};
+use crate::io::{plot, zpetc_json};
 use crate::lti::{Bode, logspace};
 use crate::workflow::zpetc::DesignZpetc;
 use clap::Args;

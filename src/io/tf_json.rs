@@ -90,7 +90,7 @@ pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError
     check_poly(source, "den", &doc.den)?;
     match doc.var.as_str() {
         "z^-1" => doc.discrete(at),
-        "z" => doc.from_descending_z(at)?.discrete(at),
+        "z" => doc.descending_z_to_ascending(at)?.discrete(at),
         "s" => doc.continuous(at),
         other => Err(at.err(
             "var",
@@ -134,7 +134,7 @@ impl TfDoc {
     /// powers of `z^-1`, and the relative degree `deg(den) - deg(num)`
     /// becomes the delay (added to a `delay` the file gives). An improper
     /// model (`deg(num) > deg(den)`) is not causal and is refused.
-    fn from_descending_z(mut self, at: At<'_>) -> Result<Self, InputError> {
+    fn descending_z_to_ascending(mut self, at: At<'_>) -> Result<Self, InputError> {
         let num = strip_leading_zeros(&self.num).to_vec();
         let den = strip_leading_zeros(&self.den).to_vec();
         if num.is_empty() || den.is_empty() {
