@@ -1,7 +1,7 @@
 //! `fts excite triangle|sine|sweep|multisine|five-leaf ... -o u.csv`: excitation
 //! signals written as a `t,u` CSV (the time-series contract).
 
-use super::common::{bad, choice, name, write_atomic};
+use super::common::{bad, choice, name, remark, write_atomic};
 use crate::ident::excite::{self, ExciteError, SweepSpacing};
 use crate::io::timeseries::{time_column, write_csv};
 use clap::{Args, Subcommand};
@@ -142,11 +142,7 @@ pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
     match &args.output {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;
-            note!(
-                "wrote {} ({} samples, ts = {ts} s)",
-                path.display(),
-                u.len()
-            );
+            remark(path, format!("{} samples, ts = {ts} s", u.len()));
         }
         None => say_part!("{text}"),
     }
