@@ -260,7 +260,10 @@ fn written_lines(files: &[(PathBuf, Option<String>)]) -> Vec<String> {
         let group: Vec<usize> = (i..files.len())
             .filter(|&j| !done[j] && folder(&files[j].0) == dir)
             .collect();
-        let remarks: Vec<&str> = group.iter().filter_map(|&j| files[j].1.as_deref()).collect();
+        let remarks: Vec<&str> = group
+            .iter()
+            .filter_map(|&j| files[j].1.as_deref())
+            .collect();
         let remark = match remarks.is_empty() {
             true => String::new(),
             false => format!(" ({})", remarks.join("; ")),
@@ -268,12 +271,27 @@ fn written_lines(files: &[(PathBuf, Option<String>)]) -> Vec<String> {
         if group.len() >= 3 && !dir.as_os_str().is_empty() {
             let names: Vec<String> = group
                 .iter()
-                .map(|&j| files[j].0.file_name().unwrap_or_default().to_string_lossy().into_owned())
+                .map(|&j| {
+                    files[j]
+                        .0
+                        .file_name()
+                        .unwrap_or_default()
+                        .to_string_lossy()
+                        .into_owned()
+                })
                 .collect();
             lines.push(format!("{}: {}{remark}", dir.display(), names.join(", ")));
             group.iter().for_each(|&j| done[j] = true);
         } else {
-            lines.push(format!("{}{}", path.display(), files[i].1.as_deref().map(|r| format!(" ({r})")).unwrap_or_default()));
+            lines.push(format!(
+                "{}{}",
+                path.display(),
+                files[i]
+                    .1
+                    .as_deref()
+                    .map(|r| format!(" ({r})"))
+                    .unwrap_or_default()
+            ));
             done[i] = true;
         }
     }

@@ -10,7 +10,7 @@
 //! `fts mixsyn`, discretised at the loop's sample time when continuous), or
 //! none (feedforward only).
 
-use super::common::{bad, choice, name, read_input, step_error, write_atomic, remark};
+use super::common::{bad, choice, name, read_input, remark, step_error, write_atomic};
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::to_c_files;
 use crate::io::controller_file::{

@@ -16,13 +16,31 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "fts excite sweep --f0 0 --f1 1000 --duration 1 -o sweep.csv",
         ],
     ),
-    ("excite triangle", &["fts excite triangle --amplitudes 10,8,6,4,2 --freq 2 -o tri.csv"]),
-    ("excite sine", &["fts excite sine --amplitude 5 --freq 100 --duration 0.1 -o sine.csv"]),
-    ("excite sweep", &["fts excite sweep --f0 0 --f1 1000 --duration 1 -o sweep.csv"]),
-    ("excite multisine", &["fts excite multisine -o ms.csv"]),
-    ("excite five-leaf", &["fts excite five-leaf --scale 2 -o leaf.csv"]),
-    ("trajectory", &["fts trajectory square --strict", "fts trajectory circle -o circle.csv"]),
-    ("contour", &["fts contour circle", "fts contour square --no-disturbance"]),
+    (
+        "excite triangle",
+        &["fts excite triangle --amplitudes 10,8,6,4,2 --freq 2 -o tri.csv"],
+    ),
+    (
+        "excite sine",
+        &["fts excite sine --amplitude 5 --freq 100 --duration 0.1 -o sine.csv"],
+    ),
+    (
+        "excite sweep",
+        &["fts excite sweep --f0 0 --f1 1000 --duration 1 -o sweep.csv"],
+    ),
+    (
+        "excite multisine",
+        &["fts excite multisine --freqs 10,20,50 -o ms.csv"],
+    ),
+    (
+        "excite five-leaf",
+        &["fts excite five-leaf --scale 2 -o leaf.csv"],
+    ),
+    ("trajectory", &["fts trajectory circle -o circle.csv"]),
+    (
+        "contour",
+        &["fts contour circle", "fts contour square --no-disturbance"],
+    ),
     (
         "virtual",
         &["fts virtual triangles --freq 2 --amplitudes 9,5 --seed 7 -o slow.csv"],
@@ -37,7 +55,9 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("virtual sweep", &["fts virtual sweep -o sweep.csv"]),
     (
         "identify",
-        &["fts identify arx data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --split 0.5 --na 2 --nb 2 --nk 3"],
+        &[
+            "fts identify arx data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --split 0.5 --na 2 --nb 2 --nk 3",
+        ],
     ),
     (
         "identify hysteresis",
@@ -48,11 +68,15 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ),
     (
         "identify ct",
-        &["fts identify ct tests/data/ct-ident/zaxis-multisine.csv --np 3 --nz 1 --period 10 --skip-periods 2 -o zaxis.json"],
+        &[
+            "fts identify ct tests/data/ct-ident/zaxis-multisine.csv --np 3 --nz 1 --period 10 --skip-periods 2 -o zaxis.json",
+        ],
     ),
     (
         "identify ct-frd",
-        &["fts identify ct-frd tests/data/ct-ident/zaxis-frd.csv --np 3 --nz 1 --weighting relative"],
+        &[
+            "fts identify ct-frd tests/data/ct-ident/zaxis-frd.csv --np 3 --nz 1 --weighting relative",
+        ],
     ),
     (
         "identify arx",
@@ -63,21 +87,27 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ),
     (
         "identify oe",
-        &["fts identify oe data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --nb 2 --nf 2 --nk 3 -o oe.json"],
+        &[
+            "fts identify oe data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --nb 2 --nf 2 --nk 3 -o oe.json",
+        ],
     ),
     (
         "identify iv",
-        &["fts identify iv data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --na 2 --nb 2 --nk 3"],
+        &[
+            "fts identify iv data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --na 2 --nb 2 --nk 3",
+        ],
     ),
     (
         "identify arx-struct",
-        &["fts identify arx-struct data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --split 0.5"],
+        &[
+            "fts identify arx-struct data/daisy-hairdryer/dryer.dat --ts 0.08 --detrend mean --split 0.5",
+        ],
     ),
     (
         "hysteresis",
         &[
             "fts virtual triangles --freq 2 --amplitudes 10,8,6,4,2 -o tri.csv",
-            "fts identify hysteresis tri.csv --model pi -o pi.json",
+            "fts identify hysteresis tri.csv --model pi --operator play-symmetric -o pi.json",
             "fts hysteresis invert pi.json -o pi-inverse.json",
         ],
     ),
@@ -85,7 +115,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         "hysteresis invert",
         &[
             "fts virtual triangles --freq 2 --amplitudes 10,8,6,4,2 -o tri.csv",
-            "fts identify hysteresis tri.csv --model pi -o pi.json",
+            "fts identify hysteresis tri.csv --model pi --operator play-symmetric -o pi.json",
             "fts hysteresis invert pi.json -o pi-inverse.json",
         ],
     ),
@@ -120,11 +150,15 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ),
     (
         "repetitive",
-        &["fts repetitive --tf fixtures/li21-closed-loop.json --spindle-hz 100 -o rc.json"],
+        &[
+            "fts repetitive --tf fixtures/li21-closed-loop.json --spindle-hz 100 --q-cutoff 1250 -o rc.json",
+        ],
     ),
     (
         "ilc",
-        &["fts ilc --hysteresis tests/data/ilc/inverse-hysteresis.json --zpetc tests/data/ilc/zpetc.json --closed-loop tests/data/ilc/closed-loop.json --reference five-leaf --trials 20 -o c.json"],
+        &[
+            "fts ilc --hysteresis tests/data/ilc/inverse-hysteresis.json --zpetc tests/data/ilc/zpetc.json --closed-loop tests/data/ilc/closed-loop.json --reference five-leaf --trials 20 -o c.json",
+        ],
     ),
     (
         "bode",
@@ -155,7 +189,9 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ),
     (
         "mixsyn",
-        &["fts mixsyn --plant fixtures/karagoz18-gxx.json --ws examples/contour-hinf/table1/ws-x.json --wt examples/contour-hinf/table1/wt-x.json --wu fixtures/unit-gain.json -o k.json"],
+        &[
+            "fts mixsyn --plant fixtures/karagoz18-gxx.json --ws examples/contour-hinf/table1/ws-x.json --wt examples/contour-hinf/table1/wt-x.json --wu fixtures/unit-gain.json -o k.json",
+        ],
     ),
     (
         "c2d",
@@ -168,7 +204,9 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ),
     (
         "loop",
-        &["fts loop --plant fixtures/karagoz18-gxx.json --kp 1 --ki 0.01 --kd 0.0005 --tf-derivative 100"],
+        &[
+            "fts loop --plant fixtures/karagoz18-gxx.json --kp 1 --ki 0.01 --kd 0.0005 --tf-derivative 100",
+        ],
     ),
     (
         "response",
@@ -186,29 +224,54 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         "minreal",
         &["fts minreal fixtures/pid-only-loop.json --tol 1e-7 -o loop-minreal.json"],
     ),
-    ("balred", &["fts balred fixtures/balred-two-state.json --order 1"]),
-    ("d2c", &["fts d2c fixtures/second-order-plant-zoh.json -o plant.json"]),
+    (
+        "balred",
+        &["fts balred fixtures/balred-two-state.json --order 1"],
+    ),
+    (
+        "d2c",
+        &["fts d2c fixtures/second-order-plant-zoh.json -o plant.json"],
+    ),
     (
         "mechanism",
-        &["fts mechanism hinge --width-mm 10", "fts mechanism 3puu --stroke-um 120"],
+        &[
+            "fts mechanism hinge --width-mm 10",
+            "fts mechanism 3puu --stroke-um 120",
+        ],
     ),
     ("mechanism flexure-loss", &["fts mechanism flexure-loss"]),
     ("mechanism hinge", &["fts mechanism hinge --width-mm 10"]),
-    ("mechanism 3puu", &["fts mechanism 3puu --plot workspace.svg"]),
-    ("mechanism 3puu-track", &["fts mechanism 3puu-track --mode task"]),
+    (
+        "mechanism 3puu",
+        &["fts mechanism 3puu --plot workspace.svg"],
+    ),
+    (
+        "mechanism 3puu-track",
+        &["fts mechanism 3puu-track --mode task"],
+    ),
     (
         "mechanism lever",
-        &["fts mechanism lever --input-arm-mm 5 --output-arm-mm 19.35 --hinge-width-mm 10 --kp 200"],
+        &[
+            "fts mechanism lever --input-arm-mm 5 --output-arm-mm 19.35 --hinge-width-mm 10 --kp 200",
+        ],
     ),
     ("mechanism bridge", &["fts mechanism bridge"]),
     (
         "mechanism amplifier",
-        &["fts mechanism amplifier --angle-deg 10 --link-mm 12 --hinge-width-mm 8 --hinge-length-mm 1 --hinge-thickness-mm 0.3 --hinge-radius-mm 0.5 --input-arm-mm 5 --output-arm-mm 10 --kp 200"],
+        &[
+            "fts mechanism amplifier --angle-deg 10 --link-mm 12 --hinge-width-mm 8 --hinge-length-mm 1 --hinge-thickness-mm 0.3 --hinge-radius-mm 0.5 --input-arm-mm 5 --output-arm-mm 10 --kp 200",
+        ],
     ),
-    ("ding22", &["fts ding22", "fts ding22 --sensor-noise 1.36e-9"]),
+    (
+        "ding22",
+        &["fts ding22", "fts ding22 --sensor-noise 1.36e-9"],
+    ),
     (
         "completions",
-        &["fts completions bash > fts.bash", "fts completions zsh > _fts"],
+        &[
+            "fts completions bash > fts.bash",
+            "fts completions zsh > _fts",
+        ],
     ),
     ("man", &["fts man --out man1", "fts man > fts.1"]),
 ];

@@ -45,6 +45,7 @@ mod convert;
 mod demo;
 mod ding22;
 mod emit;
+mod examples;
 mod excite;
 mod hysteresis;
 mod identify;
@@ -52,7 +53,6 @@ mod identify_ct;
 mod identify_hysteresis;
 mod identify_linear;
 mod learning;
-mod examples;
 mod loop_analysis;
 mod manual;
 mod mechanism;
@@ -341,6 +341,8 @@ const DEPRECATED: &[(&str, &str, &str)] = &[
     ("budget", "--csv", "-o/--out"),
     ("response", "--csv", "-o/--out"),
     ("tf info", "--bode", "-o/--out"),
+    ("excite multisine", "--f-min", "--fmin"),
+    ("excite multisine", "--f-max", "--fmax"),
     ("simulate", "--controller-file", "--controller"),
     ("ilc", "--controller-file", "--controller"),
 ];
@@ -350,7 +352,11 @@ const DEPRECATED: &[(&str, &str, &str)] = &[
 /// `--controller FILE` (a path, or any existing file) is the coefficient
 /// file and stays as it is.
 fn stages_from_old_controller(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
-    let command = args.iter().skip(1).filter_map(|a| a.to_str()).find(|a| !a.starts_with('-'));
+    let command = args
+        .iter()
+        .skip(1)
+        .filter_map(|a| a.to_str())
+        .find(|a| !a.starts_with('-'));
     if !matches!(command, Some("simulate" | "ilc")) {
         return args;
     }
@@ -368,7 +374,9 @@ fn stages_from_old_controller(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi
         }
         let value = match arg.strip_prefix("--controller=") {
             Some(v) => Some(v.to_owned()),
-            None if arg == "--controller" => args.get(i + 1).and_then(|v| v.to_str()).map(str::to_owned),
+            None if arg == "--controller" => {
+                args.get(i + 1).and_then(|v| v.to_str()).map(str::to_owned)
+            }
             None => None,
         };
         if let Some(value) = value.filter(|v| is_stages(v)) {
@@ -395,7 +403,10 @@ fn warn_deprecated(matches: &clap::ArgMatches, args: &[std::ffi::OsString]) {
     let words = args.iter().skip(1).filter_map(|a| a.to_str());
     for word in words.take_while(|w| *w != "--") {
         let name = word.split_once('=').map_or(word, |(name, _)| name);
-        if let Some((_, old, new)) = DEPRECATED.iter().find(|(c, old, _)| *c == path && *old == name) {
+        if let Some((_, old, new)) = DEPRECATED
+            .iter()
+            .find(|(c, old, _)| *c == path && *old == name)
+        {
             note!("fts: warning: {old} is deprecated; use {new}");
         }
     }

@@ -61,13 +61,7 @@ fn a_reference_file_plays_at_its_own_time_base() {
     }
     std::fs::write(dir.path().join("ref.csv"), text).unwrap();
     let out = fts(dir.path())
-        .args([
-            "simulate",
-            "--stages",
-            "pid",
-            "--reference-file",
-            "ref.csv",
-        ])
+        .args(["simulate", "--stages", "pid", "--reference-file", "ref.csv"])
         .args(["-o", "trace.csv", "--json"])
         .output()
         .unwrap();
@@ -93,13 +87,7 @@ fn a_reference_file_too_long_for_the_loop_is_refused_naming_its_time_column() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("ref.csv"), "time,r\n0,1\n1000000,2\n").unwrap();
     let mut cmd = fts(dir.path());
-    cmd.args([
-        "simulate",
-        "--stages",
-        "pid",
-        "--reference-file",
-        "ref.csv",
-    ]);
+    cmd.args(["simulate", "--stages", "pid", "--reference-file", "ref.csv"]);
     refused(&mut cmd, 2, &["ref.csv", "'time'", "samples"]);
 }
 
@@ -221,13 +209,7 @@ fn a_zero_amplitude_is_refused_and_a_constant_reference_prints_no_nan() {
     refused(&mut cmd, 2, &["--amplitude", "0"]);
     std::fs::write(dir.path().join("r.csv"), "r\n7\n7\n7\n7\n").unwrap();
     let out = fts(dir.path())
-        .args([
-            "simulate",
-            "--stages",
-            "pid",
-            "--reference-file",
-            "r.csv",
-        ])
+        .args(["simulate", "--stages", "pid", "--reference-file", "r.csv"])
         .assert()
         .success()
         .get_output()
