@@ -69,11 +69,6 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
     }
     let report = BodeReport::new(a.method, &p, &h, fmax, a.rows);
     print_report(&report, a.json)?;
-    if !a.json {
-        for path in [&a.out, &a.plot].into_iter().flatten() {
-            say!("wrote {}", path.display());
-        }
-    }
     Ok(())
 }
 

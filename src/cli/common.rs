@@ -206,6 +206,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         .lock()
         .map_err(|_| anyhow::anyhow!("output registry poisoned"))?
         .push((tmp, path.to_path_buf()));
+    if let Ok(mut written) = WRITTEN.lock() {
+        written.push((path.to_path_buf(), None));
+    }
     Ok(())
 }
 
@@ -214,6 +217,85 @@ pub fn discard_outputs() {
     if let Ok(mut staged) = STAGED.lock() {
         staged.clear();
     }
+    if let Ok(mut written) = WRITTEN.lock() {
+        written.clear();
+    }
+}
+
+/// The result files of this run with a remark each may carry, reported on
+/// stderr once the run has succeeded ([`report_written`]): stdout holds
+/// only results, and a failed run reports no file.
+static WRITTEN: Mutex<Vec<(PathBuf, Option<String>)>> = Mutex::new(Vec::new());
+
+/// Adds a remark to the `fts: wrote` line of a file staged by
+/// [`write_atomic`] (`fts: wrote t.csv (4000 samples, ts = 1e-4 s)`).
+pub fn remark(path: &Path, text: String) {
+    if let Ok(mut written) = WRITTEN.lock()
+        && let Some(entry) = written.iter_mut().find(|(p, _)| p == path)
+    {
+        entry.1 = Some(text);
+    }
+}
+
+/// Prints `fts: wrote FILE` on stderr for every result file of the run,
+/// the one way every command reports its files; three or more files in one
+/// folder (a run's folder of results) on one line, `fts: wrote DIR: a, b, c`.
+pub fn report_written() {
+    let written = WRITTEN.lock().map(|mut w| std::mem::take(&mut *w));
+    for line in written_lines(&written.unwrap_or_default()) {
+        note!("fts: wrote {line}");
+    }
+}
+
+/// The `fts: wrote` lines (without the prefix) of `files`, in order.
+fn written_lines(files: &[(PathBuf, Option<String>)]) -> Vec<String> {
+    let folder = |p: &Path| p.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut lines = Vec::new();
+    let mut done = vec![false; files.len()];
+    for (i, (path, _)) in files.iter().enumerate() {
+        if done[i] {
+            continue;
+        }
+        let dir = folder(path);
+        let group: Vec<usize> = (i..files.len())
+            .filter(|&j| !done[j] && folder(&files[j].0) == dir)
+            .collect();
+        let remarks: Vec<&str> = group
+            .iter()
+            .filter_map(|&j| files[j].1.as_deref())
+            .collect();
+        let remark = match remarks.is_empty() {
+            true => String::new(),
+            false => format!(" ({})", remarks.join("; ")),
+        };
+        if group.len() >= 3 && !dir.as_os_str().is_empty() {
+            let names: Vec<String> = group
+                .iter()
+                .map(|&j| {
+                    files[j]
+                        .0
+                        .file_name()
+                        .unwrap_or_default()
+                        .to_string_lossy()
+                        .into_owned()
+                })
+                .collect();
+            lines.push(format!("{}: {}{remark}", dir.display(), names.join(", ")));
+            group.iter().for_each(|&j| done[j] = true);
+        } else {
+            lines.push(format!(
+                "{}{}",
+                path.display(),
+                files[i]
+                    .1
+                    .as_deref()
+                    .map(|r| format!(" ({r})"))
+                    .unwrap_or_default()
+            ));
+            done[i] = true;
+        }
+    }
+    lines
 }
 
 /// The committed results: each target with the temporary copy of what it

@@ -70,8 +70,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     print_models(&args, &params, &result.models, &check, elapsed)?;
     print_table(&params, &result)?;
-    let names: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
-    say!("wrote {}: {}", args.out.display(), names.join(", "));
     Ok(())
 }
 

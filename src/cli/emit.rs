@@ -10,7 +10,7 @@
 //! `fts mixsyn`, discretised at the loop's sample time when continuous), or
 //! none (feedforward only).
 
-use super::common::{bad, choice, name, read_input, step_error, write_atomic};
+use super::common::{bad, choice, name, read_input, remark, step_error, write_atomic};
 use crate::ident::hysteresis::HysteresisModel;
 use crate::io::controller_file::to_c_files;
 use crate::io::controller_file::{
@@ -275,18 +275,11 @@ pub fn run(args: EmitArgs) -> anyhow::Result<()> {
             return Err(bad("--c-header goes with --format json"));
         }
         write_atomic(h, to_c_header(&file).as_bytes())?;
-        note!("wrote {}", h.display());
     }
     match &args.output {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;
-            note!(
-                "wrote {} ({}, preview {} samples, ts {} s)",
-                path.display(),
-                file.stages_name(),
-                file.preview(),
-                file.ts
-            );
+            remark(path, describe(&file));
         }
         None => say_part!("{text}"),
     }
@@ -310,10 +303,9 @@ fn run_multiaxis(args: &EmitArgs, path: &Path) -> anyhow::Result<()> {
             for (name, text) in files {
                 write_atomic(&dir.join(name), text.as_bytes())?;
             }
-            note!(
-                "wrote {}/{{fts_multiaxis.h, fts_runtime.h, fts_runtime.c}} (ts {} s); compile with -ffp-contract=off",
-                dir.display(),
-                file.ts
+            remark(
+                &dir.join("fts_runtime.c"),
+                format!("ts {} s; compile with -ffp-contract=off", file.ts),
             );
             return Ok(());
         }
@@ -321,7 +313,7 @@ fn run_multiaxis(args: &EmitArgs, path: &Path) -> anyhow::Result<()> {
     match &args.output {
         Some(out) => {
             write_atomic(out, text.as_bytes())?;
-            note!("wrote {} (three axes, ts {} s)", out.display(), file.ts);
+            remark(out, format!("three axes, ts {} s", file.ts));
         }
         None => say_part!("{text}"),
     }
@@ -358,12 +350,19 @@ fn write_c_runtime(args: &EmitArgs, file: &ControllerFile) -> anyhow::Result<()>
     for (name, text) in to_c_files(file) {
         write_atomic(&dir.join(name), text.as_bytes())?;
     }
-    note!(
-        "wrote {}/{{fts_controller.h, fts_runtime.h, fts_runtime.c}} ({}, preview {} samples, ts {} s); compile with -ffp-contract=off",
-        dir.display(),
+    remark(
+        &dir.join("fts_runtime.c"),
+        format!("{}; compile with -ffp-contract=off", describe(file)),
+    );
+    Ok(())
+}
+
+/// What a written controller file holds, for its `fts: wrote` line.
+fn describe(file: &ControllerFile) -> String {
+    format!(
+        "{}, preview {} samples, ts {} s",
         file.stages_name(),
         file.preview(),
         file.ts
-    );
-    Ok(())
+    )
 }

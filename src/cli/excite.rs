@@ -1,7 +1,7 @@
 //! `fts excite triangle|sine|sweep|multisine|five-leaf ... -o u.csv`: excitation
 //! signals written as a `t,u` CSV (the time-series contract).
 
-use super::common::{bad, choice, name, write_atomic};
+use super::common::{bad, choice, name, remark, write_atomic};
 use crate::ident::excite::{self, ExciteError, SweepSpacing};
 use crate::io::timeseries::{time_column, write_csv};
 use clap::{Args, Subcommand};
@@ -95,14 +95,14 @@ struct MultisineArgs {
     /// Frequencies, Hz (rounded to multiples of 1/period).
     #[arg(long, value_delimiter = ',', required_unless_present = "lines")]
     freqs: Vec<f64>,
-    /// Instead of --freqs: this many lines spread evenly from --f-min to --f-max.
+    /// Instead of --freqs: this many lines spread evenly from --fmin to --fmax.
     #[arg(long, conflicts_with = "freqs")]
     lines: Option<usize>,
     /// Lowest line with --lines, Hz.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long = "fmin", alias = "f-min", default_value_t = 10.0)]
     f_min: f64,
     /// Highest line with --lines, Hz.
-    #[arg(long, default_value_t = 1000.0)]
+    #[arg(long = "fmax", alias = "f-max", default_value_t = 1000.0)]
     f_max: f64,
     /// Period, s.
     #[arg(long, default_value_t = 0.1)]
@@ -142,11 +142,7 @@ pub fn run(args: ExciteArgs) -> anyhow::Result<()> {
     match &args.output {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;
-            note!(
-                "wrote {} ({} samples, ts = {ts} s)",
-                path.display(),
-                u.len()
-            );
+            remark(path, format!("{} samples, ts = {ts} s", u.len()));
         }
         None => say_part!("{text}"),
     }
@@ -239,7 +235,7 @@ impl FiveLeafArgs {
     }
 }
 
-/// `--lines N` from `--f-min` to `--f-max`, checked before they are made:
+/// `--lines N` from `--fmin` to `--fmax`, checked before they are made:
 /// at most the distinct lines a period holds below Nyquist.
 fn multisine_lines(
     n: usize,
@@ -261,7 +257,7 @@ fn multisine_lines(
     }
     if n > 1 && f_min.partial_cmp(&f_max) != Some(std::cmp::Ordering::Less) {
         return Err(bad(format!(
-            "--f-min/--f-max: expected f-min < f-max, got {f_min} and {f_max} Hz"
+            "--fmin/--fmax: expected fmin < fmax, got {f_min} and {f_max} Hz"
         )));
     }
     Ok(crate::lti::linspace(f_min, f_max, n))

@@ -166,9 +166,6 @@ fn invert(args: InvertArgs) -> anyhow::Result<()> {
     say!(
         "check: max |u - inverse(forward(u))| = {round_trip:.3e} on a triangle of amplitude {amplitude:.6}"
     );
-    if let Some(path) = &args.out {
-        say!("wrote {}", path.display());
-    }
     Ok(())
 }
 
@@ -283,9 +280,6 @@ fn apply(args: ApplyArgs) -> anyhow::Result<()> {
             f.rms_percent,
             f.max_percent
         );
-    }
-    if let Some(path) = &args.out {
-        say!("wrote {}", path.display());
     }
     Ok(())
 }

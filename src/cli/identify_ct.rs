@@ -149,11 +149,6 @@ fn finish(r: &CtReport, out: &CtOut) -> anyhow::Result<()> {
         write_atomic(path, image)?;
     }
     print_report(r, out.json)?;
-    if !out.json {
-        for path in out.out.iter().chain(&out.plot) {
-            say!("wrote {}", path.display());
-        }
-    }
     let warnings = r.warnings();
     if !warnings.is_empty() {
         anyhow::bail!("{}", warnings.join("; "));

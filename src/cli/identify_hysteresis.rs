@@ -64,7 +64,7 @@ pub struct HysteresisArgs {
     #[arg(long)]
     rate_dependent: bool,
     /// Iteration cap of each gradient solve (--method gd).
-    #[arg(long, value_name = "N", default_value_t = IdentifyHysteresis::default().max_iters)]
+    #[arg(long = "max-iterations", alias = "max-iters", value_name = "N", default_value_t = IdentifyHysteresis::default().max_iters)]
     max_iters: u64,
     /// Quantity of the record's input column.
     #[arg(long, default_value_t = IdentifyHysteresis::default().input_quantity)]
@@ -157,11 +157,6 @@ pub fn run(args: HysteresisArgs) -> anyhow::Result<()> {
         write_plot(path, |f| loop_plot(&report.file, u, y, &y_model, f))?;
     }
     print_report(&report, args.json)?;
-    if !args.json {
-        for path in args.out.iter().chain(&args.plot) {
-            say!("wrote {}", path.display());
-        }
-    }
     Ok(())
 }
 

@@ -99,7 +99,7 @@ pub struct OutArgs {
     #[arg(long, value_name = "BODE.svg|png", value_parser = super::common::plot_path)]
     pub plot: Option<PathBuf>,
     /// Upper frequency of the plot in Hz (default Nyquist).
-    #[arg(long, value_name = "HZ", value_parser = super::common::parse_positive)]
+    #[arg(long = "fmax", alias = "plot-fmax", value_name = "HZ", value_parser = super::common::parse_positive)]
     pub plot_fmax: Option<f64>,
     /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
     #[arg(long, value_name = "COMPARE.svg|png", value_parser = super::common::plot_path)]
@@ -152,7 +152,7 @@ pub struct OeArgs {
     #[arg(long, value_parser = choice::<InitialChoice>(), default_value = name(IdentifyOe::default().initial))]
     pub initial: InitialChoice,
     /// Maximum Levenberg-Marquardt iterations.
-    #[arg(long, visible_alias = "max-iter", default_value_t = IdentifyOe::default().max_iterations)]
+    #[arg(long, alias = "max-iter", default_value_t = IdentifyOe::default().max_iterations)]
     pub max_iterations: usize,
     #[command(flatten)]
     pub out: OutArgs,
@@ -350,9 +350,6 @@ fn run_struct(a: StructArgs) -> anyhow::Result<()> {
         )?;
     }
     print_report(&report, a.json)?;
-    if let (false, Some(path)) = (a.json, &a.out) {
-        say!("wrote {}", path.display());
-    }
     Ok(())
 }
 
@@ -384,11 +381,6 @@ fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
         write_plot(path, |f| compare_plot(r, f))?;
     }
     print_report(r, out.json)?;
-    if !out.json {
-        for path in out.out.iter().chain(&out.plot).chain(&out.plot_compare) {
-            say!("wrote {}", path.display());
-        }
-    }
     Ok(())
 }
 

@@ -83,9 +83,6 @@ pub fn run_repetitive(args: RepetitiveArgs) -> anyhow::Result<()> {
         write_atomic(path, report.file_text().as_bytes())?;
     }
     print_report(&report, args.json)?;
-    if let (Some(p), false) = (&args.output, args.json) {
-        say!("wrote {}", p.display());
-    }
     Ok(())
 }
 
@@ -156,11 +153,6 @@ pub fn run_ilc(args: IlcArgs) -> anyhow::Result<()> {
         super::common::write_plot(path, |format| ilc_plot(&report, format))?;
     }
     print_report(&report, args.json)?;
-    if !args.json {
-        for p in [&args.output, &args.plot].into_iter().flatten() {
-            say!("wrote {}", p.display());
-        }
-    }
     if report.diverging() {
         note!(
             "warning: a convergence check failed (see the prediction and the verdict); the result was written because --allow-divergence was given"

@@ -367,9 +367,6 @@ fn run_puu3(a: Puu3Args) -> anyhow::Result<()> {
         write_plot(path, |f| workspace_plot(&report, f))?;
     }
     print_report(&report, a.json)?;
-    if let (false, Some(path)) = (a.json, &a.plot) {
-        say!("wrote {}", path.display());
-    }
     Ok(())
 }
 
@@ -455,8 +452,5 @@ fn run_puu3_track(a: Puu3TrackArgs) -> anyhow::Result<()> {
         super::common::write_atomic(path, report.trace_csv().as_bytes())?;
     }
     print_report(&report, a.json)?;
-    if let (false, Some(path)) = (a.json, &a.output) {
-        say!("wrote {}", path.display());
-    }
     Ok(())
 }

@@ -45,6 +45,7 @@ mod convert;
 mod demo;
 mod ding22;
 mod emit;
+mod examples;
 mod excite;
 mod hysteresis;
 mod identify;
@@ -53,6 +54,7 @@ mod identify_hysteresis;
 mod identify_linear;
 mod learning;
 mod loop_analysis;
+mod manual;
 mod mechanism;
 mod names;
 mod response;
@@ -112,7 +114,7 @@ enum Command {
     #[command(subcommand)]
     Tf(tf::TfCommand),
     /// H-infinity synthesis on a generalised plant (gamma bisection, central controller).
-    Hinf(robust::SynthArgs),
+    Hinf(robust::HinfArgs),
     /// H2-optimal synthesis on a generalised plant.
     H2(robust::SynthArgs),
     /// Build a weighting function (W_s, W_t, makeweight) as fts.ss/1.
@@ -144,6 +146,10 @@ enum Command {
     Mechanism(mechanism::MechanismCommand),
     /// Ding22 workflow: two-mass FTS, H2 design vs PID, error budget, structural sweep.
     Ding22(ding22::Ding22Args),
+    /// Print the shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
+    Completions(manual::CompletionsArgs),
+    /// Write the manual pages (fts.1, fts-identify-arx.1, ...) into --out DIR, or fts.1 to stdout.
+    Man(manual::ManArgs),
 }
 
 /// Runs the command line and returns the process exit code.
@@ -164,14 +170,15 @@ fn run_command_line() -> ExitCode {
         note!("fts: error: {message}");
         return ExitCode::from(2);
     }
-    let args = join_negative_values(std::env::args_os().collect());
+    let args = stages_from_old_controller(join_negative_values(std::env::args_os().collect()));
     if let Err(message) = reject_duplicate_outputs(&args) {
         note!("fts: error: {message}");
         return ExitCode::from(2);
     }
-    let mut command = allow_negative_numbers(Cli::command());
+    let mut command = command();
     let parsed = command.try_get_matches_from_mut(&args).and_then(|m| {
         names::remember(&command, &m, &args);
+        warn_deprecated(&m, &args);
         Cli::from_arg_matches(&m)
     });
     let cli = match parsed {
@@ -205,6 +212,7 @@ fn finish() -> anyhow::Result<()> {
     match common::flush_stdout() {
         Ok(()) => {
             committed.finish();
+            common::report_written();
             Ok(())
         }
         Err(e) => {
@@ -219,11 +227,27 @@ fn finish() -> anyhow::Result<()> {
 /// Every help text ends with the unit convention.
 const UNITS_NOTE: &str = "Units: frequencies in Hz unless an option says rad/s (e.g. --w0-rad), times in s, displacements in um, commands in V; discrete coefficients in ascending powers of z^-1.";
 
-/// Every (sub)command takes negative numbers as values and states the units.
-fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
+/// The command line as parsed, documented and completed: [`Cli`] with
+/// every (sub)command's examples, units note and negative values.
+pub fn command() -> clap::Command {
+    decorate(Cli::command(), "")
+}
+
+/// Every (sub)command takes negative numbers as values, shows its examples
+/// (`path` is its place in the tree: `identify arx`) and states the units.
+fn decorate(cmd: clap::Command, path: &str) -> clap::Command {
+    let path = match path {
+        "" if cmd.get_name() == "fts" => String::new(),
+        "" => cmd.get_name().to_owned(),
+        _ => format!("{path} {}", cmd.get_name()),
+    };
+    let help = match examples::section(&path) {
+        Some(examples) => format!("{examples}\n\n{UNITS_NOTE}"),
+        None => UNITS_NOTE.to_owned(),
+    };
     cmd.allow_negative_numbers(true)
-        .after_help(UNITS_NOTE)
-        .mut_subcommands(allow_negative_numbers)
+        .after_help(help)
+        .mut_subcommands(|sub| decorate(sub, &path))
 }
 
 /// `--ts -1e-4` as `--ts=-1e-4`: clap takes only plain negative decimals
@@ -305,6 +329,89 @@ fn reject_duplicate_outputs(args: &[std::ffi::OsString]) -> Result<(), String> {
     }
 }
 
+/// Spellings replaced by the one vocabulary of every command (hidden
+/// aliases for one release): the command, the old option, the new one.
+const DEPRECATED: &[(&str, &str, &str)] = &[
+    ("identify hysteresis", "--max-iters", "--max-iterations"),
+    ("identify oe", "--max-iter", "--max-iterations"),
+    ("identify arx", "--plot-fmax", "--fmax"),
+    ("identify oe", "--plot-fmax", "--fmax"),
+    ("identify iv", "--plot-fmax", "--fmax"),
+    ("identify arx-struct", "--plot-fmax", "--fmax"),
+    ("budget", "--csv", "-o/--out"),
+    ("response", "--csv", "-o/--out"),
+    ("tf info", "--bode", "-o/--out"),
+    ("excite multisine", "--f-min", "--fmin"),
+    ("excite multisine", "--f-max", "--fmax"),
+    ("simulate", "--controller-file", "--controller"),
+    ("ilc", "--controller-file", "--controller"),
+];
+
+/// `simulate`/`ilc --controller pid+hc` (stage names, the old spelling of
+/// `--stages`) as `--stages pid+hc`, with a deprecation warning;
+/// `--controller FILE` (a path, or any existing file) is the coefficient
+/// file and stays as it is.
+fn stages_from_old_controller(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let command = args
+        .iter()
+        .skip(1)
+        .filter_map(|a| a.to_str())
+        .find(|a| !a.starts_with('-'));
+    if !matches!(command, Some("simulate" | "ilc")) {
+        return args;
+    }
+    let is_stages = |v: &str| {
+        !v.is_empty()
+            && v.chars().all(|c| c.is_ascii_lowercase() || c == '+')
+            && !std::path::Path::new(v).exists()
+    };
+    for i in 1..args.len() {
+        let Some(arg) = args[i].to_str().map(str::to_owned) else {
+            continue;
+        };
+        if arg == "--" {
+            break;
+        }
+        let value = match arg.strip_prefix("--controller=") {
+            Some(v) => Some(v.to_owned()),
+            None if arg == "--controller" => {
+                args.get(i + 1).and_then(|v| v.to_str()).map(str::to_owned)
+            }
+            None => None,
+        };
+        if let Some(value) = value.filter(|v| is_stages(v)) {
+            note!("fts: warning: --controller {value} is deprecated; use --stages {value}");
+            args[i] = match arg.contains('=') {
+                true => format!("--stages={value}").into(),
+                false => "--stages".into(),
+            };
+        }
+    }
+    args
+}
+
+/// One `fts: warning: --old is deprecated; use --new` line on stderr for
+/// each old spelling on the command line.
+fn warn_deprecated(matches: &clap::ArgMatches, args: &[std::ffi::OsString]) {
+    let mut path = Vec::new();
+    let mut m = matches;
+    while let Some((name, sub)) = m.subcommand() {
+        path.push(name);
+        m = sub;
+    }
+    let path = path.join(" ");
+    let words = args.iter().skip(1).filter_map(|a| a.to_str());
+    for word in words.take_while(|w| *w != "--") {
+        let name = word.split_once('=').map_or(word, |(name, _)| name);
+        if let Some((_, old, new)) = DEPRECATED
+            .iter()
+            .find(|(c, old, _)| *c == path && *old == name)
+        {
+            note!("fts: warning: {old} is deprecated; use {new}");
+        }
+    }
+}
+
 /// A clap usage error on one line: its message and tips, without the usage
 /// block and the pointer to `--help`.
 fn usage_error_line(rendered: &str) -> String {
@@ -375,6 +482,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::D2c(args) => convert::run_d2c(args),
         Command::Ding22(args) => ding22::run(args),
         Command::Mechanism(cmd) => mechanism::run(cmd),
+        Command::Completions(args) => manual::run_completions(args, command()),
+        Command::Man(args) => manual::run_man(args, command()),
     }
 }
 

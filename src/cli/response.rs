@@ -33,7 +33,7 @@ pub struct ResponseArgs {
     #[arg(long, value_name = "N")]
     points: Option<usize>,
     /// Write the samples (t, then one column per output and input) to this CSV.
-    #[arg(long, value_name = "OUT.csv")]
+    #[arg(short = 'o', long = "out", alias = "csv", value_name = "OUT.csv")]
     csv: Option<PathBuf>,
     /// Plot the response (SVG) here.
     #[arg(long, value_name = "OUT.svg|png", value_parser = super::common::plot_path)]

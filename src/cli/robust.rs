@@ -6,7 +6,7 @@
 //! * `fts mixsyn --plant G.json --ws WS.json [--wu WU.json] [--wt WT.json] [-o K.json] [--json]`
 //! * `fts c2d K.json --ts SECONDS --method zoh|tustin [--prewarp HZ] [-o KD.json] [--json]`
 //! * `fts ss-info SYS.json [--json]`
-//! * `fts budget SYS.json [--controller K.json] [--output-index I] [--fmax HZ] [--csv OUT.csv] [--json]`
+//! * `fts budget SYS.json [--controller K.json] [--output-index I] [--fmax HZ] [-o OUT.csv] [--json]`
 
 use super::common::{
     bad, choice, complex_pairs, name, print_json, print_report, read_input, step_error,
@@ -51,6 +51,14 @@ pub struct SynthArgs {
     /// lack full rank (raised automatically for conditioning; see docs/robust.md).
     #[arg(long, default_value_t = Hinf::default().eps)]
     eps: f64,
+}
+
+/// `fts hinf`: the common synthesis options and the gamma search's own
+/// (kept out of `fts h2`, which has no gamma).
+#[derive(Debug, Args)]
+pub struct HinfArgs {
+    #[command(flatten)]
+    synth: SynthArgs,
     /// Relative tolerance of the gamma bisection (H-inf only).
     #[arg(long, default_value_t = Hinf::default().tol)]
     tol: f64,
@@ -72,12 +80,12 @@ pub struct SynthArgs {
     gamma: Option<f64>,
 }
 
-impl SynthArgs {
+impl HinfArgs {
     fn hinf(&self) -> Hinf {
         Hinf {
-            nmeas: self.nmeas,
-            ncon: self.ncon,
-            eps: self.eps,
+            nmeas: self.synth.nmeas,
+            ncon: self.synth.ncon,
+            eps: self.synth.eps,
             tol: self.tol,
             gamma_max: self.gamma_max,
             backoff: self.backoff,
@@ -96,8 +104,9 @@ fn write_system(path: Option<&Path>, sys: &StateSpace) -> anyhow::Result<()> {
 }
 
 /// `fts hinf`.
-pub fn run_hinf(args: SynthArgs) -> anyhow::Result<()> {
-    let step = args.hinf();
+pub fn run_hinf(hinf_args: HinfArgs) -> anyhow::Result<()> {
+    let step = hinf_args.hinf();
+    let args = hinf_args.synth;
     step.validate().map_err(step_error)?;
     let p = read_system(&args.generalized)?;
     let source = args.generalized.display().to_string();
@@ -114,13 +123,12 @@ pub fn run_hinf(args: SynthArgs) -> anyhow::Result<()> {
 
 /// `fts h2`.
 pub fn run_h2(args: SynthArgs) -> anyhow::Result<()> {
-    // The H-inf-only flags are still checked, as they always were.
-    args.hinf().validate().map_err(step_error)?;
     let step = H2 {
         nmeas: args.nmeas,
         ncon: args.ncon,
         eps: args.eps,
     };
+    step.validate().map_err(step_error)?;
     let p = read_system(&args.generalized)?;
     let source = args.generalized.display().to_string();
     let report = step.run(&p, &source).map_err(step_error)?;
@@ -414,7 +422,7 @@ pub struct BudgetArgs {
     #[arg(long, default_value_t = 20001, value_parser = super::common::parse_points)]
     points: usize,
     /// Write `freq_hz, psd_<i>..., psd_total, cas` to this CSV.
-    #[arg(long, value_name = "OUT.csv")]
+    #[arg(short = 'o', long = "out", alias = "csv", value_name = "OUT.csv")]
     csv: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]

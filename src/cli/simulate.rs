@@ -1,4 +1,4 @@
-//! `fts simulate --controller pid|pid+hc|pid+zpec|pid+hc+zpec|ss[+hc][+zpec]|dob[+hc][+zpec] [--ss K.json] [--reference ...]`:
+//! `fts simulate --stages pid|pid+hc|pid+zpec|pid+hc+zpec|ss[+hc][+zpec]|dob[+hc][+zpec] [--ss K.json] [--reference ...]`:
 //! flags into [`Simulate`] (a closed-loop tracking run through the runtime
 //! controller step, fed by the coefficient file fts emits or by one built
 //! from the stages exactly as `fts emit` builds it); the files read here, the
@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 pub struct LoopArgs {
     /// Controller stages: pid, pid+hc, pid+zpec, pid+hc+zpec, or ss, ss+hc, ss+zpec, ss+hc+zpec
     /// with --ss (default: pid+hc+zpec, or ss with --ss).
-    #[arg(long)]
+    #[arg(id = "controller", long = "stages", value_name = "STAGES")]
     controller: Option<String>,
     #[command(flatten)]
     ss: super::emit::SsArgs,
@@ -97,7 +97,7 @@ pub struct LoopArgs {
     #[arg(long, value_name = "CL.json")]
     closed_loop: Option<PathBuf>,
     /// A complete coefficient file (`fts.controller/1`) instead of stages and models.
-    #[arg(long, value_name = "CTRL.json", conflicts_with_all = ["hysteresis", "zpetc", "closed_loop", "ss", "controller"])]
+    #[arg(id = "controller_file", long = "controller", alias = "controller-file", value_name = "CTRL.json", conflicts_with_all = ["hysteresis", "zpetc", "closed_loop", "ss", "controller"])]
     controller_file: Option<PathBuf>,
     /// PID proportional gain (V/um).
     #[arg(long, default_value_t = Simulate::default().kp, allow_hyphen_values = true)]
@@ -165,11 +165,11 @@ pub struct LoopArgs {
 pub struct SimulateArgs {
     #[command(flatten)]
     pub(super) run: LoopArgs,
-    /// Write the trace (t, r, u, y, e) here.
+    /// Write the trace (t, r, r_f, u_ff, u, y, e) here.
     #[arg(short = 'o', long = "out", value_name = "TRACE.csv")]
     output: Option<PathBuf>,
     /// Write the coefficient file the run executed (`fts.controller/1`)
-    /// here; `--controller-file` replays it.
+    /// here; `--controller` replays it.
     #[arg(long, value_name = "CTRL.json")]
     controller_out: Option<PathBuf>,
     /// Plot reference, measurement and error to this SVG.
@@ -373,7 +373,7 @@ fn read_zpetc(args: &LoopArgs) -> anyhow::Result<Option<Zpetc>> {
     Ok(None)
 }
 
-/// `--controller-file`, or the models of the stages (`--ss`, `--hysteresis`,
+/// `--controller`, or the models of the stages (`--ss`, `--hysteresis`,
 /// `--zpetc`/`--closed-loop`).
 fn read_controller(args: &LoopArgs, ts: f64) -> anyhow::Result<SimController> {
     if let Some(path) = &args.controller_file {
@@ -455,14 +455,6 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         .map_err(step_error)?;
     write_outputs(&args, &report)?;
     print_report(&report, args.json)?;
-    if !args.json {
-        for p in [&args.output, &args.controller_out, &args.plot]
-            .into_iter()
-            .flatten()
-        {
-            say!("wrote {}", p.display());
-        }
-    }
     Ok(())
 }
 

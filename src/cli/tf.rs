@@ -23,7 +23,7 @@ pub struct InfoArgs {
     #[arg(long = "freq", value_name = "HZ", value_delimiter = ',')]
     freq: Vec<f64>,
     /// Write a Bode table (freq_hz, magnitude, magnitude_db, phase_deg, re, im) to this CSV.
-    #[arg(long, value_name = "OUT.csv")]
+    #[arg(short = 'o', long = "out", alias = "bode", value_name = "OUT.csv")]
     bode: Option<PathBuf>,
     /// Points of the Bode table.
     #[arg(long, default_value_t = 1001, value_parser = super::common::parse_points)]
@@ -52,11 +52,6 @@ fn info(args: InfoArgs) -> anyhow::Result<()> {
         write_atomic(path, bode_csv(&g, args.points).as_bytes())?;
     }
     print_report(&report, args.json)?;
-    if let Some(path) = &args.bode
-        && !args.json
-    {
-        say!("wrote {}", path.display());
-    }
     Ok(())
 }
 

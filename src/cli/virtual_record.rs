@@ -4,7 +4,7 @@
 //! aligned for the plant's delay) and the closed-loop sweep with the PID
 //! (+ HC with `--hysteresis`; filtered reference and measurement, um).
 
-use super::common::{read_input, step_error, write_atomic};
+use super::common::{read_input, remark, step_error, write_atomic};
 use crate::io::hysteresis_json;
 use crate::workflow::{VirtualRecord, VirtualSweep, VirtualTriangles};
 use clap::{Args, Subcommand};
@@ -126,11 +126,9 @@ fn write_record(record: &VirtualRecord, path: Option<&Path>) -> anyhow::Result<(
     match path {
         Some(path) => {
             write_atomic(path, text.as_bytes())?;
-            note!(
-                "wrote {} ({} samples, ts = {} s)",
-                path.display(),
-                record.u.len(),
-                record.ts
+            remark(
+                path,
+                format!("{} samples, ts = {} s", record.u.len(), record.ts),
             );
             Ok(())
         }

@@ -76,10 +76,5 @@ pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
         })?;
     }
     print_report(&report, args.json)?;
-    if !args.json {
-        for path in args.output.iter().chain(&args.plot) {
-            say!("wrote {}", path.display());
-        }
-    }
     Ok(())
 }

@@ -966,6 +966,11 @@ pub struct SimulateReport {
     pub harmonics: Option<Vec<closed_loop::ErrorHarmonic>>,
 }
 
+/// The columns of the simulation trace CSV (`fts simulate -o`), in order:
+/// time, reference, filtered reference, feedforward, command, measurement,
+/// error.
+pub const TRACE_COLUMNS: [&str; 7] = ["t", "r", "r_f", "u_ff", "u", "y", "e"];
+
 impl SimulateReport {
     fn new(
         file: ControllerFile,
@@ -1004,11 +1009,11 @@ impl SimulateReport {
         self.metrics.start as f64 * self.trace.ts
     }
 
-    /// The trace as CSV: `t, r, r_f, u_ff, u, y, e`.
+    /// The trace as CSV, its columns [`TRACE_COLUMNS`].
     pub fn trace_csv(&self) -> String {
         let t = &self.trace;
         crate::io::timeseries::write_csv(
-            &["t", "r", "r_f", "u_ff", "u", "y", "e"],
+            &TRACE_COLUMNS,
             &[
                 &self.times(),
                 &t.reference,

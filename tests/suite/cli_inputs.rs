@@ -61,13 +61,7 @@ fn a_reference_file_plays_at_its_own_time_base() {
     }
     std::fs::write(dir.path().join("ref.csv"), text).unwrap();
     let out = fts(dir.path())
-        .args([
-            "simulate",
-            "--controller",
-            "pid",
-            "--reference-file",
-            "ref.csv",
-        ])
+        .args(["simulate", "--stages", "pid", "--reference-file", "ref.csv"])
         .args(["-o", "trace.csv", "--json"])
         .output()
         .unwrap();
@@ -93,13 +87,7 @@ fn a_reference_file_too_long_for_the_loop_is_refused_naming_its_time_column() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("ref.csv"), "time,r\n0,1\n1000000,2\n").unwrap();
     let mut cmd = fts(dir.path());
-    cmd.args([
-        "simulate",
-        "--controller",
-        "pid",
-        "--reference-file",
-        "ref.csv",
-    ]);
+    cmd.args(["simulate", "--stages", "pid", "--reference-file", "ref.csv"]);
     refused(&mut cmd, 2, &["ref.csv", "'time'", "samples"]);
 }
 
@@ -217,17 +205,11 @@ fn a_frequency_response_row_that_cannot_be_is_refused_with_its_line() {
 fn a_zero_amplitude_is_refused_and_a_constant_reference_prints_no_nan() {
     let dir = tempfile::tempdir().unwrap();
     let mut cmd = fts(dir.path());
-    cmd.args(["simulate", "--controller", "pid", "--amplitude", "0"]);
+    cmd.args(["simulate", "--stages", "pid", "--amplitude", "0"]);
     refused(&mut cmd, 2, &["--amplitude", "0"]);
     std::fs::write(dir.path().join("r.csv"), "r\n7\n7\n7\n7\n").unwrap();
     let out = fts(dir.path())
-        .args([
-            "simulate",
-            "--controller",
-            "pid",
-            "--reference-file",
-            "r.csv",
-        ])
+        .args(["simulate", "--stages", "pid", "--reference-file", "r.csv"])
         .assert()
         .success()
         .get_output()
@@ -242,7 +224,7 @@ fn the_pid_command_limits_are_settable_on_a_model_plant() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(base("tf.json"), dir.path().join("g.json")).unwrap();
     fts(dir.path())
-        .args(["simulate", "--controller", "pid", "--plant-tf", "g.json"])
+        .args(["simulate", "--stages", "pid", "--plant-tf", "g.json"])
         .args(["--output-min", "1", "--output-max", "4", "-o", "t.csv"])
         .assert()
         .success();
@@ -258,7 +240,7 @@ fn the_pid_command_limits_are_settable_on_a_model_plant() {
     let mut cmd = fts(dir.path());
     cmd.args([
         "simulate",
-        "--controller",
+        "--stages",
         "pid",
         "--output-min",
         "5",
@@ -375,7 +357,7 @@ fn a_disturbance_file_plays_at_its_own_time_base() {
     std::fs::write(dir.path().join("t.csv"), "t\n0\n1\n").unwrap();
     let max_error = |spec: &str| {
         let out = fts(dir.path())
-            .args(["simulate", "--controller", "pid", "--reference", "sine"])
+            .args(["simulate", "--stages", "pid", "--reference", "sine"])
             .args(["--amplitude", "0.001", "--duration", "0.5", "--json"])
             .args(["--output-disturbance", spec])
             .output()

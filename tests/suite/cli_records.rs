@@ -507,7 +507,7 @@ fn oversized_requests_name_their_option() {
         (
             vec![
                 "simulate",
-                "--controller",
+                "--stages",
                 "pid",
                 "--reference",
                 "sine",
@@ -519,7 +519,7 @@ fn oversized_requests_name_their_option() {
             "--freq: expected a positive frequency",
         ),
         (
-            vec!["simulate", "--controller", "pid", "--duration", "99999"],
+            vec!["simulate", "--stages", "pid", "--duration", "99999"],
             "--duration:",
         ),
         (

@@ -433,7 +433,7 @@ fn c2d_then_d2c_gives_the_model_back() {
 fn simulate_step_reports_step_figures() {
     let v = json_out(fts().args([
         "simulate",
-        "--controller",
+        "--stages",
         "pid",
         "--reference",
         "step",
@@ -450,7 +450,7 @@ fn simulate_step_reports_step_figures() {
     fts()
         .args([
             "simulate",
-            "--controller",
+            "--stages",
             "pid",
             "--reference",
             "step",

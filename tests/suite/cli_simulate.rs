@@ -28,7 +28,7 @@ fn simulate_default_identifies_models_and_reports() {
         fts()
             .args([
                 "simulate",
-                "--controller",
+                "--stages",
                 "pid+hc+zpec",
                 "--reference",
                 "sine",
@@ -115,7 +115,7 @@ fn emit_then_simulate_from_the_coefficient_file() {
     // The simulation runs exactly this file.
     let v = json_of(
         fts()
-            .args(["simulate", "--json", "--freq", "10", "--controller-file"])
+            .args(["simulate", "--json", "--freq", "10", "--controller"])
             .arg(&json),
     );
     assert_eq!(v["controller"], "pid+hc+zpec");
@@ -193,7 +193,7 @@ fn bad_coefficient_files_exit_2() {
         std::fs::write(&p, bad.to_string()).unwrap();
         let trace = dir.path().join(format!("trace{i}.csv"));
         fts()
-            .args(["simulate", "--controller-file"])
+            .args(["simulate", "--controller"])
             .arg(&p)
             .arg("-o")
             .arg(&trace)
@@ -209,7 +209,7 @@ fn bad_coefficient_files_exit_2() {
 #[test]
 fn bad_controller_and_reference_options() {
     fts()
-        .args(["simulate", "--controller", "pid+zpec+hc"])
+        .args(["simulate", "--stages", "pid+zpec+hc"])
         .assert()
         .code(2)
         .stderr(predicate::str::contains(
@@ -218,7 +218,7 @@ fn bad_controller_and_reference_options() {
     fts()
         .args([
             "simulate",
-            "--controller",
+            "--stages",
             "pid",
             "--reference",
             "sweep",
@@ -232,7 +232,7 @@ fn bad_controller_and_reference_options() {
     fts()
         .args([
             "simulate",
-            "--controller",
+            "--stages",
             "pid",
             "--amplitude",
             "9",
@@ -260,7 +260,7 @@ fn a_diverging_loop_is_reported_with_its_time_and_cause() {
     .unwrap();
     let trace = dir.path().join("trace.csv");
     let out = fts()
-        .args(["simulate", "--controller", "pid", "--plant-tf"])
+        .args(["simulate", "--stages", "pid", "--plant-tf"])
         .arg(&plant)
         .args(["--reference", "sine", "--freq", "100", "--json", "-o"])
         .arg(&trace)
@@ -346,7 +346,7 @@ fn feedforward_only_zpetc_on_its_closed_loop_tracks_exactly() {
     assert!(text.contains("\"type\": \"no_feedback\""), "{text}");
     let v = json_of(
         fts()
-            .args(["simulate", "--json", "--freq", "100", "--controller-file"])
+            .args(["simulate", "--json", "--freq", "100", "--controller"])
             .arg(&out)
             .arg("--plant-tf")
             .arg(fixture("li21-closed-loop.json")),
@@ -356,7 +356,7 @@ fn feedforward_only_zpetc_on_its_closed_loop_tracks_exactly() {
     assert!(max < 1e-9, "{v}");
 }
 
-/// `fts simulate --controller dob` on fixtures/second-order-plant-zoh.json
+/// `fts simulate --stages dob` on fixtures/second-order-plant-zoh.json
 /// holding 5 um while a 0.5 V step enters at the plant input at 0.5 s
 /// (fixtures/step-input-disturbance.csv): max |e| with `--controller`.
 fn dob_run(controller: &str, extra: &[&str]) -> serde_json::Value {
@@ -399,7 +399,7 @@ fn simulate_dob_replays_from_its_controller_file_to_the_last_digit() {
             .arg("simulate")
             .arg("--plant-tf")
             .arg(fixture("second-order-plant-zoh.json"))
-            .arg("--controller-file")
+            .arg("--controller")
             .arg(&file)
             .arg("--reference-file")
             .arg(&data)
@@ -454,22 +454,22 @@ fn simulate_hc_solve_matches_the_analytic_inverse() {
             .as_f64()
             .unwrap()
     };
-    let analytic = run(&["--controller", "pid+hc", "--hysteresis", "inv.json"]);
+    let analytic = run(&["--stages", "pid+hc", "--hysteresis", "inv.json"]);
     let solved = run(&[
-        "--controller",
+        "--stages",
         "pid+hc",
         "--hysteresis",
         "fwd.json",
         "--hc-solve",
     ]);
-    let pid = run(&["--controller", "pid"]);
+    let pid = run(&["--stages", "pid"]);
     assert!((solved - analytic).abs() < 1e-6, "{solved} vs {analytic}");
     assert!(solved < pid / 5.0, "{solved} vs PID {pid}");
     fts()
         .current_dir(d)
         .args([
             "simulate",
-            "--controller",
+            "--stages",
             "pid",
             "--hysteresis",
             "fwd.json",

@@ -1,5 +1,5 @@
 //! An H-infinity (mixsyn) controller end to end: `fts weight` -> `fts mixsyn`
-//! -> `fts emit --ss` -> `fts simulate --controller-file --plant-tf`, checked
+//! -> `fts emit --ss` -> `fts simulate --controller --plant-tf`, checked
 //! against an independent linear computation of the closed loop; and the
 //! `state_space` block's bad inputs.
 
@@ -120,7 +120,7 @@ fn mixsyn_controller_emitted_and_simulated_matches_linear_closed_loop() {
     let file = design(dir.path());
     let trace = dir.path().join("trace.csv");
     let out = fts()
-        .args(["simulate", "--controller-file"])
+        .args(["simulate", "--controller"])
         .arg(&file)
         .arg("--plant-tf")
         .arg(fixture("second-order-plant-zoh.json"))
@@ -197,7 +197,7 @@ fn state_space_controller_runs_on_the_virtual_fts() {
     let dir = tempfile::tempdir().unwrap();
     let file = design(dir.path());
     let out = fts()
-        .args(["simulate", "--controller-file"])
+        .args(["simulate", "--controller"])
         .arg(&file)
         .args([
             "--reference",
@@ -267,7 +267,7 @@ fn bad_state_space_blocks_exit_2_naming_the_field() {
         let path = dir.path().join(format!("bad{i}.json"));
         std::fs::write(&path, d.to_string()).unwrap();
         let out = fts()
-            .args(["simulate", "--controller-file"])
+            .args(["simulate", "--controller"])
             .arg(&path)
             .arg("--plant-tf")
             .arg(fixture("second-order-plant-zoh.json"))

@@ -32,6 +32,7 @@ mod ding22;
 mod dob;
 mod doc_transcripts;
 mod exact_stability;
+mod help_consistency;
 mod hinf_certified;
 mod hinf_near_integrator;
 mod hinf_scaling;

@@ -146,7 +146,7 @@ const CASES: &[Case] = &[
             "30000",
             "--method",
             "gd",
-            "--max-iters",
+            "--max-iterations",
             "25",
             "--no-offset",
         ],

@@ -17,7 +17,7 @@ def mtq(s):
 
 # ---------------------------------------------------------------- --plot
 PLOT = [
-    ("simulate --controller pid --plot {p}", "--plot"),
+    ("simulate --stages pid --plot {p}", "--plot"),
     ("trajectory circle --plot {p}", "--plot"),
     ("contour circle --plot {p}", "--plot"),
     ("bode data.csv --plot {p}", "--plot"),
@@ -44,15 +44,15 @@ case("ilc --plot x.pdf", 2, ["--plot", "x.pdf", ".svg, .png"])
 
 # ---------------------------------------------------------------- simulate
 for a, shown in [("0", "0"), ("-1", "-1"), ("nan", "NaN"), ("inf", "inf"), ("-inf", "-inf")]:
-    case(f"simulate --controller pid --amplitude {a}", 2, ["--amplitude", shown])
-case("simulate --controller pid --reference sweep --amplitude 0", 2, ["--amplitude", "0"])
-case("simulate --controller pid --output-min nan", 2, ["--output-min", "NaN"])
-case("simulate --controller pid --output-max inf", 2, ["--output-max", "inf"])
-case("simulate --controller pid --output-min 5 --output-max 5", 2, ["--output-max", "5"])
-case("simulate --controller pid --output-min 11", 2, ["--output-min", "11"])
-case("simulate --controller pid --output-max -1", 2, ["--output-max", "-1"])
-case("simulate --controller-file controller.json --output-max 5", 2, ["--output-max", "--controller-file"])
-REF = "simulate --controller pid --reference-file r.csv"
+    case(f"simulate --stages pid --amplitude {a}", 2, ["--amplitude", shown])
+case("simulate --stages pid --reference sweep --amplitude 0", 2, ["--amplitude", "0"])
+case("simulate --stages pid --output-min nan", 2, ["--output-min", "NaN"])
+case("simulate --stages pid --output-max inf", 2, ["--output-max", "inf"])
+case("simulate --stages pid --output-min 5 --output-max 5", 2, ["--output-max", "5"])
+case("simulate --stages pid --output-min 11", 2, ["--output-min", "11"])
+case("simulate --stages pid --output-max -1", 2, ["--output-max", "-1"])
+case("simulate --controller controller.json --output-max 5", 2, ["--output-max", "--controller"])
+REF = "simulate --stages pid --reference-file r.csv"
 case(REF, 2, ["r.csv", "'time'", "samples"], {"r.csv": "time,r\n0,1\n100000,2\n"})
 case(REF, 2, ["r.csv", "'t_ms'", "samples"], {"r.csv": "t_ms,r\n0,1\n1e12,2\n"})
 case(REF, 2, ["r.csv", "line 4", "t"], {"r.csv": "t,r\n0,1\n0.001,2\n0.0005,3\n"})
@@ -63,14 +63,14 @@ case(REF, 2, ["r.csv", "too few"], {"r.csv": "t,r\n0,1\n"})
 case(REF, 2, ["r.csv", "missing column 'r'"], {"r.csv": "t,x\n0,1\n0.001,2\n"})
 case(REF, 2, ["r.csv", "binary"], {"r.csv": "t,r\n0,1\n\u0000\u0001\u0002\n"})
 case(REF, 2, ["r.csv", "no data rows"], {"r.csv": ""})
-case("simulate --controller pid --reference-file v4.mat", 2, ["v4.mat", "MATLAB v4"])
-case("simulate --controller pid --reference-file v73.mat", 2, ["v73.mat", "v7.3"])
-case("simulate --controller pid --reference-file record.mat", 2, ["record.mat", "'r'"])
-case("simulate --controller pid --reference-file r.csv --reference-column 0", 2, ["--reference-column", "0", "1-based"], {"r.csv": "t,r\n0,1\n0.001,2\n"})
-case("simulate --controller pid --reference-file r.csv --reference-column 9", 2, ["r.csv", "line 2", "column 9"], {"r.csv": "t,r\n0,1\n0.001,2\n"})
-case("simulate --controller pid --reference-file nope.csv", 2, ["nope.csv", "cannot read"])
-case("simulate --controller pid --input-disturbance file:v4.mat", 2, ["v4.mat", "MATLAB v4"])
-case("simulate --controller pid --output-disturbance file:d.csv", 2, ["d.csv", "binary"], {"d.csv": "d\n1\n\u0007\n"})
+case("simulate --stages pid --reference-file v4.mat", 2, ["v4.mat", "MATLAB v4"])
+case("simulate --stages pid --reference-file v73.mat", 2, ["v73.mat", "v7.3"])
+case("simulate --stages pid --reference-file record.mat", 2, ["record.mat", "'r'"])
+case("simulate --stages pid --reference-file r.csv --reference-column 0", 2, ["--reference-column", "0", "1-based"], {"r.csv": "t,r\n0,1\n0.001,2\n"})
+case("simulate --stages pid --reference-file r.csv --reference-column 9", 2, ["r.csv", "line 2", "column 9"], {"r.csv": "t,r\n0,1\n0.001,2\n"})
+case("simulate --stages pid --reference-file nope.csv", 2, ["nope.csv", "cannot read"])
+case("simulate --stages pid --input-disturbance file:v4.mat", 2, ["v4.mat", "MATLAB v4"])
+case("simulate --stages pid --output-disturbance file:d.csv", 2, ["d.csv", "binary"], {"d.csv": "d\n1\n\u0007\n"})
 
 # ---------------------------------------------------------------- virtual
 case("virtual sweep --kp 5 -o s.csv", 1, ["does not track", "limit cycle", "kp 5"])
@@ -248,10 +248,10 @@ for opt, value, expect in [
     ("--dob-coulomb", "nan", ["NaN"]),
     ("--dob-viscous", "inf", ["inf"]),
 ]:
-    case(f"simulate --plant-tf p.json --controller dob {opt} {value}", 2, [opt] + expect, {"p.json": PLANT})
-case("simulate --plant-tf p.json --controller dob", 2, ["--plant-tf", "p.json", "not minimum phase"], {"p.json": NMP})
-case("simulate --controller dob", 2, ["--controller dob", "--plant-tf"])
-case("simulate --controller dob+ss", 2, ["--controller", "out of order"])
+    case(f"simulate --plant-tf p.json --stages dob {opt} {value}", 2, [opt] + expect, {"p.json": PLANT})
+case("simulate --plant-tf p.json --stages dob", 2, ["--plant-tf", "p.json", "not minimum phase"], {"p.json": NMP})
+case("simulate --stages dob", 2, ["--stages dob", "--plant-tf"])
+case("simulate --stages dob+ss", 2, ["--controller", "out of order"])
 
 out = ["# Time bases, units and settings read, never assumed; contradictions",
        "# refused (issue #27 item 6): --plot extensions, reference and record",

@@ -120,10 +120,10 @@ case('zpk CL.json -o z.json', 2, ['-o'], {'CL.json': PAIR})
 case('zpk CL.json --tol 1e-6', 2, ['--tol'], {'CL.json': PAIR})
 # ---------------- tf info on such models
 case('tf info CL.json --freq -1', 2, ['--freq', '-1'], {'CL.json': PAIR})
-case('tf info CL.json --freq nan --bode b.csv', 2, ['--freq', 'NaN'], {'CL.json': PAIR})
+case('tf info CL.json --freq nan -o b.csv', 2, ['--freq', 'NaN'], {'CL.json': PAIR})
 case('tf info T.json --freq inf', 2, ['--freq', 'inf'], {'T.json': TRAP})
-case('tf info T.json --points 0 --bode b.csv', 2, ['--points'], {'T.json': TRAP})
-case('tf info T.json --bode T.json', 2, ['T.json'], {'T.json': TRAP})
+case('tf info T.json --points 0 -o b.csv', 2, ['--points'], {'T.json': TRAP})
+case('tf info T.json -o T.json', 2, ['T.json'], {'T.json': TRAP})
 case('tf info CL.json --points x', 2, ['--points', 'x'], {'CL.json': PAIR})
 
 def run(c):
