@@ -374,7 +374,9 @@ fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
         let title = format!("{} {} of {}", r.method.to_uppercase(), r.orders, p.source);
         let how = welch_summary(&emp, out.segment.is_none());
         eprintln!("{}: --plot: {how}", p.source);
-        write_plot(path, |f| bode_plot(&title, &how, Some(&r.tf), &emp, fmax, f))?;
+        write_plot(path, |f| {
+            bode_plot(&title, &how, Some(&r.tf), &emp, fmax, f)
+        })?;
     }
     if let Some(path) = &out.plot_compare {
         write_plot(path, |f| compare_plot(r, f))?;
@@ -461,7 +463,11 @@ pub fn welch_summary(emp: &FreqResponse, chosen: bool) -> String {
         "Welch {} x {} samples{}, median coherence {median:.2}",
         emp.segments,
         emp.segment_len,
-        if chosen { " (chosen for coherence)" } else { "" }
+        if chosen {
+            " (chosen for coherence)"
+        } else {
+            ""
+        }
     )
 }
 

@@ -271,7 +271,11 @@ pub fn plot_span_hz(
         hi = hi.max(f * 3.0);
     }
     let (lo, hi) = (lo.max(d.f_min_hz), hi.min(d.f_max_hz));
-    Ok(if lo < hi { (lo, hi) } else { (d.f_min_hz, d.f_max_hz) })
+    Ok(if lo < hi {
+        (lo, hi)
+    } else {
+        (d.f_min_hz, d.f_max_hz)
+    })
 }
 
 /// The Nyquist curve of `L` near the critical point: positive and mirrored
@@ -384,8 +388,14 @@ mod tests {
         // A decade beyond the outermost poles/zeros (or the analysed
         // range's edge), and the 1006.5 Hz gain crossover well inside.
         let d = &report.diagnostics;
-        assert!((lo - (f_lo / 10.0).max(d.f_min_hz)).abs() <= 1e-9 * lo, "{lo} {f_lo}");
-        assert!((hi - (f_hi * 10.0).min(d.f_max_hz)).abs() <= 1e-9 * hi, "{hi} {f_hi}");
+        assert!(
+            (lo - (f_lo / 10.0).max(d.f_min_hz)).abs() <= 1e-9 * lo,
+            "{lo} {f_lo}"
+        );
+        assert!(
+            (hi - (f_hi * 10.0).min(d.f_max_hz)).abs() <= 1e-9 * hi,
+            "{hi} {f_hi}"
+        );
         assert!(lo < 1006.5 / 3.0 && hi > 1006.5 * 3.0, "[{lo}, {hi}]");
         // Narrower than the analysis's search range (14 decades).
         let decades = (hi / lo).log10();

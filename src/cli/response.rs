@@ -192,7 +192,12 @@ fn plot_bytes(
     let title = format!("{what} response, {of}");
     let panel = plot::Panel {
         series: series.into_iter().map(|s| (s, style)).collect(),
-        ..plot::Panel::lines(&title, "time (s)", "output (units of the system's output)", vec![])
+        ..plot::Panel::lines(
+            &title,
+            "time (s)",
+            "output (units of the system's output)",
+            vec![],
+        )
     };
     Ok(plot::render(&[panel], format)?)
 }

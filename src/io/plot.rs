@@ -388,7 +388,10 @@ fn draw_panel<DB: DrawingBackend>(
     // grid lines (plotters' own choice can leave the first decade bare).
     let log_axis = |a: f64, b: f64| {
         let (bold, light) = log_ticks(a, b);
-        (a..b).log_scale().with_key_points(bold).with_light_points(light)
+        (a..b)
+            .log_scale()
+            .with_key_points(bold)
+            .with_light_points(light)
     };
     match (log_x, log_y) {
         (false, false) => draw!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(perr)?),
@@ -448,9 +451,15 @@ pub fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
             .collect()
     };
     if decades.len() >= 2 {
-        (decades, multiples(&[2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]))
+        (
+            decades,
+            multiples(&[2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]),
+        )
     } else {
-        (multiples(&[1.0, 2.0, 5.0]), multiples(&[3.0, 4.0, 6.0, 7.0, 8.0, 9.0]))
+        (
+            multiples(&[1.0, 2.0, 5.0]),
+            multiples(&[3.0, 4.0, 6.0, 7.0, 8.0, 9.0]),
+        )
     }
 }
 
@@ -677,7 +686,10 @@ mod tests {
             // Every label is written as its decade.
             for v in &bold {
                 let text = tick_label(*v);
-                assert!((text.parse::<f64>().unwrap() / v - 1.0).abs() < 1e-12, "{text}");
+                assert!(
+                    (text.parse::<f64>().unwrap() / v - 1.0).abs() < 1e-12,
+                    "{text}"
+                );
             }
         }
         // Within one decade: 1-2-5 labels, never none.

@@ -460,7 +460,10 @@ fn robot_arm(n: usize) -> (Vec<f64>, Vec<f64>) {
         .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
         .take(n)
         .collect();
-    (rows.iter().map(|r| r[0]).collect(), rows.iter().map(|r| r[1]).collect())
+    (
+        rows.iter().map(|r| r[0]).collect(),
+        rows.iter().map(|r| r[1]).collect(),
+    )
 }
 
 #[test]
@@ -491,7 +494,10 @@ fn robot_arm_welch_default_segment_is_coherent_and_matches_scipy() {
             };
             let got = median_coherence(&welch(&u, &y, 1.0, &params).unwrap());
             let want = want.as_f64().unwrap();
-            assert!((got - want).abs() < 1e-9, "{n}/{length}: {got} vs scipy {want}");
+            assert!(
+                (got - want).abs() < 1e-9,
+                "{n}/{length}: {got} vs scipy {want}"
+            );
         }
         // The chosen length is scipy's best.
         let best = scipy
@@ -510,7 +516,9 @@ fn identify_plot_says_its_welch_segment_and_takes_segment() {
         let out = fts()
             .args(["identify", "arx"])
             .arg(dataset("daisy-robot-arm/robot_arm.dat"))
-            .args(["--ts", "1", "--split", "0.5", "--na", "4", "--nb", "4", "--nk", "0"])
+            .args([
+                "--ts", "1", "--split", "0.5", "--na", "4", "--nb", "4", "--nk", "0",
+            ])
             .arg("--plot")
             .arg(&png)
             .args(extra)
@@ -527,5 +535,8 @@ fn identify_plot_says_its_welch_segment_and_takes_segment() {
         "{chosen}"
     );
     let given = run(&["--segment", "64"]);
-    assert!(given.contains("Welch 15 x 64 samples, median coherence 0.07"), "{given}");
+    assert!(
+        given.contains("Welch 15 x 64 samples, median coherence 0.07"),
+        "{given}"
+    );
 }
