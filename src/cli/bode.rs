@@ -25,7 +25,7 @@ pub struct BodeArgs {
     /// Estimator.
     #[arg(long, value_enum, default_value_t = Method::Welch)]
     method: Method,
-    /// Welch segment length in samples (default: power of two near N/8, 64..8192).
+    /// Welch segment length in samples (default: the power of two of best median coherence, 64..N/2).
     #[arg(long, value_name = "N")]
     segment: Option<usize>,
     /// Welch overlap fraction in [0, 1).
@@ -65,6 +65,7 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
             &format!("empirical response of {}", p.source),
             &h,
             fmax,
+            a.segment.is_none(),
         )?;
     }
     let report = BodeReport::new(a.method, &p, &h, fmax, a.rows);

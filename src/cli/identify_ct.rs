@@ -37,6 +37,9 @@ pub struct CtArgs {
     /// Whole periods skipped as transient before averaging (with --period).
     #[arg(long, default_value_t = IdentifyCt::default().skip_periods)]
     pub skip_periods: usize,
+    /// Welch segment length in samples, without --period (default: the power of two of best median coherence, 64..N/2).
+    #[arg(long, value_name = "N", conflicts_with = "period")]
+    pub segment: Option<usize>,
     /// Cutoff of the start estimate's state-variable filter, Hz (default: six tried over [0.002, 0.2]/Ts, best fit kept).
     #[arg(id = "svf_cutoff_hz", long = "svf-cutoff", value_name = "HZ")]
     pub svf_cutoff: Option<f64>,
@@ -102,6 +105,7 @@ impl CtArgs {
             max_iterations: self.max_iterations,
             period: self.period,
             skip_periods: self.skip_periods,
+            segment: self.segment,
         }
     }
 }

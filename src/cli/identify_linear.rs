@@ -101,6 +101,9 @@ pub struct OutArgs {
     /// Upper frequency of the plot in Hz (default Nyquist).
     #[arg(long = "fmax", alias = "plot-fmax", value_name = "HZ", value_parser = super::common::parse_positive)]
     pub plot_fmax: Option<f64>,
+    /// Welch segment length of the plot's empirical estimate, in samples (default: the power of two of best median coherence, 64..N/2).
+    #[arg(long, value_name = "N", requires = "plot")]
+    pub segment: Option<usize>,
     /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
     #[arg(long, value_name = "COMPARE.svg|png", value_parser = super::common::plot_path)]
     pub plot_compare: Option<PathBuf>,
@@ -371,11 +374,15 @@ fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
         )?;
     }
     if let Some(path) = &out.plot {
-        let emp = welch_for_plot(&p.est.u, &p.est.y, p.ts)
+        let emp = welch_for_plot(&p.est.u, &p.est.y, p.ts, out.segment)
             .map_err(|e| bad(format!("{}: --plot: {e}", p.source)))?;
         let fmax = out.plot_fmax.unwrap_or(0.5 / p.ts).min(0.5 / p.ts);
         let title = format!("{} {} of {}", r.method.to_uppercase(), r.orders, p.source);
-        write_plot(path, |f| bode_plot(&title, Some(&r.tf), &emp, fmax, f))?;
+        let how = welch_summary(&emp, out.segment.is_none());
+        eprintln!("{}: --plot: {how}", p.source);
+        write_plot(path, |f| {
+            bode_plot(&title, &how, Some(&r.tf), &emp, fmax, f)
+        })?;
     }
     if let Some(path) = &out.plot_compare {
         write_plot(path, |f| compare_plot(r, f))?;
@@ -436,8 +443,33 @@ fn compare_plot(r: &LinearReport, format: PlotFormat) -> anyhow::Result<Vec<u8>>
     )?)
 }
 
-fn welch_for_plot(u: &[f64], y: &[f64], ts: f64) -> Result<FreqResponse, FreqError> {
-    welch(u, y, ts, &WelchParams::default())
+fn welch_for_plot(
+    u: &[f64],
+    y: &[f64],
+    ts: f64,
+    segment: Option<usize>,
+) -> Result<FreqResponse, FreqError> {
+    let params = WelchParams {
+        segment,
+        ..WelchParams::default()
+    };
+    welch(u, y, ts, &params)
+}
+
+/// How a Welch estimate was made, for a plot's title and stderr: the
+/// segments and, when the length was chosen from the record, why.
+pub fn welch_summary(emp: &FreqResponse, chosen: bool) -> String {
+    let median = crate::ident::freq::median_coherence(emp);
+    format!(
+        "Welch {} x {} samples{}, median coherence {median:.2}",
+        emp.segments,
+        emp.segment_len,
+        if chosen {
+            " (chosen for coherence)"
+        } else {
+            ""
+        }
+    )
 }
 
 /// Coherence below which an empirical point is drawn faint: there the
@@ -507,6 +539,7 @@ impl EmpiricalCurves {
 /// logarithmic frequency axis; points of low coherence drawn faint.
 fn bode_plot(
     title: &str,
+    estimate: &str,
     model: Option<&crate::lti::DiscreteTf>,
     emp: &FreqResponse,
     fmax: f64,
@@ -577,7 +610,7 @@ fn bode_plot(
         panels.push(Panel {
             log_x: true,
             ..Panel::lines(
-                "",
+                estimate,
                 "frequency (Hz)",
                 "coherence (1)",
                 vec![Series {
@@ -591,12 +624,18 @@ fn bode_plot(
     Ok(render(&panels, format)?)
 }
 
-/// Used by `fts bode`: the empirical response of a prepared record.
+/// Used by `fts bode`: the empirical response of a prepared record
+/// (`chosen`: its Welch segment length was chosen from the record).
 pub fn empirical_plot(
     path: &Path,
     title: &str,
     emp: &FreqResponse,
     fmax: f64,
+    chosen: bool,
 ) -> anyhow::Result<()> {
-    write_plot(path, |f| bode_plot(title, None, emp, fmax, f))
+    let how = match emp.coherence {
+        Some(_) => welch_summary(emp, chosen),
+        None => String::new(),
+    };
+    write_plot(path, |f| bode_plot(title, &how, None, emp, fmax, f))
 }

@@ -200,11 +200,12 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         e => bad(e.to_string()),
     })?;
     if let Some(path) = &args.plot {
-        let grid = logspace(
-            report.diagnostics.f_min_hz,
-            report.diagnostics.f_max_hz,
-            1000,
-        );
+        let (f_lo, f_hi) = if args.fmin.is_some() || args.fmax.is_some() {
+            (report.diagnostics.f_min_hz, report.diagnostics.f_max_hz)
+        } else {
+            plot_span_hz(&g, &k, &report)?
+        };
+        let grid = logspace(f_lo, f_hi, 1000);
         let l = |f: f64| g.response_at_hz(f) * k.response_at_hz(f);
         let bl = Bode::from_fn(&grid, l);
         let bs = Bode::from_fn(&grid, |f| 1.0 / (1.0 + l(f)));
@@ -239,6 +240,44 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
     }
 }
 
+/// Decades drawn beyond the loop's outermost poles and zeros (as
+/// python-control's `_default_frequency_range`).
+const PLOT_DECADES_BEYOND: f64 = 1.0;
+
+/// The default span of the loop's plot: a decade below the smallest
+/// non-zero pole/zero frequency of `G` and `K` to a decade above the largest,
+/// widened to show every crossover the report measures (with a factor 3 of
+/// room), within the analysed range (which stops at Nyquist). The analysis
+/// itself searches wider, for crossovers far from the features.
+pub fn plot_span_hz(
+    g: &LoopSystem,
+    k: &LoopSystem,
+    report: &crate::lti::margins::LoopReport,
+) -> anyhow::Result<(f64, f64)> {
+    let d = &report.diagnostics;
+    let Some((lo, hi)) = crate::lti::margins::feature_band_hz(g, k)? else {
+        return Ok((d.f_min_hz, d.f_max_hz));
+    };
+    let beyond = 10f64.powf(PLOT_DECADES_BEYOND);
+    let (mut lo, mut hi) = (lo / beyond, hi * beyond);
+    let crossings = report
+        .gain_crossovers
+        .iter()
+        .map(|c| c.freq_hz)
+        .chain(report.phase_crossovers.iter().map(|c| c.freq_hz))
+        .chain(report.bandwidth_hz);
+    for f in crossings.filter(|f| f.is_finite() && *f > 0.0) {
+        lo = lo.min(f / 3.0);
+        hi = hi.max(f * 3.0);
+    }
+    let (lo, hi) = (lo.max(d.f_min_hz), hi.min(d.f_max_hz));
+    Ok(if lo < hi {
+        (lo, hi)
+    } else {
+        (d.f_min_hz, d.f_max_hz)
+    })
+}
+
 /// The Nyquist curve of `L` near the critical point: positive and mirrored
 /// negative frequencies, cut where `|L|` exceeds [`NYQUIST_RADIUS`] so that
 /// an integrator's large low-frequency values do not hide the region that
@@ -247,6 +286,8 @@ struct NyquistPoints {
     re: Vec<f64>,
     im: Vec<f64>,
     im_mirror: Vec<f64>,
+    circle_re: Vec<f64>,
+    circle_im: Vec<f64>,
 }
 
 const NYQUIST_RADIUS: f64 = 4.0;
@@ -256,6 +297,13 @@ fn nyquist_points(grid: &[f64], l: impl Fn(f64) -> crate::lti::c64) -> NyquistPo
         re: Vec::new(),
         im: Vec::new(),
         im_mirror: Vec::new(),
+        // The unit circle frames -1 and shows where |L| = 1 (gain crossover).
+        circle_re: (0..=128)
+            .map(|k| (std::f64::consts::TAU * k as f64 / 128.0).cos())
+            .collect(),
+        circle_im: (0..=128)
+            .map(|k| (std::f64::consts::TAU * k as f64 / 128.0).sin())
+            .collect(),
     };
     // Denser than the Bode grid: the curve moves fastest near crossover.
     let fine = logspace(grid[0], grid[grid.len() - 1], 8 * grid.len());
@@ -277,7 +325,7 @@ fn nyquist_points(grid: &[f64], l: impl Fn(f64) -> crate::lti::c64) -> NyquistPo
 impl NyquistPoints {
     fn panel(&self) -> plot::Panel<'_> {
         plot::Panel {
-            title: "Nyquist plot of L (|L| <= 4 shown; the critical point is -1)",
+            title: "Nyquist plot of L: |L| > 4 clipped, equal axes; dashed: w < 0",
             x_label: "Re L",
             y_label: "Im L",
             series: vec![
@@ -295,7 +343,15 @@ impl NyquistPoints {
                         x: &self.re,
                         y: &self.im_mirror,
                     },
-                    plot::Style::Faint,
+                    plot::Style::Dashed,
+                ),
+                (
+                    plot::Series {
+                        label: "unit circle |L| = 1",
+                        x: &self.circle_re,
+                        y: &self.circle_im,
+                    },
+                    plot::Style::Dashed,
                 ),
                 (
                     plot::Series {
@@ -306,6 +362,7 @@ impl NyquistPoints {
                     plot::Style::Marker,
                 ),
             ],
+            equal_aspect: true,
             ..plot::Panel::default()
         }
     }
@@ -313,3 +370,37 @@ impl NyquistPoints {
 
 const CRITICAL_X: [f64; 1] = [-1.0];
 const CRITICAL_Y: [f64; 1] = [0.0];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_mixsyn_loop_plot_spans_its_features_not_fourteen_decades() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/mixsyn");
+        let g = read_loop_system(&root.join("plant.json")).unwrap();
+        let k = read_loop_system(&root.join("K.json")).unwrap();
+        let report = analyze_loop(&g, &k, &LoopParams::default()).unwrap();
+        let (lo, hi) = plot_span_hz(&g, &k, &report).unwrap();
+        let (f_lo, f_hi) = crate::lti::margins::feature_band_hz(&g, &k)
+            .unwrap()
+            .unwrap();
+        // A decade beyond the outermost poles/zeros (or the analysed
+        // range's edge), and the 1006.5 Hz gain crossover well inside.
+        let d = &report.diagnostics;
+        assert!(
+            (lo - (f_lo / 10.0).max(d.f_min_hz)).abs() <= 1e-9 * lo,
+            "{lo} {f_lo}"
+        );
+        assert!(
+            (hi - (f_hi * 10.0).min(d.f_max_hz)).abs() <= 1e-9 * hi,
+            "{hi} {f_hi}"
+        );
+        assert!(lo < 1006.5 / 3.0 && hi > 1006.5 * 3.0, "[{lo}, {hi}]");
+        // Narrower than the analysis's search range (14 decades).
+        let decades = (hi / lo).log10();
+        let searched = (d.f_max_hz / d.f_min_hz).log10();
+        assert!(decades <= (f_hi / f_lo).log10() + 2.0 + 1e-9, "{decades}");
+        assert!(decades < searched - 3.0, "{decades} of {searched} decades");
+    }
+}

@@ -182,11 +182,22 @@ fn plot_bytes(
     } else {
         source.to_string()
     };
-    Ok(plot::line_chart(
-        &format!("{what} response, {of}"),
-        "time (s)",
-        "output (units of the system's output)",
-        &series,
-        format,
-    )?)
+    // A discrete system's output exists only at the samples and is held
+    // between them: drawn as a staircase, a continuous one as lines.
+    let style = if report.ts.is_some() {
+        plot::Style::Stairs
+    } else {
+        plot::Style::Line
+    };
+    let title = format!("{what} response, {of}");
+    let panel = plot::Panel {
+        series: series.into_iter().map(|s| (s, style)).collect(),
+        ..plot::Panel::lines(
+            &title,
+            "time (s)",
+            "output (units of the system's output)",
+            vec![],
+        )
+    };
+    Ok(plot::render(&[panel], format)?)
 }

@@ -536,5 +536,11 @@ fn write_plot(path: &Path, report: &SimulateReport) -> anyhow::Result<()> {
             )
         });
     }
+    // The trace is sampled: each value held until the next sample.
+    for panel in panels.iter_mut().take(2) {
+        for (_, style) in panel.series.iter_mut() {
+            *style = plot::Style::Stairs;
+        }
+    }
     super::common::write_plot(path, |f| Ok(plot::render(&panels, f)?))
 }

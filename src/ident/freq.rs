@@ -39,9 +39,9 @@ pub enum FreqError {
 /// Settings of [`welch`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WelchParams {
-    /// Segment length `L` in samples. Default `None`: the largest power of
-    /// two not above `N/8` (eight segments before overlap), clamped to
-    /// `64 ..= 8192`, and never longer than the record.
+    /// Segment length `L` in samples. Default `None`: chosen from the record
+    /// by [`choose_segment`] (the power of two of best bias-corrected median
+    /// coherence).
     pub segment: Option<usize>,
     /// Fractional overlap of consecutive segments, `0 <= overlap < 1`
     /// (default 0.5, the usual choice for a Hann window).
@@ -113,6 +113,74 @@ pub fn default_segment(n: usize) -> usize {
     l.min(n)
 }
 
+/// Median coherence of an estimate over the bins the input excites (DC
+/// left out), corrected for the bias of averaging few segments: with `n`
+/// averages an incoherent bin still shows about `1/n`, so the score is
+/// `(median - 1/n) / (1 - 1/n)`, comparable across segment lengths.
+pub fn coherence_score(h: &FreqResponse) -> f64 {
+    let bias = 1.0 / h.segments as f64;
+    (median_coherence(h) - bias) / (1.0 - bias)
+}
+
+/// Median coherence over the bins the input excites, DC left out (the mean
+/// of the two middle values for an even count, as numpy's); NaN without
+/// coherence (ETFE), 0 when nothing is excited.
+pub fn median_coherence(h: &FreqResponse) -> f64 {
+    let Some(c) = &h.coherence else {
+        return f64::NAN;
+    };
+    let mut excited: Vec<f64> = (1..c.len())
+        .filter(|&i| h.response[i].re.is_finite())
+        .map(|i| c[i])
+        .collect();
+    if excited.is_empty() {
+        return 0.0;
+    }
+    excited.sort_by(f64::total_cmp);
+    let m = excited.len();
+    0.5 * (excited[(m - 1) / 2] + excited[m / 2])
+}
+
+/// Score margin within which two segment lengths count as equally coherent.
+const SCORE_TIE: f64 = 0.02;
+
+/// The Welch segment length for this record: among powers of two from 64
+/// (fewer for short records) to `N/2` (at least three half-overlapping
+/// segments), the one whose [`coherence_score`] is best. A lightly damped
+/// system or a swept input needs segments long against its ring-down, or
+/// leakage and the segment edges decorrelate `y` from `u` (the DaISy robot
+/// arm: median coherence 0.07 at 64 samples, 0.81 at 256); well-behaved
+/// data scores alike at every length, and then the length nearest
+/// [`default_segment`] (eight segments) is kept, for variance.
+pub fn choose_segment(u: &[f64], y: &[f64], ts: f64, overlap: f64) -> Result<usize, FreqError> {
+    let n = u.len().min(y.len());
+    let fallback = default_segment(n);
+    let mut candidates = Vec::new();
+    let mut l = 64.min(fallback).max(4);
+    while l <= n / 2 {
+        candidates.push(l);
+        l *= 2;
+    }
+    if candidates.len() < 2 {
+        return Ok(fallback);
+    }
+    let mut scored = Vec::with_capacity(candidates.len());
+    for &l in &candidates {
+        let params = WelchParams {
+            segment: Some(l),
+            overlap,
+        };
+        scored.push((l, coherence_score(&welch(u, y, ts, &params)?)));
+    }
+    let best = scored.iter().map(|s| s.1).fold(f64::NEG_INFINITY, f64::max);
+    let distance = |l: usize| (l as f64 / fallback as f64).log2().abs();
+    Ok(scored
+        .iter()
+        .filter(|s| s.1 >= best - SCORE_TIE)
+        .min_by(|a, b| distance(a.0).total_cmp(&distance(b.0)))
+        .map_or(fallback, |s| s.0))
+}
+
 fn hann(l: usize) -> Vec<f64> {
     // Periodic Hann (the DFT-even form used for spectral averaging).
     (0..l)
@@ -134,7 +202,10 @@ pub fn welch(
             params.overlap
         )));
     }
-    let l = params.segment.unwrap_or_else(|| default_segment(n));
+    let l = match params.segment {
+        Some(l) => l,
+        None => choose_segment(u, y, ts, params.overlap)?,
+    };
     if l < 4 {
         return Err(FreqError::BadParams(format!(
             "segment length {l} is below 4"

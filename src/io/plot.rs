@@ -129,6 +129,12 @@ pub enum Style {
     Faint,
     /// A cross at each point (a few points of interest).
     Marker,
+    /// A zero-order-hold staircase: each value held until the next sample
+    /// (a discrete-time signal, which has no values between its samples).
+    Stairs,
+    /// A lighter dashed line (a secondary branch, e.g. negative
+    /// frequencies on a Nyquist plot).
+    Dashed,
 }
 
 /// One chart: its curves, axes and an optional shaded interval of x.
@@ -218,6 +224,23 @@ fn legend<DB: DrawingBackend>(
             Style::Marker => entry(s.label, &|y| {
                 area.draw(&Cross::new((17, y), 5, color.stroke_width(2)))
                     .map_err(perr)
+            })?,
+            Style::Stairs => entry(s.label, &|y| {
+                area.draw(&PathElement::new(
+                    vec![(6, y + 4), (17, y + 4), (17, y - 4), (28, y - 4)],
+                    color.stroke_width(2),
+                ))
+                .map_err(perr)
+            })?,
+            Style::Dashed => entry(s.label, &|y| {
+                for x in [6, 16] {
+                    area.draw(&PathElement::new(
+                        vec![(x, y), (x + 6, y)],
+                        color.mix(0.6).stroke_width(2),
+                    ))
+                    .map_err(perr)?;
+                }
+                Ok(())
             })?,
         }
     }
@@ -311,7 +334,7 @@ fn draw_panel<DB: DrawingBackend>(
                         .filter(|p| drawable(*p))
                         .map(|(x, y)| (*x, *y));
                 match style {
-                    Style::Line => {
+                    Style::Line | Style::Stairs | Style::Dashed => {
                         // A non-finite point breaks the line: gaps stay gaps.
                         for run in
                             s.x.iter()
@@ -319,11 +342,26 @@ fn draw_panel<DB: DrawingBackend>(
                                 .collect::<Vec<_>>()
                                 .split(|p| !drawable(*p))
                         {
+                            let run: Vec<(f64, f64)> =
+                                run.iter().map(|(x, y)| (**x, **y)).collect();
+                            if *style == Style::Dashed {
+                                chart
+                                    .draw_series(DashedLineSeries::new(
+                                        run,
+                                        6,
+                                        4,
+                                        color.mix(0.6).stroke_width(1),
+                                    ))
+                                    .map_err(perr)?;
+                                continue;
+                            }
+                            let run = if *style == Style::Stairs {
+                                staircase(&run)
+                            } else {
+                                run
+                            };
                             chart
-                                .draw_series(LineSeries::new(
-                                    run.iter().map(|(x, y)| (**x, **y)),
-                                    color.stroke_width(1),
-                                ))
+                                .draw_series(LineSeries::new(run, color.stroke_width(1)))
                                 .map_err(perr)?;
                         }
                     }
@@ -346,25 +384,83 @@ fn draw_panel<DB: DrawingBackend>(
         }};
     }
     let (lo, hi) = positive_range(&all, |s| s.x, x1);
+    // Log axes carry our own ticks: every decade labelled, 2..9 as light
+    // grid lines (plotters' own choice can leave the first decade bare).
+    let log_axis = |a: f64, b: f64| {
+        let (bold, light) = log_ticks(a, b);
+        (a..b)
+            .log_scale()
+            .with_key_points(bold)
+            .with_light_points(light)
+    };
     match (log_x, log_y) {
         (false, false) => draw!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(perr)?),
         (true, false) => draw!(
             builder
-                .build_cartesian_2d((lo..hi).log_scale(), y0..y1)
+                .build_cartesian_2d(log_axis(lo, hi), y0..y1)
                 .map_err(perr)?
         ),
         (false, true) => draw!(
             builder
-                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .build_cartesian_2d(x0..x1, log_axis(y0, y1))
                 .map_err(perr)?
         ),
         (true, true) => draw!(
             builder
-                .build_cartesian_2d((lo..hi).log_scale(), (y0..y1).log_scale())
+                .build_cartesian_2d(log_axis(lo, hi), log_axis(y0, y1))
                 .map_err(perr)?
         ),
     }
     Ok(())
+}
+
+/// The corners of a zero-order-hold staircase through `points` (sorted by
+/// x): each value held until the next point's abscissa.
+pub fn staircase(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut out = Vec::with_capacity(2 * points.len());
+    for (i, &(x, y)) in points.iter().enumerate() {
+        if i > 0 {
+            out.push((x, points[i - 1].1));
+        }
+        out.push((x, y));
+    }
+    out
+}
+
+/// Ticks of a logarithmic axis over `[lo, hi]`: labelled (bold) ticks at
+/// every power of ten in the range, and light ticks at 2..9 times each.
+/// A range holding fewer than two powers of ten is labelled at 1, 2 and 5
+/// times each decade instead, so that every axis carries at least two
+/// labels.
+pub fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return (Vec::new(), Vec::new());
+    }
+    // A relative slack so that a range ending at 1e3 computed as
+    // 999.9999999 still shows its 1e3.
+    let inside = |v: f64| v >= lo * (1.0 - 1e-9) && v <= hi * (1.0 + 1e-9);
+    let (first, last) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let decades: Vec<f64> = (first..=last)
+        .map(|k| 10f64.powi(k))
+        .filter(|v| inside(*v))
+        .collect();
+    let multiples = |m: &[f64]| -> Vec<f64> {
+        (first..=last)
+            .flat_map(|k| m.iter().map(move |f| f * 10f64.powi(k)))
+            .filter(|v| inside(*v))
+            .collect()
+    };
+    if decades.len() >= 2 {
+        (
+            decades,
+            multiples(&[2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]),
+        )
+    } else {
+        (
+            multiples(&[1.0, 2.0, 5.0]),
+            multiples(&[3.0, 4.0, 6.0, 7.0, 8.0, 9.0]),
+        )
+    }
 }
 
 /// The ranges widened (about their centres) so that a unit spans as many
@@ -577,6 +673,37 @@ mod tests {
         let ((x0, x1), (y0, y1)) = equal_ranges((0.0, 1.0), (0.0, 10.0), (400, 200));
         assert_eq!((y0, y1), (0.0, 10.0));
         assert!(((x1 - x0) / 400.0 - 10.0 / 200.0).abs() < 1e-15 && x0 < 0.0 && x1 > 1.0);
+    }
+
+    #[test]
+    fn every_decade_of_a_log_axis_is_labelled() {
+        for (lo, hi) in [(0.0098, 512.0), (1e-3, 1e3), (2.5e-7, 3e7), (0.5, 0.5e5)] {
+            let (bold, light) = log_ticks(lo, hi);
+            let (first, last) = (lo.log10().ceil() as i32, hi.log10().floor() as i32);
+            let want: Vec<f64> = (first..=last).map(|k| 10f64.powi(k)).collect();
+            assert_eq!(bold, want, "[{lo}, {hi}]");
+            assert!(light.iter().all(|v| *v >= lo * (1.0 - 1e-9) && *v <= hi * (1.0 + 1e-9)));
+            // Every label is written as its decade.
+            for v in &bold {
+                let text = tick_label(*v);
+                assert!(
+                    (text.parse::<f64>().unwrap() / v - 1.0).abs() < 1e-12,
+                    "{text}"
+                );
+            }
+        }
+        // Within one decade: 1-2-5 labels, never none.
+        assert_eq!(log_ticks(3.0, 40.0).0, vec![5.0, 10.0, 20.0]);
+        assert_eq!(log_ticks(0.0, 1.0), (vec![], vec![]));
+    }
+
+    #[test]
+    fn a_staircase_holds_each_sample() {
+        let s = staircase(&[(0.0, 1.0), (1.0, 3.0), (2.0, 2.0)]);
+        assert_eq!(
+            s,
+            vec![(0.0, 1.0), (1.0, 1.0), (1.0, 3.0), (2.0, 3.0), (2.0, 2.0)]
+        );
     }
 
     #[test]

@@ -537,6 +537,37 @@ fn bandwidth_below(drop: &dyn Fn(f64) -> f64, f0: f64, v0: f64) -> Option<f64> {
     None
 }
 
+/// The loop's features: the smallest and largest non-zero pole/zero
+/// frequency of `G` and `K`, Hz (`|s|/2pi`, or `|ln z|/(2pi Ts)`); `None`
+/// when every pole and zero is at the origin (or `z = 1`). A delay's
+/// approximation is left out: it is no feature of the loop. The default
+/// plotting and analysis spans extend from here (python-control's
+/// `_default_frequency_range` rule).
+pub fn feature_band_hz(g: &LoopSystem, k: &LoopSystem) -> Result<Option<(f64, f64)>, LoopError> {
+    let ts = g.ts();
+    let (gr, kr) = (g.rational_ss()?, k.rational_ss()?);
+    let mut features: Vec<f64> = gr
+        .poles()?
+        .into_iter()
+        .chain(kr.poles()?)
+        .map(|p| feature_rad_s(p, ts))
+        .collect();
+    for s in [&gr, &kr] {
+        if s.nx() > 0
+            && let Ok(z) = s.zeros()
+        {
+            features.extend(z.iter().map(|&p| feature_rad_s(p, ts)));
+        }
+    }
+    let features: Vec<f64> = features
+        .into_iter()
+        .filter(|w| w.is_finite() && *w > 1e-12)
+        .collect();
+    let lo = features.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = features.iter().copied().fold(0.0, f64::max);
+    Ok(lo.is_finite().then(|| (lo / (2.0 * PI), hi / (2.0 * PI))))
+}
+
 /// Analyses the negative-feedback loop of plant `g` and controller `k`.
 pub fn analyze_loop(
     g: &LoopSystem,
@@ -593,33 +624,7 @@ pub fn analyze_loop(
         }
     }
 
-    // Frequency range from the poles and zeros of G and K (a delay's
-    // approximation left out: it is no feature of the loop).
-    let (gr, kr) = (g.rational_ss()?, k.rational_ss()?);
-    let mut features: Vec<f64> = gr
-        .poles()?
-        .into_iter()
-        .chain(kr.poles()?)
-        .map(|p| feature_rad_s(p, ts))
-        .collect();
-    for s in [&gr, &kr] {
-        if s.nx() > 0
-            && let Ok(z) = s.zeros()
-        {
-            features.extend(z.iter().map(|&p| feature_rad_s(p, ts)));
-        }
-    }
-    let features: Vec<f64> = features
-        .into_iter()
-        .filter(|w| w.is_finite() && *w > 1e-12)
-        .collect();
-    let lo_feature = features.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi_feature = features.iter().copied().fold(0.0, f64::max);
-    let (lo_feature, hi_feature) = if lo_feature.is_finite() {
-        (lo_feature / (2.0 * PI), hi_feature / (2.0 * PI))
-    } else {
-        (1.0, 1.0)
-    };
+    let (lo_feature, hi_feature) = feature_band_hz(g, k)?.unwrap_or((1.0, 1.0));
     let span = 10f64.powf(params.decades_beyond);
     let nyquist = ts.map(|t| 0.5 / t);
     let lp = Loop { g, k };

@@ -49,6 +49,10 @@ pub struct IdentifyCt {
     /// Whole periods skipped as transient before averaging; default 1.
     #[serde(deserialize_with = "whole_number")]
     pub skip_periods: usize,
+    /// Welch segment length, samples, of the aperiodic record's estimate;
+    /// default chosen from the record ([`crate::ident::freq::choose_segment`]).
+    #[serde(deserialize_with = "some_whole_number")]
+    pub segment: Option<usize>,
 }
 
 impl Default for IdentifyCt {
@@ -64,6 +68,7 @@ impl Default for IdentifyCt {
             max_iterations: SrivcParams::new(1, 0, 1.0).max_iterations,
             period: None,
             skip_periods: 1,
+            segment: None,
         }
     }
 }
@@ -215,7 +220,11 @@ impl IdentifyCt {
             return periodic_frf(u, y, prep.ts, samples, self.skip_periods)
                 .map_err(ct_err(&prep.source));
         }
-        let h = welch(u, y, prep.ts, &WelchParams::default())
+        let params = WelchParams {
+            segment: self.segment,
+            ..WelchParams::default()
+        };
+        let h = welch(u, y, prep.ts, &params)
             .map_err(|e| StepError::input(format!("{}: {e}", prep.source)))?;
         let coherence = h.coherence.clone().unwrap_or_default();
         let keep: Vec<usize> = (1..h.freq_hz.len())

@@ -451,3 +451,92 @@ fn bad_inputs_exit_2_and_leave_nothing() {
         ],
     );
 }
+
+/// The DaISy robot arm's `(u, y)` columns, the first `n` rows.
+fn robot_arm(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let text = std::fs::read_to_string(dataset("daisy-robot-arm/robot_arm.dat")).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .take(n)
+        .collect();
+    (
+        rows.iter().map(|r| r[0]).collect(),
+        rows.iter().map(|r| r[1]).collect(),
+    )
+}
+
+#[test]
+fn robot_arm_welch_default_segment_is_coherent_and_matches_scipy() {
+    use fts::ident::freq::{WelchParams, median_coherence, welch};
+    // A lightly damped arm under a swept sine: 64-sample segments leave a
+    // median coherence near 0.07; the length chosen from the record must
+    // show the data as the good data they are.
+    let reference: Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/welch/robot_arm_coherence.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    for case in reference["cases"].as_array().unwrap() {
+        let n = case["samples"].as_u64().unwrap() as usize;
+        let (u, y) = robot_arm(n);
+        let chosen = welch(&u, &y, 1.0, &WelchParams::default()).unwrap();
+        let median = median_coherence(&chosen);
+        assert!(median >= 0.7, "{n} samples: median coherence {median}");
+        // Against scipy.signal.coherence at every candidate length.
+        let scipy = case["median_coherence_without_dc"].as_object().unwrap();
+        for (length, want) in scipy {
+            let params = WelchParams {
+                segment: Some(length.parse().unwrap()),
+                ..WelchParams::default()
+            };
+            let got = median_coherence(&welch(&u, &y, 1.0, &params).unwrap());
+            let want = want.as_f64().unwrap();
+            assert!(
+                (got - want).abs() < 1e-9,
+                "{n}/{length}: {got} vs scipy {want}"
+            );
+        }
+        // The chosen length is scipy's best.
+        let best = scipy
+            .iter()
+            .max_by(|a, b| a.1.as_f64().unwrap().total_cmp(&b.1.as_f64().unwrap()))
+            .unwrap();
+        assert_eq!(chosen.segment_len.to_string(), *best.0, "{n} samples");
+    }
+}
+
+#[test]
+fn identify_plot_says_its_welch_segment_and_takes_segment() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("bode.png");
+    let run = |extra: &[&str]| {
+        let out = fts()
+            .args(["identify", "arx"])
+            .arg(dataset("daisy-robot-arm/robot_arm.dat"))
+            .args([
+                "--ts", "1", "--split", "0.5", "--na", "4", "--nb", "4", "--nk", "0",
+            ])
+            .arg("--plot")
+            .arg(&png)
+            .args(extra)
+            .assert()
+            .success()
+            .get_output()
+            .stderr
+            .clone();
+        String::from_utf8(out).unwrap()
+    };
+    let chosen = run(&[]);
+    assert!(
+        chosen.contains("Welch 3 x 256 samples (chosen for coherence), median coherence 0.81"),
+        "{chosen}"
+    );
+    let given = run(&["--segment", "64"]);
+    assert!(
+        given.contains("Welch 15 x 64 samples, median coherence 0.07"),
+        "{given}"
+    );
+}

@@ -54,7 +54,13 @@ impl ModelError {
         y: &[f64],
         source: impl Into<String>,
     ) -> Result<Self, freq::FreqError> {
-        let response = freq::welch(u, y, model.ts(), &WelchParams::default())?;
+        // The fixed eight-segment length, not one chosen for coherence: the
+        // error bound wants the averaging of many segments on a clean sweep.
+        let params = WelchParams {
+            segment: Some(freq::default_segment(u.len().min(y.len()))),
+            ..WelchParams::default()
+        };
+        let response = freq::welch(u, y, model.ts(), &params)?;
         Ok(Self::compare(model, &response, source.into()))
     }
 
