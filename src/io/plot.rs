@@ -682,7 +682,11 @@ mod tests {
             let (first, last) = (lo.log10().ceil() as i32, hi.log10().floor() as i32);
             let want: Vec<f64> = (first..=last).map(|k| 10f64.powi(k)).collect();
             assert_eq!(bold, want, "[{lo}, {hi}]");
-            assert!(light.iter().all(|v| *v >= lo * (1.0 - 1e-9) && *v <= hi * (1.0 + 1e-9)));
+            assert!(
+                light
+                    .iter()
+                    .all(|v| *v >= lo * (1.0 - 1e-9) && *v <= hi * (1.0 + 1e-9))
+            );
             // Every label is written as its decade.
             for v in &bold {
                 let text = tick_label(*v);

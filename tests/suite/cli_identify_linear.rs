@@ -486,7 +486,7 @@ fn robot_arm_welch_default_segment_is_coherent_and_matches_scipy() {
         let median = median_coherence(&chosen);
         assert!(median >= 0.7, "{n} samples: median coherence {median}");
         // Against scipy.signal.coherence at every candidate length.
-        let scipy = case["median_coherence_without_dc"].as_object().unwrap();
+        let scipy = case["median_coherence_excited"].as_object().unwrap();
         for (length, want) in scipy {
             let params = WelchParams {
                 segment: Some(length.parse().unwrap()),

@@ -41,7 +41,7 @@ fn step_of_a_second_order_system_has_the_closed_form_overshoot() {
         fts()
             .args(["response", "step"])
             .arg(&g)
-            .args(["--duration", "10", "--points", "100001", "--csv"])
+            .args(["--duration", "10", "--points", "100001", "-o"])
             .arg(&csv),
     );
     let info = &v["channels"][0]["step_info"];
@@ -121,7 +121,7 @@ fn unstable_system_exits_1_and_writes_nothing() {
             let mut cmd = fts();
             cmd.args(["response", kind])
                 .arg(&g)
-                .args(["--duration", "2", "--csv"])
+                .args(["--duration", "2", "-o"])
                 .arg(&csv)
                 .arg("--plot")
                 .arg(&svg);
@@ -155,7 +155,7 @@ fn stiff_step_reports_the_fast_peak_with_the_defaults() {
     let out = fts()
         .args(["response", "step"])
         .arg(&g)
-        .arg("--csv")
+        .arg("-o")
         .arg(&csv)
         .arg("--json")
         .assert()
