@@ -160,7 +160,7 @@ fn stiff_step_reports_the_fast_peak_with_the_defaults() {
         .arg("--json")
         .assert()
         .success()
-        .stderr("")
+        .stderr(format!("fts: wrote {}\n", csv.display()))
         .get_output()
         .stdout
         .clone();
