@@ -506,8 +506,8 @@ pub fn name<T: crate::workflow::Choices + serde::Serialize>(value: T) -> &'stati
 /// Reads an `fts.tf/1` document, stating on stderr a conversion the reader
 /// made (a `"var": "z"` file in descending powers of `z`).
 pub fn parse_tf(text: &str, source: &str) -> Result<crate::lti::TransferFunction, InputError> {
-    let g = crate::io::tf_json::parse_tf(text, source)?;
-    if let Some(note) = crate::io::tf_json::tf_conversion_note(text) {
+    let (g, note) = crate::io::tf_json::parse_tf_noted(text, source)?;
+    if let Some(note) = note {
         eprintln!("note: {source}: {note}");
     }
     Ok(g)

@@ -84,14 +84,29 @@ struct TfDoc {
 /// Parses an `fts.tf/1` document. Unknown fields are ignored; an unknown
 /// `format` is an error.
 pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError> {
+    parse_tf_noted(text, source).map(|(g, _)| g)
+}
+
+/// [`parse_tf`], with the sentence stating a conversion the reader made (a
+/// `"var": "z"` file in descending powers of `z`), for the reader's caller
+/// to pass on.
+pub fn parse_tf_noted(
+    text: &str,
+    source: &str,
+) -> Result<(TransferFunction, Option<String>), InputError> {
     let at = top(source);
     let doc: TfDoc = from_value(parse_object(text, source, TF_FORMAT)?, at)?;
     check_poly(source, "num", &doc.num)?;
     check_poly(source, "den", &doc.den)?;
     match doc.var.as_str() {
-        "z^-1" => doc.discrete(at),
-        "z" => doc.descending_z_to_ascending(at)?.discrete(at),
-        "s" => doc.continuous(at),
+        "z^-1" => Ok((doc.discrete(at)?, None)),
+        "z" => {
+            let file_delay = doc.delay.is_some();
+            let g = doc.descending_z_to_ascending(at)?.discrete(at)?;
+            let note = descending_z_note(&g, file_delay);
+            Ok((g, note))
+        }
+        "s" => Ok((doc.continuous(at)?, None)),
         other => Err(at.err(
             "var",
             format!("expected \"z^-1\" or \"z\" (discrete) or \"s\" (continuous), found {other:?}"),
@@ -99,21 +114,15 @@ pub fn parse_tf(text: &str, source: &str) -> Result<TransferFunction, InputError
     }
 }
 
-/// The note a reader states for a file in descending powers of `z`
-/// (MATLAB's `tf(num, den, Ts)` convention), `None` for any other file or
-/// one that does not parse.
-pub fn tf_conversion_note(text: &str) -> Option<String> {
-    let doc: Value = serde_json::from_str(text).ok()?;
-    if doc.get("var")?.as_str()? != "z" {
-        return None;
-    }
-    let TransferFunction::Discrete(g) = parse_tf(text, "").ok()? else {
+/// The sentence stating how a `"var": "z"` file was read.
+fn descending_z_note(g: &TransferFunction, file_delay: bool) -> Option<String> {
+    let TransferFunction::Discrete(g) = g else {
         return None;
     };
     Some(format!(
         "\"var\": \"z\" (descending powers of z) read as ascending powers of z^-1 with delay {} (the relative degree{})",
         g.delay(),
-        if doc.get("delay").is_some() {
+        if file_delay {
             " plus the file's delay"
         } else {
             ""
@@ -508,13 +517,13 @@ mod tests {
                     "{text} at {omega}: {got} vs {want}"
                 );
             }
-            let note = tf_conversion_note(&text).unwrap();
+            let note = parse_tf_noted(&text, "g.json").unwrap().1.unwrap();
             assert!(note.contains(&format!("delay {delay}")), "{note}");
         }
         let improper = r#"{"format": "fts.tf/1", "var": "z", "ts": 0.001, "num": [1, 0, 1], "den": [0, 1, 0.5]}"#;
         let e = parse_tf(improper, "g.json").unwrap_err();
         assert_eq!(e.field.as_deref(), Some("num"));
         assert!(e.to_string().contains("improper"), "{e}");
-        assert!(tf_conversion_note(LI21).is_none());
+        assert!(parse_tf_noted(LI21, "li21.json").unwrap().1.is_none());
     }
 }
