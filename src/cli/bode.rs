@@ -1,9 +1,13 @@
-//! `fts bode DATA [--method welch|etfe] [-o response.csv] [--plot bode.svg] [--json]`:
+//! `fts bode DATA [--method auto|periodic|welch|etfe] [-o response.csv] [--plot bode.svg] [--json]`:
 //! the empirical frequency response of an input/output record.
 
 use super::common::{bad, print_report, write_atomic};
 use super::identify_linear::{DataArgs, empirical_plot, prepare};
-use crate::ident::freq::{FreqResponse, WelchParams, etfe, welch};
+use crate::ident::freq::{
+    Empirical, EmpiricalParams, EstimateKind, Estimator, FreqResponse, WelchParams,
+    empirical_response,
+};
+use crate::ident::periodic::period_in_samples;
 use crate::lti::c64;
 use crate::workflow::Prepared;
 use clap::{Args, ValueEnum};
@@ -12,6 +16,10 @@ use std::path::PathBuf;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Method {
+    /// Averaged over whole periods when the input repeats, Welch otherwise.
+    Auto,
+    /// Averaged over whole periods of the input (`--period`, or found in the input).
+    Periodic,
     /// Welch-averaged cross spectra `H1 = P_yu/P_uu` with coherence.
     Welch,
     /// Empirical transfer-function estimate `Y/U` over the whole record.
@@ -23,11 +31,17 @@ pub struct BodeArgs {
     #[command(flatten)]
     data: DataArgs,
     /// Estimator.
-    #[arg(long, value_enum, default_value_t = Method::Welch)]
+    #[arg(long, value_enum, default_value_t = Method::Auto)]
     method: Method,
-    /// Welch segment length in samples (default: the power of two of best median coherence, 64..N/2).
-    #[arg(long, value_name = "N")]
+    /// Welch segment length in samples (default: the power of two of best median coherence, 64..N/2); with `auto`, uses Welch even for a repeating input.
+    #[arg(long, value_name = "N", conflicts_with = "period")]
     segment: Option<usize>,
+    /// Period of the input in seconds (default: found in the input when it repeats).
+    #[arg(long, value_name = "S", value_parser = super::common::parse_positive)]
+    period: Option<f64>,
+    /// Whole periods dropped as transient before averaging.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    skip_periods: usize,
     /// Welch overlap fraction in [0, 1).
     #[arg(long, default_value_t = 0.5)]
     overlap: f64,
@@ -57,7 +71,7 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
     let nyq = 0.5 / p.ts;
     let fmax = a.fmax.unwrap_or(nyq).min(nyq);
     if let Some(path) = &a.out {
-        write_atomic(path, response_csv(&h).as_bytes())?;
+        write_atomic(path, response_csv(&h.response).as_bytes())?;
     }
     if let Some(path) = &a.plot {
         empirical_plot(
@@ -65,29 +79,34 @@ pub fn run(a: BodeArgs) -> anyhow::Result<()> {
             &format!("empirical response of {}", p.source),
             &h,
             fmax,
-            a.segment.is_none(),
         )?;
     }
-    let report = BodeReport::new(a.method, &p, &h, fmax, a.rows);
+    let report = BodeReport::new(&p, &h, fmax, a.rows);
     print_report(&report, a.json)?;
     Ok(())
 }
 
 /// The empirical response of the prepared record by the chosen estimator.
-fn estimate(a: &BodeArgs, p: &Prepared) -> anyhow::Result<FreqResponse> {
-    match a.method {
-        Method::Welch => welch(
-            &p.est.u,
-            &p.est.y,
-            p.ts,
-            &WelchParams {
-                segment: a.segment,
-                overlap: a.overlap,
-            },
-        ),
-        Method::Etfe => etfe(&p.est.u, &p.est.y, p.ts),
-    }
-    .map_err(|e| bad(format!("{}: {e}", p.source)))
+fn estimate(a: &BodeArgs, p: &Prepared) -> anyhow::Result<Empirical> {
+    let params = EmpiricalParams {
+        estimator: match a.method {
+            Method::Auto => Estimator::Auto,
+            Method::Periodic => Estimator::Periodic,
+            Method::Welch => Estimator::Welch,
+            Method::Etfe => Estimator::Etfe,
+        },
+        welch: WelchParams {
+            segment: a.segment,
+            overlap: a.overlap,
+        },
+        period: a
+            .period
+            .map(|s| period_in_samples(s, p.ts).map_err(|m| bad(format!("--period: {m}"))))
+            .transpose()?,
+        skip_periods: a.skip_periods,
+    };
+    empirical_response(&p.est.u, &p.est.y, p.ts, &params)
+        .map_err(|e| bad(format!("{}: {e}", p.source)))
 }
 
 /// The whole response as CSV: `freq_hz, magnitude, magnitude_db,
@@ -97,6 +116,9 @@ fn response_csv(h: &FreqResponse) -> String {
     let mut s = String::from("freq_hz,magnitude,magnitude_db,phase_deg,coherence,re,im\n");
     for (i, f) in h.freq_hz.iter().enumerate() {
         let v = h.response[i];
+        if !v.re.is_finite() {
+            continue; // no input power at this bin
+        }
         let coherence = h.coherence.as_ref().map(|c| c[i].to_string());
         s.push_str(&format!(
             "{f},{},{},{},{},{},{}\n",
@@ -126,9 +148,12 @@ struct BodeReport {
     magnitude: Vec<f64>,
     phase_deg: Vec<f64>,
     coherence: Option<Vec<f64>>,
-    /// `Welch` or `ETFE`.
+    /// `Welch`, `ETFE` or `Period-average`.
     #[serde(skip)]
     estimator: &'static str,
+    /// `segment(s)` or `period(s)`.
+    #[serde(skip)]
+    unit: &'static str,
     /// The record's name.
     #[serde(skip)]
     source: String,
@@ -141,10 +166,12 @@ struct BodeReport {
 }
 
 impl BodeReport {
-    fn new(method: Method, p: &Prepared, h: &FreqResponse, fmax: f64, rows: usize) -> Self {
+    fn new(p: &Prepared, emp: &Empirical, fmax: f64, rows: usize) -> Self {
+        let h = &emp.response;
         let phase = h.phase_deg_unwrapped();
+        // Bins without input power (NaN) carry nothing to report.
         let idx: Vec<usize> = (0..h.freq_hz.len())
-            .filter(|&i| h.freq_hz[i] <= fmax)
+            .filter(|&i| h.freq_hz[i] <= fmax && h.response[i].re.is_finite())
             .collect();
         let stride = (idx.len() / rows.max(1)).max(1);
         let coherence = h
@@ -155,9 +182,10 @@ impl BodeReport {
             let coherence = h.coherence.as_ref().map(|c| c[i]);
             (h.freq_hz[i], h.response[i], phase[i], coherence)
         });
-        let (method, estimator) = match method {
-            Method::Welch => ("welch", "Welch"),
-            Method::Etfe => ("etfe", "ETFE"),
+        let (method, estimator, unit) = match emp.kind {
+            EstimateKind::Welch { .. } => ("welch", "Welch", "segment(s)"),
+            EstimateKind::Etfe => ("etfe", "ETFE", "segment(s)"),
+            EstimateKind::Periodic { .. } => ("periodic", "Period-average", "period(s)"),
         };
         Self {
             method,
@@ -173,6 +201,7 @@ impl BodeReport {
             phase_deg: idx.iter().map(|&i| phase[i]).collect(),
             coherence,
             estimator,
+            unit,
             source: p.source.clone(),
             samples: p.est.y.len(),
             rows: table.collect(),
@@ -184,12 +213,13 @@ impl std::fmt::Display for BodeReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "{} estimate of {} ({} samples, Ts = {} s): {} segment(s) of {} samples, resolution {:.4} Hz{}",
+            "{} estimate of {} ({} samples, Ts = {} s): {} {} of {} samples, resolution {:.4} Hz{}",
             self.estimator,
             self.source,
             self.samples,
             self.ts,
             self.segments,
+            self.unit,
             self.segment_len,
             self.resolution_hz,
             self.mean_coherence

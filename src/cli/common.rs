@@ -512,3 +512,12 @@ pub fn parse_tf(text: &str, source: &str) -> Result<crate::lti::TransferFunction
     }
     Ok(g)
 }
+
+/// The file given either as an option or as the positional argument (clap
+/// requires exactly one of them).
+pub fn one_of<'a>(option: &'a Option<PathBuf>, positional: &'a Option<PathBuf>) -> &'a Path {
+    option
+        .as_deref()
+        .or(positional.as_deref())
+        .expect("clap requires one of the two")
+}

@@ -7,6 +7,16 @@
 /// Each (sub)command's path in the tree (`identify arx`) and its example
 /// lines, in the order they are meant to run.
 pub const EXAMPLES: &[(&str, &[&str])] = &[
+    (
+        "",
+        &[
+            "fts demo --out d",
+            "fts identify hysteresis tri.csv --model mpi-cbrt -o inverse.json",
+            "fts zpetc --tf fixtures/li21-closed-loop.json",
+            "fts simulate --plant-tf fixtures/second-order-plant-zoh.json --stages pid --kp 0.5 --ki 0.05 --reference-file fixtures/step-input-disturbance.csv -o trace.csv",
+            "fts build -f examples/mixsyn/fts.toml --check",
+        ],
+    ),
     ("build", &["fts build -f examples/mixsyn/fts.toml --check"]),
     ("demo", &["fts demo --out d"]),
     (

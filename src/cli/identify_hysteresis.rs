@@ -64,8 +64,8 @@ pub struct HysteresisArgs {
     #[arg(long)]
     rate_dependent: bool,
     /// Iteration cap of each gradient solve (--method gd).
-    #[arg(long = "max-iterations", alias = "max-iters", value_name = "N", default_value_t = IdentifyHysteresis::default().max_iters)]
-    max_iters: u64,
+    #[arg(long = "max-iterations", alias = "max-iters", value_name = "N", default_value_t = IdentifyHysteresis::default().max_iterations)]
+    max_iterations: u64,
     /// Quantity of the record's input column.
     #[arg(long, default_value_t = IdentifyHysteresis::default().input_quantity)]
     input_quantity: String,
@@ -103,7 +103,7 @@ impl HysteresisArgs {
             offset: !self.no_offset,
             inverse: self.inverse,
             rate_dependent: self.rate_dependent,
-            max_iters: self.max_iters,
+            max_iterations: self.max_iterations,
             input_quantity: self.input_quantity.clone(),
             input_unit: self.input_unit.clone(),
             output_quantity: self.output_quantity.clone(),

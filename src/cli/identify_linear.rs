@@ -11,7 +11,10 @@
 use super::columns::ColumnArgs;
 use super::common::{bad, choice, name, print_report, step_error, write_atomic, write_plot};
 use crate::ident::data::Detrend;
-use crate::ident::freq::{FreqError, FreqResponse, WelchParams, welch};
+use crate::ident::freq::{
+    Empirical, EmpiricalParams, EstimateKind, FreqResponse, WelchParams, empirical_response,
+};
+use crate::ident::periodic::period_in_samples;
 use crate::io::plot::{PlotFormat, Series, stacked_charts};
 use crate::io::tf_json;
 use crate::lti::Bode;
@@ -95,15 +98,21 @@ pub struct OutArgs {
     /// Print one JSON object on stdout instead of the summary.
     #[arg(long)]
     pub json: bool,
-    /// Draw the model's Bode plot against the empirical (Welch) estimate with coherence.
+    /// Draw the model's Bode plot against the empirical estimate with coherence (averaged over whole periods when the input repeats, Welch otherwise).
     #[arg(long, value_name = "BODE.svg|png", value_parser = super::common::plot_path)]
     pub plot: Option<PathBuf>,
     /// Upper frequency of the plot in Hz (default Nyquist).
     #[arg(long = "fmax", alias = "plot-fmax", value_name = "HZ", value_parser = super::common::parse_positive)]
     pub plot_fmax: Option<f64>,
-    /// Welch segment length of the plot's empirical estimate, in samples (default: the power of two of best median coherence, 64..N/2).
-    #[arg(long, value_name = "N", requires = "plot")]
+    /// Welch segment length of the plot's empirical estimate, in samples (default: the power of two of best median coherence, 64..N/2); uses Welch even for a repeating input.
+    #[arg(long, value_name = "N", requires = "plot", conflicts_with = "period")]
     pub segment: Option<usize>,
+    /// Period of the input in seconds for the plot's period-synchronous average (default: found in the input when it repeats).
+    #[arg(long, value_name = "S", requires = "plot", value_parser = super::common::parse_positive)]
+    pub period: Option<f64>,
+    /// Whole periods dropped as transient before averaging.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    pub skip_periods: usize,
     /// Draw measured vs simulated output (MATLAB `compare`) and the error, on the validation data when given.
     #[arg(long, value_name = "COMPARE.svg|png", value_parser = super::common::plot_path)]
     pub plot_compare: Option<PathBuf>,
@@ -374,11 +383,10 @@ fn finish(r: &LinearReport, out: &OutArgs) -> anyhow::Result<()> {
         )?;
     }
     if let Some(path) = &out.plot {
-        let emp = welch_for_plot(&p.est.u, &p.est.y, p.ts, out.segment)
-            .map_err(|e| bad(format!("{}: --plot: {e}", p.source)))?;
+        let emp = plot_estimate(p, out)?;
         let fmax = out.plot_fmax.unwrap_or(0.5 / p.ts).min(0.5 / p.ts);
         let title = format!("{} {} of {}", r.method.to_uppercase(), r.orders, p.source);
-        let how = welch_summary(&emp, out.segment.is_none());
+        let how = emp.summary();
         eprintln!("{}: --plot: {how}", p.source);
         write_plot(path, |f| {
             bode_plot(&title, &how, Some(&r.tf), &emp, fmax, f)
@@ -443,33 +451,23 @@ fn compare_plot(r: &LinearReport, format: PlotFormat) -> anyhow::Result<Vec<u8>>
     )?)
 }
 
-fn welch_for_plot(
-    u: &[f64],
-    y: &[f64],
-    ts: f64,
-    segment: Option<usize>,
-) -> Result<FreqResponse, FreqError> {
-    let params = WelchParams {
-        segment,
-        ..WelchParams::default()
+/// The plot's empirical estimate of the estimation record, by the
+/// `--segment`/`--period` options.
+fn plot_estimate(p: &Prepared, out: &OutArgs) -> anyhow::Result<Empirical> {
+    let params = EmpiricalParams {
+        welch: WelchParams {
+            segment: out.segment,
+            ..WelchParams::default()
+        },
+        period: out
+            .period
+            .map(|s| period_in_samples(s, p.ts).map_err(|m| bad(format!("--period: {m}"))))
+            .transpose()?,
+        skip_periods: out.skip_periods,
+        ..EmpiricalParams::default()
     };
-    welch(u, y, ts, &params)
-}
-
-/// How a Welch estimate was made, for a plot's title and stderr: the
-/// segments and, when the length was chosen from the record, why.
-pub fn welch_summary(emp: &FreqResponse, chosen: bool) -> String {
-    let median = crate::ident::freq::median_coherence(emp);
-    format!(
-        "Welch {} x {} samples{}, median coherence {median:.2}",
-        emp.segments,
-        emp.segment_len,
-        if chosen {
-            " (chosen for coherence)"
-        } else {
-            ""
-        }
-    )
+    empirical_response(&p.est.u, &p.est.y, p.ts, &params)
+        .map_err(|e| bad(format!("{}: --plot: {e}", p.source)))
 }
 
 /// Coherence below which an empirical point is drawn faint: there the
@@ -541,11 +539,12 @@ fn bode_plot(
     title: &str,
     estimate: &str,
     model: Option<&crate::lti::DiscreteTf>,
-    emp: &FreqResponse,
+    empirical: &Empirical,
     fmax: f64,
     format: PlotFormat,
 ) -> anyhow::Result<Vec<u8>> {
     use crate::io::plot::{Panel, Style, render};
+    let emp = &empirical.response;
     let e = EmpiricalCurves::new(emp, fmax);
     let lowest = e
         .freq
@@ -566,7 +565,11 @@ fn bode_plot(
         let mut v = vec![
             (
                 Series {
-                    label: "empirical (Welch H1)",
+                    label: match empirical.kind {
+                        EstimateKind::Welch { .. } => "empirical (Welch H1)",
+                        EstimateKind::Periodic { .. } => "empirical (period average)",
+                        EstimateKind::Etfe => "empirical (ETFE)",
+                    },
                     x: &e.freq,
                     y: trusted,
                 },
@@ -624,18 +627,8 @@ fn bode_plot(
     Ok(render(&panels, format)?)
 }
 
-/// Used by `fts bode`: the empirical response of a prepared record
-/// (`chosen`: its Welch segment length was chosen from the record).
-pub fn empirical_plot(
-    path: &Path,
-    title: &str,
-    emp: &FreqResponse,
-    fmax: f64,
-    chosen: bool,
-) -> anyhow::Result<()> {
-    let how = match emp.coherence {
-        Some(_) => welch_summary(emp, chosen),
-        None => String::new(),
-    };
+/// Used by `fts bode`: the empirical response of a prepared record.
+pub fn empirical_plot(path: &Path, title: &str, emp: &Empirical, fmax: f64) -> anyhow::Result<()> {
+    let how = emp.summary();
     write_plot(path, |f| bode_plot(title, &how, None, emp, fmax, f))
 }

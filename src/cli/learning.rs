@@ -12,9 +12,12 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, Args)]
 pub struct RepetitiveArgs {
-    /// Closed-loop model (`fts.tf/1`, discrete): loop reference to output, at the controller's rate.
-    #[arg(long = "tf", value_name = "CL.json")]
-    tf: PathBuf,
+    /// Closed-loop model (`fts.tf/1`, discrete): loop reference to output, at the controller's rate; `--tf CL.json` or the first argument.
+    #[arg(long = "tf", value_name = "CL.json", required_unless_present = "model")]
+    tf: Option<PathBuf>,
+    /// The closed-loop model given without `--tf`.
+    #[arg(value_name = "CL.json", conflicts_with = "tf", hide = true)]
+    model: Option<PathBuf>,
     /// Period in samples (fractional periods are interpolated).
     #[arg(long, value_name = "SAMPLES", group = "period_given")]
     period: Option<f64>,
@@ -77,7 +80,10 @@ pub fn run_repetitive(args: RepetitiveArgs) -> anyhow::Result<()> {
         q_taps: args.q_taps,
         q: args.q.clone(),
     };
-    let model = read_discrete(&args.tf, "closed-loop model")?;
+    let model = read_discrete(
+        super::common::one_of(&args.tf, &args.model),
+        "closed-loop model",
+    )?;
     let report = step.run(&model).map_err(step_error)?;
     if let Some(path) = &args.output {
         write_atomic(path, report.file_text().as_bytes())?;

@@ -10,9 +10,16 @@ use std::path::PathBuf;
 
 #[derive(Debug, Args)]
 pub struct ZpetcArgs {
-    /// Closed-loop model `G_c = z^-d B_c/A_c` (`fts.tf/1`, discrete).
-    #[arg(long = "tf", value_name = "PLANT.json")]
-    tf: PathBuf,
+    /// Closed-loop model `G_c = z^-d B_c/A_c` (`fts.tf/1`, discrete), as `--tf PLANT.json` or the first argument.
+    #[arg(
+        long = "tf",
+        value_name = "PLANT.json",
+        required_unless_present = "model"
+    )]
+    tf: Option<PathBuf>,
+    /// The closed-loop model given without `--tf`.
+    #[arg(value_name = "PLANT.json", conflicts_with = "tf", hide = true)]
+    model: Option<PathBuf>,
     /// Write the filter (`fts.zpetc/1`) here.
     #[arg(short = 'o', long = "out", value_name = "ZPETC.json")]
     output: Option<PathBuf>,
@@ -55,8 +62,9 @@ impl ZpetcArgs {
 
 pub fn run(args: ZpetcArgs) -> anyhow::Result<()> {
     let step = args.step();
-    let source = args.tf.display().to_string();
-    let text = read_input(&args.tf)?;
+    let path = super::common::one_of(&args.tf, &args.model);
+    let source = path.display().to_string();
+    let text = read_input(path)?;
     let model = super::common::parse_tf(&text, &source)?;
     let report = step.run(&model, &source).map_err(step_error)?;
     if let Some(path) = &args.output {

@@ -10,6 +10,7 @@
 //! function of `u`, lower where noise, nonlinearity or missing excitation
 //! dominate. Averaging trades frequency resolution `1/(L Ts)` for variance.
 
+pub use super::periodic::{PeriodicParams, detect_period, periodic_response};
 use crate::lti::c64;
 use realfft::RealFftPlanner;
 
@@ -330,6 +331,149 @@ pub fn etfe(u: &[f64], y: &[f64], ts: f64) -> Result<FreqResponse, FreqError> {
         segments: 1,
         segment_len: n,
     })
+}
+
+/// Which estimator [`empirical_response`] uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Estimator {
+    /// Period-synchronous averaging when the input repeats (given or found
+    /// by [`detect_period`]), Welch otherwise (default).
+    #[default]
+    Auto,
+    /// [`welch`].
+    Welch,
+    /// [`etfe`].
+    Etfe,
+    /// [`periodic_response`]; needs a period (given or found).
+    Periodic,
+}
+
+/// Settings of [`empirical_response`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EmpiricalParams {
+    /// Estimator (default [`Estimator::Auto`]).
+    pub estimator: Estimator,
+    /// Welch settings (a given segment length makes `Auto` use Welch).
+    pub welch: WelchParams,
+    /// Input period in samples (default `None`: found from the input).
+    pub period: Option<usize>,
+    /// Whole periods dropped as transient (default 1).
+    pub skip_periods: usize,
+}
+
+impl Default for EmpiricalParams {
+    fn default() -> Self {
+        EmpiricalParams {
+            estimator: Estimator::Auto,
+            welch: WelchParams::default(),
+            period: None,
+            skip_periods: 1,
+        }
+    }
+}
+
+/// How an [`Empirical`] estimate was made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EstimateKind {
+    /// Welch; `chosen`: the segment length was chosen from the record.
+    Welch { chosen: bool },
+    /// ETFE over the whole record.
+    Etfe,
+    /// Averaged over whole periods; `detected`: the period was found in the input.
+    Periodic { detected: bool, skipped: usize },
+}
+
+/// An empirical frequency response and how it was estimated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Empirical {
+    /// The estimate.
+    pub response: FreqResponse,
+    /// The estimator and its choices.
+    pub kind: EstimateKind,
+}
+
+/// The empirical response of a record as an engineer would take it: averaged
+/// over whole periods when the input repeats (no leakage, exact lines),
+/// Welch-averaged otherwise, or the estimator `params` name.
+pub fn empirical_response(
+    u: &[f64],
+    y: &[f64],
+    ts: f64,
+    params: &EmpiricalParams,
+) -> Result<Empirical, FreqError> {
+    let n = u.len().min(y.len());
+    let wants_period = match params.estimator {
+        Estimator::Auto => params.welch.segment.is_none(),
+        Estimator::Periodic => true,
+        Estimator::Welch | Estimator::Etfe => false,
+    };
+    let period = match (wants_period, params.period) {
+        (false, _) => None,
+        (true, Some(p)) => Some((p, false)),
+        (true, None) => detect_period(&u[..n]).map(|p| (p, true)),
+    };
+    if let Some((period, detected)) = period {
+        let p = PeriodicParams {
+            period,
+            skip: params.skip_periods,
+        };
+        let response = periodic_response(u, y, ts, &p)?;
+        let kind = EstimateKind::Periodic {
+            detected,
+            skipped: params.skip_periods,
+        };
+        return Ok(Empirical { response, kind });
+    }
+    match params.estimator {
+        Estimator::Periodic => Err(FreqError::BadParams(
+            "the input does not repeat: no period to average over (give one)".into(),
+        )),
+        Estimator::Etfe => Ok(Empirical {
+            response: etfe(u, y, ts)?,
+            kind: EstimateKind::Etfe,
+        }),
+        Estimator::Auto | Estimator::Welch => Ok(Empirical {
+            response: welch(u, y, ts, &params.welch)?,
+            kind: EstimateKind::Welch {
+                chosen: params.welch.segment.is_none(),
+            },
+        }),
+    }
+}
+
+impl Empirical {
+    /// One line for a plot title and stderr: the estimator, its averaging
+    /// and the median coherence.
+    pub fn summary(&self) -> String {
+        let h = &self.response;
+        let coherence = match h.coherence {
+            Some(_) => format!(", median coherence {:.2}", median_coherence(h)),
+            None => String::new(),
+        };
+        match self.kind {
+            EstimateKind::Welch { chosen } => format!(
+                "Welch {} x {} samples{}{coherence}",
+                h.segments,
+                h.segment_len,
+                if chosen {
+                    " (chosen for coherence)"
+                } else {
+                    ""
+                }
+            ),
+            EstimateKind::Etfe => format!("ETFE over {} samples", h.segment_len),
+            EstimateKind::Periodic { detected, skipped } => format!(
+                "average of {} periods x {} samples{}, {skipped} skipped{coherence}",
+                h.segments,
+                h.segment_len,
+                if detected {
+                    " (period found in the input)"
+                } else {
+                    ""
+                }
+            ),
+        }
+    }
 }
 
 #[cfg(test)]

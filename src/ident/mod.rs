@@ -3,7 +3,8 @@
 //! Linear (polynomial) models, docs/math.md §2: [`arx`] (QR least squares),
 //! [`iv`] (refined instrumental variables), [`oe`] (output error by
 //! Levenberg–Marquardt), [`structure`] (order and delay selection),
-//! [`freq`] (empirical frequency response), sharing [`linear`] (model,
+//! [`freq`] (empirical frequency response; [`periodic`] for a repeating
+//! input), sharing [`linear`] (model,
 //! fits, residual tests), [`ls`] (the streaming QR least-squares engine) and [`data`]
 //! (detrending, splits).
 
@@ -18,6 +19,7 @@ pub mod linear;
 pub mod ls;
 pub mod metrics;
 pub mod oe;
+pub mod periodic;
 pub mod structure;
 #[cfg(test)]
 pub(crate) mod testutil;

@@ -118,6 +118,15 @@ fn tick_label(v: f64) -> String {
     }
 }
 
+/// A tick label; `decades`: written `1eK` (a wide log axis).
+fn axis_label(v: f64, decades: bool) -> String {
+    if decades && v > 0.0 {
+        format!("{v:.0e}")
+    } else {
+        tick_label(v)
+    }
+}
+
 /// How a curve is drawn.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Style {
@@ -304,13 +313,18 @@ fn draw_panel<DB: DrawingBackend>(
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60);
+    let (lo, hi) = positive_range(&all, |s| s.x, x1);
+    // A log axis that leaves 0.01..1e5 writes every decade as 1eK, not a
+    // mix of `10000` and `1e5`.
+    let wide = |a: f64, b: f64| a < 1e-2 || b >= 1e5;
+    let (x_decades, y_decades) = (log_x && wide(lo, hi), log_y && wide(y0, y1));
     macro_rules! draw {
         ($chart:expr) => {{
             let mut chart = $chart;
             chart
                 .configure_mesh()
-                .x_label_formatter(&|v| tick_label(*v))
-                .y_label_formatter(&|v| tick_label(*v))
+                .x_label_formatter(&|v| axis_label(*v, x_decades))
+                .y_label_formatter(&|v| axis_label(*v, y_decades))
                 .x_desc(panel.x_label)
                 .y_desc(panel.y_label)
                 .draw()
@@ -383,7 +397,6 @@ fn draw_panel<DB: DrawingBackend>(
             }
         }};
     }
-    let (lo, hi) = positive_range(&all, |s| s.x, x1);
     // Log axes carry our own ticks: every decade labelled, 2..9 as light
     // grid lines (plotters' own choice can leave the first decade bare).
     let log_axis = |a: f64, b: f64| {
@@ -696,6 +709,13 @@ mod tests {
                 );
             }
         }
+        // A wide log axis writes every decade alike.
+        let labels: Vec<String> = log_ticks(0.5, 2e6)
+            .0
+            .iter()
+            .map(|v| axis_label(*v, true))
+            .collect();
+        assert_eq!(labels, ["1e0", "1e1", "1e2", "1e3", "1e4", "1e5", "1e6"]);
         // Within one decade: 1-2-5 labels, never none.
         assert_eq!(log_ticks(3.0, 40.0).0, vec![5.0, 10.0, 20.0]);
         assert_eq!(log_ticks(0.0, 1.0), (vec![], vec![]));

@@ -12,6 +12,7 @@ use crate::ident::ct::{
 };
 use crate::ident::data::Detrend;
 use crate::ident::freq::{WelchParams, welch};
+use crate::ident::periodic::period_in_samples;
 use crate::lti::{TransferFunction, c64};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -207,16 +208,8 @@ impl IdentifyCt {
     fn empirical_response(&self, prep: &Prepared) -> Result<FreqData, StepError> {
         let (u, y) = (&prep.est.u, &prep.est.y);
         if let Some(period) = self.period {
-            let samples = (period / prep.ts).round() as usize;
-            if ((samples as f64 * prep.ts - period) / period).abs() > 1e-6 {
-                return Err(StepError::setting(
-                    "period",
-                    format!(
-                        "{period} s is not a whole number of samples of {} s",
-                        prep.ts
-                    ),
-                ));
-            }
+            let samples = period_in_samples(period, prep.ts)
+                .map_err(|message| StepError::setting("period", message))?;
             return periodic_frf(u, y, prep.ts, samples, self.skip_periods)
                 .map_err(ct_err(&prep.source));
         }

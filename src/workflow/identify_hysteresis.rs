@@ -108,8 +108,10 @@ pub struct IdentifyHysteresis {
     /// Rate-dependent weights `w_i + w1_i rho` (docs/math.md §1.7; pi and
     /// mpi-cbrt, least squares); the record needs a time column; default false.
     pub rate_dependent: bool,
-    /// Iteration cap of each gradient solve (gd); default 2000.
-    pub max_iters: u64,
+    /// Iteration cap of each gradient solve (gd); default 2000. The old
+    /// spelling `max_iters` is still read (deprecated).
+    #[serde(alias = "max_iters")]
+    pub max_iterations: u64,
     /// Quantity of the record's input column; default voltage.
     pub input_quantity: String,
     /// Unit of the record's input column; default V.
@@ -134,7 +136,7 @@ impl Default for IdentifyHysteresis {
             offset: d.offset,
             inverse: false,
             rate_dependent: false,
-            max_iters: d.gd.max_iters,
+            max_iterations: d.gd.max_iters,
             input_quantity: "voltage".into(),
             input_unit: "V".into(),
             output_quantity: "displacement".into(),
@@ -204,7 +206,7 @@ impl IdentifyHysteresis {
             invertible: self.invertible,
             ..Default::default()
         };
-        params.gd.max_iters = self.max_iters;
+        params.gd.max_iters = self.max_iterations;
         params
     }
 

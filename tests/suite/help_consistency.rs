@@ -124,6 +124,25 @@ fn example_lines(cmd: &mut clap::Command) -> Option<Vec<String>> {
     )
 }
 
+/// The top-level help's examples are the workflow's steps, each one of its
+/// own command's examples (which the tests run there).
+#[test]
+fn top_level_examples_are_commands_own() {
+    let mut root = fts::cli::command();
+    let top = example_lines(&mut root).expect("an Examples: section in fts --help");
+    assert!(top.len() >= 4, "{top:?}");
+    let own: Vec<String> = commands()
+        .into_iter()
+        .flat_map(|(_, mut cmd)| example_lines(&mut cmd).unwrap_or_default())
+        .collect();
+    for line in &top {
+        assert!(
+            own.contains(line),
+            "`{line}` is in no command's own examples"
+        );
+    }
+}
+
 #[test]
 fn every_command_has_examples() {
     let missing: Vec<String> = commands()

@@ -150,7 +150,7 @@ const CASES: &[Case] = &[
             "25",
             "--no-offset",
         ],
-        settings: "no_header = true\ninput_col = 4\noutput_col = 3\nstart = 16286\nend = 30000\nmethod = \"gd\"\nmax_iters = 25\noffset = false\n",
+        settings: "no_header = true\ninput_col = 4\noutput_col = 3\nstart = 16286\nend = 30000\nmethod = \"gd\"\nmax_iterations = 25\noffset = false\n",
         record: PIEZO,
     },
 ];

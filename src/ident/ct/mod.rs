@@ -24,8 +24,8 @@ pub(crate) mod zoh;
 pub use freqfit::{FreqFitEstimate, FreqFitParams, FreqWeighting, freq_fit};
 pub use srivc::{SrivcEstimate, SrivcParams, SvfTrial, srivc};
 
+use crate::ident::periodic::{PeriodicParams, periodic_response};
 use crate::lti::{ContinuousTf, c64};
-use realfft::RealFftPlanner;
 
 /// Why a continuous-time model cannot be identified.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -194,10 +194,10 @@ pub struct FreqData {
     pub response: Vec<c64>,
 }
 
-/// The frequency response of a periodic record: input and output averaged
-/// over whole periods of `period` samples after skipping the first `skip`
-/// (transient), one DFT, kept at the lines where the input has power (above
-/// `1e-6` of the strongest line's magnitude) below Nyquist.
+/// The frequency response of a periodic record at the lines its input
+/// excites: [`crate::ident::periodic::periodic_response`] (averaged over
+/// whole periods of `period` samples after skipping the first `skip` as
+/// transient), without the unexcited bins.
 pub fn periodic_frf(
     u: &[f64],
     y: &[f64],
@@ -205,49 +205,16 @@ pub fn periodic_frf(
     period: usize,
     skip: usize,
 ) -> Result<FreqData, CtError> {
-    let n = u.len().min(y.len());
-    if period < 4 || n < period * (skip + 1) {
-        return Err(CtError::Data(format!(
-            "{n} samples hold fewer than {} whole periods of {period} samples (skip {skip} + 1)",
-            skip + 1
-        )));
-    }
-    let periods = n / period - skip;
-    let average = |x: &[f64]| -> Vec<f64> {
-        (0..period)
-            .map(|i| {
-                (skip..skip + periods)
-                    .map(|p| x[p * period + i])
-                    .sum::<f64>()
-                    / periods as f64
-            })
-            .collect()
-    };
-    let (us, ys) = (dft(&average(u)), dft(&average(y)));
-    let peak = us.iter().skip(1).map(|z| z.norm()).fold(0.0, f64::max);
-    if peak == 0.0 {
-        return Err(CtError::Data(
-            "the input has no power at any line of the period".into(),
-        ));
-    }
-    let df = 1.0 / (period as f64 * ts);
-    let keep: Vec<usize> = (1..us.len())
-        .filter(|&k| us[k].norm() > 1e-6 * peak && 2 * k < period)
-        .collect();
-    Ok(FreqData {
-        freq_hz: keep.iter().map(|&k| k as f64 * df).collect(),
-        response: keep.iter().map(|&k| ys[k] / us[k]).collect(),
-    })
-}
-
-/// Real-input DFT, bins `0..=n/2`.
-fn dft(x: &[f64]) -> Vec<c64> {
-    let fft = RealFftPlanner::<f64>::new().plan_fft_forward(x.len());
-    let mut buf = x.to_vec();
-    let mut out = fft.make_output_vec();
-    fft.process(&mut buf, &mut out)
-        .expect("buffer sizes from the plan");
-    out.iter().map(|z| c64::new(z.re, z.im)).collect()
+    let params = PeriodicParams { period, skip };
+    let h = periodic_response(u, y, ts, &params).map_err(|e| CtError::Data(e.to_string()))?;
+    let (freq_hz, response) = h
+        .freq_hz
+        .iter()
+        .zip(&h.response)
+        .filter(|(_, g)| g.re.is_finite())
+        .map(|(f, g)| (*f, *g))
+        .unzip();
+    Ok(FreqData { freq_hz, response })
 }
 
 /// Checks orders: `1 <= np`, `nz <= np`.
