@@ -119,7 +119,8 @@ fn c_ns(cc: &str, dir: &Path, file: &ControllerFile) -> Result<f64, String> {
         std::fs::write(dir.join(name), text).map_err(|e| e.to_string())?;
     }
     let exe = dir.join("bench_step");
-    let driver = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/c/bench_step.c");
+    // The bench crate lives in crates/fts-bench; the sources at the top.
+    let driver = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/c/bench_step.c");
     let out = Command::new(cc)
         .args([
             "-std=c99",

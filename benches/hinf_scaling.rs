@@ -15,7 +15,7 @@ const ORDERS: [usize; 4] = [8, 16, 32, 48];
 
 fn plant(n: usize) -> StateSpace {
     let path = format!(
-        "{}/tests/data/hinf_scaling/P{n}.json",
+        "{}/../../tests/data/hinf_scaling/P{n}.json",
         env!("CARGO_MANIFEST_DIR")
     );
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
