@@ -154,6 +154,12 @@ const SCORE_TIE: f64 = 0.02;
 /// data scores alike at every length, and then the length nearest
 /// [`default_segment`] (eight segments) is kept, for variance.
 pub fn choose_segment(u: &[f64], y: &[f64], ts: f64, overlap: f64) -> Result<usize, FreqError> {
+    Ok(chosen_estimate(u, y, ts, overlap)?.segment_len)
+}
+
+/// The Welch estimate at the segment length [`choose_segment`] picks,
+/// computed once per candidate length (the winner is not recomputed).
+fn chosen_estimate(u: &[f64], y: &[f64], ts: f64, overlap: f64) -> Result<FreqResponse, FreqError> {
     let n = u.len().min(y.len());
     let fallback = default_segment(n);
     let mut candidates = Vec::new();
@@ -163,7 +169,7 @@ pub fn choose_segment(u: &[f64], y: &[f64], ts: f64, overlap: f64) -> Result<usi
         l *= 2;
     }
     if candidates.len() < 2 {
-        return Ok(fallback);
+        candidates = vec![fallback];
     }
     let mut scored = Vec::with_capacity(candidates.len());
     for &l in &candidates {
@@ -171,15 +177,18 @@ pub fn choose_segment(u: &[f64], y: &[f64], ts: f64, overlap: f64) -> Result<usi
             segment: Some(l),
             overlap,
         };
-        scored.push((l, coherence_score(&welch(u, y, ts, &params)?)));
+        let estimate = welch(u, y, ts, &params)?;
+        scored.push((coherence_score(&estimate), estimate));
     }
-    let best = scored.iter().map(|s| s.1).fold(f64::NEG_INFINITY, f64::max);
+    let best = scored.iter().map(|s| s.0).fold(f64::NEG_INFINITY, f64::max);
     let distance = |l: usize| (l as f64 / fallback as f64).log2().abs();
-    Ok(scored
-        .iter()
-        .filter(|s| s.1 >= best - SCORE_TIE)
-        .min_by(|a, b| distance(a.0).total_cmp(&distance(b.0)))
-        .map_or(fallback, |s| s.0))
+    let pick = (0..scored.len())
+        .filter(|&i| scored[i].0 >= best - SCORE_TIE)
+        .min_by(|&a, &b| {
+            distance(scored[a].1.segment_len).total_cmp(&distance(scored[b].1.segment_len))
+        })
+        .unwrap_or(0);
+    Ok(scored.swap_remove(pick).1)
 }
 
 fn hann(l: usize) -> Vec<f64> {
@@ -203,9 +212,8 @@ pub fn welch(
             params.overlap
         )));
     }
-    let l = match params.segment {
-        Some(l) => l,
-        None => choose_segment(u, y, ts, params.overlap)?,
+    let Some(l) = params.segment else {
+        return chosen_estimate(u, y, ts, params.overlap);
     };
     if l < 4 {
         return Err(FreqError::BadParams(format!(
