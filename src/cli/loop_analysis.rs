@@ -203,7 +203,7 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         let (f_lo, f_hi) = if args.fmin.is_some() || args.fmax.is_some() {
             (report.diagnostics.f_min_hz, report.diagnostics.f_max_hz)
         } else {
-            plot_span_hz(&g, &k, &report)?
+            report.plot_span_hz()
         };
         let grid = logspace(f_lo, f_hi, 1000);
         let l = |f: f64| g.response_at_hz(f) * k.response_at_hz(f);
@@ -238,44 +238,6 @@ pub fn run(args: LoopArgs) -> anyhow::Result<()> {
         say_part!("{report}");
         Ok(())
     }
-}
-
-/// Decades drawn beyond the loop's outermost poles and zeros (as
-/// python-control's `_default_frequency_range`).
-const PLOT_DECADES_BEYOND: f64 = 1.0;
-
-/// The default span of the loop's plot: a decade below the smallest
-/// non-zero pole/zero frequency of `G` and `K` to a decade above the largest,
-/// widened to show every crossover the report measures (with a factor 3 of
-/// room), within the analysed range (which stops at Nyquist). The analysis
-/// itself searches wider, for crossovers far from the features.
-pub fn plot_span_hz(
-    g: &LoopSystem,
-    k: &LoopSystem,
-    report: &crate::lti::margins::LoopReport,
-) -> anyhow::Result<(f64, f64)> {
-    let d = &report.diagnostics;
-    let Some((lo, hi)) = crate::lti::margins::feature_band_hz(g, k)? else {
-        return Ok((d.f_min_hz, d.f_max_hz));
-    };
-    let beyond = 10f64.powf(PLOT_DECADES_BEYOND);
-    let (mut lo, mut hi) = (lo / beyond, hi * beyond);
-    let crossings = report
-        .gain_crossovers
-        .iter()
-        .map(|c| c.freq_hz)
-        .chain(report.phase_crossovers.iter().map(|c| c.freq_hz))
-        .chain(report.bandwidth_hz);
-    for f in crossings.filter(|f| f.is_finite() && *f > 0.0) {
-        lo = lo.min(f / 3.0);
-        hi = hi.max(f * 3.0);
-    }
-    let (lo, hi) = (lo.max(d.f_min_hz), hi.min(d.f_max_hz));
-    Ok(if lo < hi {
-        (lo, hi)
-    } else {
-        (d.f_min_hz, d.f_max_hz)
-    })
 }
 
 /// The Nyquist curve of `L` near the critical point: positive and mirrored
@@ -381,7 +343,7 @@ mod tests {
         let g = read_loop_system(&root.join("plant.json")).unwrap();
         let k = read_loop_system(&root.join("K.json")).unwrap();
         let report = analyze_loop(&g, &k, &LoopParams::default()).unwrap();
-        let (lo, hi) = plot_span_hz(&g, &k, &report).unwrap();
+        let (lo, hi) = report.plot_span_hz();
         let (f_lo, f_hi) = crate::lti::margins::feature_band_hz(&g, &k)
             .unwrap()
             .unwrap();

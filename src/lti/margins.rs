@@ -283,6 +283,10 @@ pub struct LoopDiagnostics {
     pub open_loop_unstable_poles: usize,
     /// Open-loop poles on its boundary (integrators, undamped modes).
     pub open_loop_boundary_poles: usize,
+    /// The loop's features ([`feature_band_hz`]): lowest and highest
+    /// pole/zero frequency of `G` and `K`, Hz; `None` when all are at the
+    /// origin.
+    pub feature_band_hz: Option<(f64, f64)>,
     /// Whether the open loop is unstable: the margins are then distances
     /// on the Nyquist plot, not guarantees by themselves.
     pub open_loop_unstable: bool,
@@ -568,6 +572,42 @@ pub fn feature_band_hz(g: &LoopSystem, k: &LoopSystem) -> Result<Option<(f64, f6
     Ok(lo.is_finite().then(|| (lo / (2.0 * PI), hi / (2.0 * PI))))
 }
 
+/// Decades drawn beyond the loop's outermost poles and zeros (as
+/// python-control's `_default_frequency_range`).
+const PLOT_DECADES_BEYOND: f64 = 1.0;
+
+impl LoopReport {
+    /// The default span of the loop's plot: a decade below the smallest
+    /// non-zero pole/zero frequency of `G` and `K` to a decade above the largest,
+    /// widened to show every crossover the report measures (with a factor 3 of
+    /// room), within the analysed range (which stops at Nyquist). The analysis
+    /// itself searches wider, for crossovers far from the features.
+    pub fn plot_span_hz(&self) -> (f64, f64) {
+        let d = &self.diagnostics;
+        let Some((lo, hi)) = d.feature_band_hz else {
+            return (d.f_min_hz, d.f_max_hz);
+        };
+        let beyond = 10f64.powf(PLOT_DECADES_BEYOND);
+        let (mut lo, mut hi) = (lo / beyond, hi * beyond);
+        let crossings = self
+            .gain_crossovers
+            .iter()
+            .map(|c| c.freq_hz)
+            .chain(self.phase_crossovers.iter().map(|c| c.freq_hz))
+            .chain(self.bandwidth_hz);
+        for f in crossings.filter(|f| f.is_finite() && *f > 0.0) {
+            lo = lo.min(f / 3.0);
+            hi = hi.max(f * 3.0);
+        }
+        let (lo, hi) = (lo.max(d.f_min_hz), hi.min(d.f_max_hz));
+        if lo < hi {
+            (lo, hi)
+        } else {
+            (d.f_min_hz, d.f_max_hz)
+        }
+    }
+}
+
 /// Analyses the negative-feedback loop of plant `g` and controller `k`.
 pub fn analyze_loop(
     g: &LoopSystem,
@@ -624,7 +664,8 @@ pub fn analyze_loop(
         }
     }
 
-    let (lo_feature, hi_feature) = feature_band_hz(g, k)?.unwrap_or((1.0, 1.0));
+    let features = feature_band_hz(g, k)?;
+    let (lo_feature, hi_feature) = features.unwrap_or((1.0, 1.0));
     let span = 10f64.powf(params.decades_beyond);
     let nyquist = ts.map(|t| 0.5 / t);
     let lp = Loop { g, k };
@@ -883,6 +924,7 @@ pub fn analyze_loop(
             gain_crossovers: gain_crossovers.len(),
             open_loop_unstable_poles: unstable,
             open_loop_boundary_poles: boundary,
+            feature_band_hz: features,
             open_loop_unstable,
             notes,
         },
