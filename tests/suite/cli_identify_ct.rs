@@ -20,16 +20,20 @@ fn data(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// The numbers of a JSON array field.
+fn floats(v: &Value, key: &str) -> Vec<f64> {
+    v[key]
+        .as_array()
+        .unwrap_or_else(|| panic!("no array `{key}`"))
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
 fn truth() -> CtModel {
     let t: Value =
         serde_json::from_str(&std::fs::read_to_string(data("zaxis-truth.json")).unwrap()).unwrap();
-    let v = |k: &str| -> Vec<f64> {
-        t[k].as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
+    let v = |k: &str| floats(&t, k);
     CtModel {
         num: v("num"),
         den: v("den"),
@@ -43,13 +47,7 @@ fn json_of(cmd: &mut Command) -> Value {
 }
 
 fn model_of(v: &Value) -> CtModel {
-    let f = |k: &str| -> Vec<f64> {
-        v[k].as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
+    let f = |k: &str| floats(v, k);
     CtModel {
         num: f("num"),
         den: f("den"),
@@ -225,13 +223,7 @@ fn bad_orders_and_files_exit_2_naming_them() {
 /// plant's zero-order-hold response, over its lines below `fmax` Hz.
 fn median_error_against_truth(v: &Value, fmax: f64) -> f64 {
     let (g, ts) = (truth(), 0.002);
-    let f = |k: &str| -> Vec<f64> {
-        v[k].as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
+    let f = |k: &str| floats(v, k);
     let (freq, mag, phase) = (f("freq_hz"), f("magnitude"), f("phase_deg"));
     let mut errors: Vec<f64> = (0..freq.len())
         .filter(|&i| freq[i] > 0.0 && freq[i] <= fmax)
