@@ -12,7 +12,7 @@
 
 pub use super::periodic::{PeriodicParams, detect_period, periodic_response};
 use crate::lti::c64;
-use realfft::RealFftPlanner;
+use fts_kernels::fft::RealFft;
 
 /// Why a frequency estimate cannot be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -228,12 +228,11 @@ pub fn welch(
     }
     let hop = (((1.0 - params.overlap) * l as f64).round() as usize).max(1);
     let win = hann(l);
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(l);
-    let mut buf = fft.make_input_vec();
-    let mut uspec = fft.make_output_vec();
-    let mut yspec = fft.make_output_vec();
-    let bins = l / 2 + 1;
+    let fft = RealFft::new(l);
+    let bins = fft.bins();
+    let mut buf = vec![0.0; l];
+    let mut uspec = vec![c64::new(0.0, 0.0); bins];
+    let mut yspec = vec![c64::new(0.0, 0.0); bins];
     let mut puu = vec![0.0; bins];
     let mut pyy = vec![0.0; bins];
     let mut pyu = vec![c64::new(0.0, 0.0); bins];
@@ -246,15 +245,14 @@ pub fn welch(
             for ((b, s), w) in buf.iter_mut().zip(seg).zip(&win) {
                 *b = (s - mean) * w;
             }
-            fft.process(&mut buf, spec)
-                .map_err(|e| FreqError::BadParams(e.to_string()))?;
+            fft.process(&mut buf, spec);
         }
         for i in 0..bins {
             let uu = uspec[i];
             let yy = yspec[i];
             puu[i] += uu.norm_sqr();
             pyy[i] += yy.norm_sqr();
-            pyu[i] += c64::new(yy.re, yy.im) * c64::new(uu.re, -uu.im);
+            pyu[i] += yy * uu.conj();
         }
         segments += 1;
         start += hop;
@@ -304,18 +302,16 @@ pub fn etfe(u: &[f64], y: &[f64], ts: f64) -> Result<FreqResponse, FreqError> {
             segment: 4,
         });
     }
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(n);
-    let spec = |x: &[f64]| -> Result<Vec<c64>, FreqError> {
+    let fft = RealFft::new(n);
+    let spec = |x: &[f64]| -> Vec<c64> {
         let mean = x[..n].iter().sum::<f64>() / n as f64;
         let mut buf: Vec<f64> = x[..n].iter().map(|v| v - mean).collect();
-        let mut out = fft.make_output_vec();
-        fft.process(&mut buf, &mut out)
-            .map_err(|e| FreqError::BadParams(e.to_string()))?;
-        Ok(out.iter().map(|z| c64::new(z.re, z.im)).collect())
+        let mut out = vec![c64::new(0.0, 0.0); fft.bins()];
+        fft.process(&mut buf, &mut out);
+        out
     };
-    let us = spec(u)?;
-    let ys = spec(y)?;
+    let us = spec(u);
+    let ys = spec(y);
     let pmax = us.iter().map(|z| z.norm_sqr()).fold(0.0, f64::max);
     if pmax == 0.0 {
         return Err(FreqError::NoInputPower);

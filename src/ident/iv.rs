@@ -21,7 +21,6 @@ use super::arx::{ArxParams, Orders, arx, singular_hint};
 use super::linear::{Criteria, IdentError, PolyModel, check_signals, filter_ab, stabilize};
 use super::ls::{DEFAULT_BLOCK_ROWS, triangularize};
 use faer::Mat;
-use faer::prelude::Solve;
 
 /// Settings of [`iv`].
 #[derive(Debug, Clone)]
@@ -134,7 +133,7 @@ fn iv_step(
     });
     let m = Mat::<f64>::from_fn(d, d, |i, j| tri.r[(i, d + j)]);
     let rhs = Mat::<f64>::from_fn(d, 1, |i, _| tri.r[(i, 2 * d)]);
-    let sv = m.singular_values().unwrap_or_else(|_| vec![0.0; d]);
+    let sv = fts_kernels::dense::singular_values(m.as_ref()).unwrap_or_else(|_| vec![0.0; d]);
     let smax = sv.first().copied().unwrap_or(0.0);
     let smin = sv.last().copied().unwrap_or(0.0);
     let cond = if smin > 0.0 {
@@ -150,7 +149,8 @@ fn iv_step(
         .collect();
     let rank = if norms.iter().all(|&n| n > 0.0 && n.is_finite()) {
         let scaled = Mat::<f64>::from_fn(d, d, |i, j| m[(i, j)] / norms[j]);
-        let ssv = scaled.singular_values().unwrap_or_else(|_| vec![0.0; d]);
+        let ssv =
+            fts_kernels::dense::singular_values(scaled.as_ref()).unwrap_or_else(|_| vec![0.0; d]);
         let top = ssv.first().copied().unwrap_or(0.0);
         ssv.iter().filter(|&&s| s > rank_tol * top).count()
     } else {
@@ -164,11 +164,11 @@ fn iv_step(
             hint: singular_hint(u, o.nb),
         });
     }
-    let qr = m.col_piv_qr();
-    let theta_m = qr.solve(&rhs);
+    let qr = fts_kernels::dense::ColPivQrSolver::new(m.as_ref());
+    let theta_m = qr.solve(rhs.as_ref());
     let theta = (0..d).map(|i| theta_m[(i, 0)]).collect();
     // (M^T M)^-1 = M^-1 M^-T.
-    let minv = qr.solve(Mat::<f64>::identity(d, d));
+    let minv = qr.solve(Mat::<f64>::identity(d, d).as_ref());
     let cov = &minv * minv.transpose();
     Ok(IvStep {
         theta,

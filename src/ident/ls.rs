@@ -438,7 +438,7 @@ pub fn solve_triangle_with(tri: &Triangle, rank_tol: f64) -> Result<LstsqSolutio
         if d == 0 {
             Ok(Vec::new())
         } else {
-            m.singular_values().map_err(|_| LstsqError::Svd)
+            fts_kernels::dense::singular_values(m.as_ref()).map_err(|_| LstsqError::Svd)
         }
     };
     let norms: Vec<f64> = (0..d)

@@ -15,7 +15,7 @@
 
 use super::freq::{FreqError, FreqResponse};
 use crate::lti::c64;
-use realfft::RealFftPlanner;
+use fts_kernels::fft::{RealFft, RealIfft};
 
 /// Settings of [`periodic_response`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,21 +107,15 @@ pub fn detect_period(u: &[f64]) -> Option<usize> {
 fn autocorrelation(x: &[f64]) -> Vec<f64> {
     let n = x.len();
     let m = (2 * n).next_power_of_two();
-    let mut planner = RealFftPlanner::<f64>::new();
-    let forward = planner.plan_fft_forward(m);
-    let inverse = planner.plan_fft_inverse(m);
-    let mut buf = forward.make_input_vec();
+    let forward = RealFft::new(m);
+    let mut buf = vec![0.0; m];
     buf[..n].copy_from_slice(x);
-    let mut spec = forward.make_output_vec();
-    forward
-        .process(&mut buf, &mut spec)
-        .expect("buffer sizes from the plan");
+    let mut spec = vec![c64::new(0.0, 0.0); forward.bins()];
+    forward.process(&mut buf, &mut spec);
     for z in spec.iter_mut() {
-        *z = realfft::num_complex::Complex::new(z.norm_sqr(), 0.0);
+        *z = c64::new(z.norm_sqr(), 0.0);
     }
-    inverse
-        .process(&mut spec, &mut buf)
-        .expect("buffer sizes from the plan");
+    RealIfft::new(m).process(&mut spec, &mut buf);
     buf.truncate(n);
     buf.iter_mut().for_each(|v| *v /= m as f64);
     buf
@@ -210,11 +204,11 @@ impl PeriodSpectra {
         skip: usize,
         periods: usize,
     ) -> Result<Self, FreqError> {
-        let fft = RealFftPlanner::<f64>::new().plan_fft_forward(period);
-        let mut buf = fft.make_input_vec();
-        let (mut us, mut ys) = (fft.make_output_vec(), fft.make_output_vec());
-        let bins = period / 2 + 1;
+        let fft = RealFft::new(period);
+        let bins = fft.bins();
         let zero = c64::new(0.0, 0.0);
+        let mut buf = vec![0.0; period];
+        let (mut us, mut ys) = (vec![zero; bins], vec![zero; bins]);
         let mut s = PeriodSpectra {
             u_mean: vec![zero; bins],
             y_mean: vec![zero; bins],
@@ -226,11 +220,10 @@ impl PeriodSpectra {
             let range = p * period..(p + 1) * period;
             for (spec, src) in [(&mut us, &u[range.clone()]), (&mut ys, &y[range])] {
                 buf.copy_from_slice(src);
-                fft.process(&mut buf, spec)
-                    .map_err(|e| FreqError::BadParams(e.to_string()))?;
+                fft.process(&mut buf, spec);
             }
             for k in 0..bins {
-                let (a, b) = (c64::new(us[k].re, us[k].im), c64::new(ys[k].re, ys[k].im));
+                let (a, b) = (us[k], ys[k]);
                 s.u_mean[k] += a / periods as f64;
                 s.y_mean[k] += b / periods as f64;
                 s.puu[k] += a.norm_sqr();

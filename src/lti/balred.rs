@@ -39,8 +39,7 @@ pub struct Reduced {
 
 fn sqrt_factor(p: &Mat<f64>) -> Result<Mat<f64>, SsError> {
     let n = p.nrows();
-    let e = p
-        .self_adjoint_eigen(Side::Lower)
+    let e = fts_kernels::dense::self_adjoint_eigen(p.as_ref(), Side::Lower)
         .map_err(|_| SsError::NoConvergence)?;
     let u = e.U();
     let s = e.S().column_vector();
@@ -128,7 +127,7 @@ fn truncate(sys: &StateSpace, order: usize) -> Result<(StateSpace, Vec<f64>, f64
     let lc = sqrt_factor(&p)?;
     let lo = sqrt_factor(&q)?;
     let h = tr(&lo) * &lc;
-    let svd = h.svd().map_err(|_| SsError::NoConvergence)?;
+    let svd = fts_kernels::dense::svd(h.as_ref()).map_err(|_| SsError::NoConvergence)?;
     let s: Vec<f64> = (0..n).map(|i| svd.S().column_vector()[i]).collect();
     let mut idx: Vec<usize> = (0..n).collect();
     idx.sort_by(|&i, &j| s[j].total_cmp(&s[i]));
@@ -160,7 +159,7 @@ fn truncate(sys: &StateSpace, order: usize) -> Result<(StateSpace, Vec<f64>, f64
 /// (a defective or nearly defective `A`).
 pub fn modal_form(sys: &StateSpace) -> Option<StateSpace> {
     let n = sys.nx();
-    let eig = sys.a.eigen().ok()?;
+    let eig = fts_kernels::dense::eigen(sys.a.as_ref()).ok()?;
     let (v, lambda) = (eig.U(), eig.S().column_vector());
     let mut columns: Vec<Vec<f64>> = Vec::with_capacity(n);
     for k in 0..n {
@@ -180,7 +179,7 @@ pub fn modal_form(sys: &StateSpace) -> Option<StateSpace> {
         let norm = columns[j].iter().map(|x| x * x).sum::<f64>().sqrt();
         columns[j][i] / norm
     });
-    let sv = t.singular_values().ok()?;
+    let sv = fts_kernels::dense::singular_values(t.as_ref()).ok()?;
     let cond = sv.first()? / sv.last()?;
     if !(cond.is_finite() && cond < 1e8) {
         return None;

@@ -16,7 +16,9 @@ pub mod poly;
 pub mod response;
 pub mod riccati;
 pub mod roots;
-pub mod schur;
+/// Ordered (generalized) Schur forms (from the kernels crate, where they are
+/// compiled once).
+pub use fts_kernels::schur;
 pub mod ss;
 pub mod stability;
 pub mod tf;

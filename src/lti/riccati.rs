@@ -19,7 +19,6 @@ use super::lyapunov::{MatEqError, dlyap, lyap};
 use super::schur::{SchurError, gen_schur, ordered_real_schur, quasi_triangular_eigenvalues};
 use super::ss::{balancing_scales, block2, eigvals, fro, inv, tr};
 use faer::Mat;
-use faer::linalg::solvers::Solve;
 use thiserror::Error;
 
 /// Errors of the Riccati solvers.
@@ -152,8 +151,7 @@ fn subspace_solution(z: &Mat<c64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
     // X U1 = U2  <=>  U1^T X^T = U2^T.
     let u1t = u1.transpose().to_owned();
     let u2t = u2.transpose().to_owned();
-    let sv = u1
-        .singular_values()
+    let sv = fts_kernels::dense::singular_values_c64(u1.as_ref())
         .map_err(|_| RiccatiError::NoStabilizing("SVD of the stable subspace failed".into()))?;
     let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
     let smax = sv.iter().cloned().fold(0.0, f64::max);
@@ -164,7 +162,7 @@ fn subspace_solution(z: &Mat<c64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
                 .into(),
         ));
     }
-    let xt = u1t.partial_piv_lu().solve(&u2t);
+    let xt = fts_kernels::dense::lu_solve_c64(u1t.as_ref(), u2t.as_ref());
     let x = Mat::from_fn(n, n, |i, j| 0.5 * (xt[(j, i)].re + xt[(i, j)].re));
     if !x.is_all_finite() {
         return Err(RiccatiError::NoStabilizing("solution overflowed".into()));
@@ -176,8 +174,7 @@ fn subspace_solution(z: &Mat<c64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
 fn subspace_solution_real(z: &Mat<f64>, n: usize) -> Result<Mat<f64>, RiccatiError> {
     let u1 = Mat::from_fn(n, n, |i, j| z[(i, j)]);
     let u2t = Mat::from_fn(n, n, |i, j| z[(n + j, i)]);
-    let sv = u1
-        .singular_values()
+    let sv = fts_kernels::dense::singular_values(u1.as_ref())
         .map_err(|_| RiccatiError::NoStabilizing("SVD of the stable subspace failed".into()))?;
     let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
     let smax = sv.iter().cloned().fold(0.0, f64::max);
@@ -189,7 +186,7 @@ fn subspace_solution_real(z: &Mat<f64>, n: usize) -> Result<Mat<f64>, RiccatiErr
         ));
     }
     // X U1 = U2  <=>  U1^T X^T = U2^T.
-    let xt = u1.transpose().to_owned().partial_piv_lu().solve(&u2t);
+    let xt = fts_kernels::dense::lu_solve(u1.transpose(), u2t.as_ref());
     let x = Mat::from_fn(n, n, |i, j| 0.5 * (xt[(j, i)] + xt[(i, j)]));
     if !x.is_all_finite() {
         return Err(RiccatiError::NoStabilizing("solution overflowed".into()));

@@ -63,7 +63,7 @@ pub fn roots_descending(coeffs: &[f64]) -> Result<Vec<c64>, RootsError> {
         m[(i, i - 1)] = 1.0;
     }
     balance(&mut m);
-    let eig = m.eigenvalues().map_err(|_| RootsError::NoConvergence)?;
+    let eig = fts_kernels::dense::eigenvalues(m.as_ref()).map_err(|_| RootsError::NoConvergence)?;
     let mut roots: Vec<c64> = eig.into_iter().map(|z| c64::new(z.re, z.im)).collect();
     for r in &mut roots {
         *r = polish(p, *r);

@@ -12,7 +12,6 @@
 use super::c64;
 use super::tf::ContinuousTf;
 use faer::Mat;
-use faer::linalg::solvers::{DenseSolveCore, Solve};
 use thiserror::Error;
 
 /// Errors from building or combining state-space systems.
@@ -167,8 +166,7 @@ pub fn inv(m: &Mat<f64>) -> Option<Mat<f64>> {
     if n == 0 {
         return Some(Mat::zeros(0, 0));
     }
-    let lu = m.partial_piv_lu();
-    let x = lu.inverse();
+    let x = fts_kernels::dense::lu_inverse(m.as_ref());
     // Accept when the computed inverse reproduces the identity (a backward
     // check that is insensitive to row/column scaling, unlike a condition
     // number threshold).
@@ -185,7 +183,7 @@ pub fn solve(m: &Mat<f64>, b: &Mat<f64>) -> Option<Mat<f64>> {
         return Some(Mat::zeros(0, b.ncols()));
     }
     inv(m)?;
-    let x = m.partial_piv_lu().solve(b);
+    let x = fts_kernels::dense::lu_solve(m.as_ref(), b.as_ref());
     x.is_all_finite().then_some(x)
 }
 
@@ -197,7 +195,7 @@ pub fn eigvals(m: &Mat<f64>) -> Result<Vec<c64>, SsError> {
     if !m.is_all_finite() {
         return Err(SsError::NoConvergence);
     }
-    m.eigenvalues().map_err(|_| SsError::NoConvergence)
+    fts_kernels::dense::eigenvalues(m.as_ref()).map_err(|_| SsError::NoConvergence)
 }
 
 /// Largest singular value of a complex matrix.
@@ -214,7 +212,7 @@ pub fn sigma_max_c(m: &Mat<c64>) -> f64 {
         }
         return s.sqrt();
     }
-    m.singular_values()
+    fts_kernels::dense::singular_values_c64(m.as_ref())
         .map(|s| s.into_iter().fold(0.0, f64::max))
         .unwrap_or(f64::NAN)
 }
@@ -224,7 +222,7 @@ pub fn sigma_max(m: &Mat<f64>) -> f64 {
     if m.nrows() == 0 || m.ncols() == 0 {
         return 0.0;
     }
-    m.singular_values()
+    fts_kernels::dense::singular_values(m.as_ref())
         .map(|s| s.into_iter().fold(0.0, f64::max))
         .unwrap_or(f64::NAN)
 }
@@ -646,7 +644,7 @@ impl StateSpace {
             if i == j { v + s } else { v }
         });
         let b = Mat::from_fn(n, self.nu(), |i, j| c64::new(self.b[(i, j)], 0.0));
-        let x = m.partial_piv_lu().solve(&b);
+        let x = fts_kernels::dense::lu_solve_c64(m.as_ref(), b.as_ref());
         if !x.is_all_finite() {
             return Err(SsError::IllPosed);
         }

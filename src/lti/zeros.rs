@@ -155,7 +155,7 @@ fn svd_desc(m: &Mat<f64>) -> Result<Svd, SsError> {
     if !m.is_all_finite() {
         return Err(SsError::NonFinite("system pencil"));
     }
-    let svd = m.svd().map_err(|_| SsError::NoConvergence)?;
+    let svd = fts_kernels::dense::svd(m.as_ref()).map_err(|_| SsError::NoConvergence)?;
     let s: Vec<f64> = (0..r.min(c)).map(|i| svd.S()[i]).collect();
     let mut order: Vec<usize> = (0..s.len()).collect();
     order.sort_by(|&i, &j| s[j].total_cmp(&s[i]));

@@ -252,13 +252,13 @@ fn sigma_min(m: &Mat<f64>) -> f64 {
     if m.nrows() == 0 || m.ncols() == 0 {
         return 0.0;
     }
-    m.singular_values()
+    fts_kernels::dense::singular_values(m.as_ref())
         .map(|s| s.into_iter().fold(f64::INFINITY, f64::min))
         .unwrap_or(0.0)
 }
 
 fn smin(m: &Mat<c64>) -> f64 {
-    m.singular_values()
+    fts_kernels::dense::singular_values_c64(m.as_ref())
         .map(|s| s.into_iter().fold(f64::INFINITY, f64::min))
         .unwrap_or(0.0)
 }
@@ -268,7 +268,7 @@ pub fn rank(m: &Mat<f64>, tol: f64) -> usize {
     if m.nrows() == 0 || m.ncols() == 0 {
         return 0;
     }
-    let s = m.singular_values().unwrap_or_default();
+    let s = fts_kernels::dense::singular_values(m.as_ref()).unwrap_or_default();
     let top = s.iter().cloned().fold(0.0, f64::max);
     s.iter()
         .filter(|&&x| x > tol * top.max(1e-300) && x > 1e-14)
@@ -291,8 +291,7 @@ type Svd = (Mat<f64>, Vec<f64>, Mat<f64>);
 
 /// Full SVD `M = U S V'` with singular values in descending order.
 fn svd_full(m: &Mat<f64>) -> Result<Svd, SynthError> {
-    let svd = m
-        .svd()
+    let svd = fts_kernels::dense::svd(m.as_ref())
         .map_err(|_| SynthError::Numerical("SVD did not converge".into()))?;
     let s: Vec<f64> = (0..m.nrows().min(m.ncols()))
         .map(|i| svd.S().column_vector()[i])

@@ -334,7 +334,7 @@ pub fn solve3(m: &[[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
 /// 2-norm condition number of a 3x3 matrix (singular values by faer).
 pub fn condition_number(m: &[[f64; 3]; 3]) -> f64 {
     let a = faer::Mat::from_fn(3, 3, |i, j| m[i][j]);
-    match a.singular_values() {
+    match fts_kernels::dense::singular_values(a.as_ref()) {
         Ok(s) if s[2] > 0.0 => s[0] / s[2],
         _ => f64::INFINITY,
     }

@@ -465,18 +465,15 @@ fn validation_error(
 /// The frequency below which 99 % of the evaluated reference's energy
 /// (about its mean) lies, Hz.
 pub fn reference_band_hz(reference: &Reference, ts: f64) -> f64 {
-    use realfft::RealFftPlanner;
     let x = &reference.samples[reference.evaluated()];
     if x.len() < 4 {
         return 0.0;
     }
     let mean = x.iter().sum::<f64>() / x.len() as f64;
     let mut buf: Vec<f64> = x.iter().map(|v| v - mean).collect();
-    let fft = RealFftPlanner::<f64>::new().plan_fft_forward(buf.len());
-    let mut spec = fft.make_output_vec();
-    if fft.process(&mut buf, &mut spec).is_err() {
-        return 0.0;
-    }
+    let fft = fts_kernels::fft::RealFft::new(buf.len());
+    let mut spec = vec![crate::lti::c64::new(0.0, 0.0); fft.bins()];
+    fft.process(&mut buf, &mut spec);
     let power: Vec<f64> = spec.iter().map(|c| c.norm_sqr()).collect();
     let total: f64 = power.iter().sum();
     let mut sum = 0.0;

@@ -185,7 +185,7 @@ fn run_case(index: usize, case: &Case, base: &BTreeMap<String, Vec<u8>>) -> Resu
     let before = snapshot(dir);
     let args = case.args.list();
     let started = Instant::now();
-    let out = assert_cmd::Command::from_std(command(dir, &args))
+    let out = crate::common::cmd::Command::from_std(command(dir, &args))
         .timeout(TIMEOUT)
         .output()
         .expect("run fts");

@@ -16,7 +16,7 @@
 
 use crate::common::cc;
 
-use assert_cmd::Command as Fts;
+use crate::common::cmd::fts;
 use fts::io::controller_file::{
     Feedback, MultiAxisControllerFile, ParallelPid, parse_multiaxis, to_multiaxis_c_header,
 };
@@ -232,8 +232,7 @@ fn everywhere(file: &MultiAxisControllerFile, rec: &[LoopSample]) {
     assert_same_bits("the file's Rust step", &replayed, rec);
 
     // fts emit: the same header as the library writes, and the JSON again byte for byte.
-    let header = Fts::cargo_bin("fts")
-        .unwrap()
+    let header = fts()
         .args(["emit", "--format", "c-header", "--multiaxis"])
         .arg(&json)
         .output()
@@ -243,8 +242,7 @@ fn everywhere(file: &MultiAxisControllerFile, rec: &[LoopSample]) {
         String::from_utf8(header.stdout).unwrap(),
         to_multiaxis_c_header(file)
     );
-    let again = Fts::cargo_bin("fts")
-        .unwrap()
+    let again = fts()
         .args(["emit", "--multiaxis"])
         .arg(&json)
         .output()
@@ -256,8 +254,7 @@ fn everywhere(file: &MultiAxisControllerFile, rec: &[LoopSample]) {
 
     let Some(cc) = compiler() else { return };
     let c_dir = dir.path().join("ctl");
-    let emitted = Fts::cargo_bin("fts")
-        .unwrap()
+    let emitted = fts()
         .args(["emit", "--format", "c", "--multiaxis"])
         .arg(&json)
         .arg("-o")
@@ -277,8 +274,7 @@ fn a_bad_multiaxis_file_is_refused_naming_the_field() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("k.json");
     std::fs::write(&path, doc.to_string()).unwrap();
-    let out = Fts::cargo_bin("fts")
-        .unwrap()
+    let out = fts()
         .args(["emit", "--multiaxis"])
         .arg(&path)
         .output()

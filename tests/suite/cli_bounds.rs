@@ -2,13 +2,9 @@
 //! docs/formats.md, Bounds and Exit codes): sizes a file or option asks for
 //! are refused before the work, and a failed run leaves no result behind.
 
-use assert_cmd::Command;
+use crate::common::cmd::fts;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn base(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -288,7 +284,7 @@ fn a_full_stdout_undoes_the_result_file() {
     let d = tempfile::tempdir().unwrap();
     std::fs::copy(base("tf.json"), d.path().join("g.json")).unwrap();
     std::fs::write(d.path().join("out.json"), "old").unwrap();
-    let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("fts"))
+    let out = std::process::Command::new(crate::common::cmd::fts_path())
         .current_dir(d.path())
         .args(["convert", "g.json", "--to", "ss", "-o", "out.json"])
         .stdout(std::fs::File::create("/dev/full").unwrap())
@@ -344,7 +340,7 @@ fn a_full_stderr_never_panics() {
         ),
     ];
     for (args, code) in cases {
-        let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("fts"))
+        let out = std::process::Command::new(crate::common::cmd::fts_path())
             .current_dir(d.path())
             .args(&args)
             .stderr(std::fs::File::create("/dev/full").unwrap())
@@ -375,7 +371,7 @@ fn killed_runs_leave_no_temporary_files_after_the_next_run() {
     let out = d.path().join("out");
     std::fs::create_dir(&out).unwrap();
     let elsewhere = tempfile::tempdir().unwrap();
-    let bin = assert_cmd::cargo::cargo_bin("fts");
+    let bin = crate::common::cmd::fts_path();
     // How long a whole run takes here, to spread the kills over it.
     let start = Instant::now();
     let args = [

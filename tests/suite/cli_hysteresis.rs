@@ -2,15 +2,10 @@
 //! paths, and every bad input exits with code 2, names the problem, never
 //! panics, and leaves no output file.
 
-use assert_cmd::Command;
+use crate::common::cmd::{fts, predicate};
 use fts::ident::hysteresis::operators::uniform_thresholds;
 use fts::ident::hysteresis::{HysteresisModel, ModelKind, PlayOperator};
-use predicates::prelude::*;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

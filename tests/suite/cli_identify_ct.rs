@@ -4,15 +4,11 @@
 //! frequency response with 5 % complex noise. The truth is in
 //! zaxis-truth.json; fts never saw it.
 
-use assert_cmd::Command;
+use crate::common::cmd::{Command, fts, predicate};
 use fts::ident::ct::{CtModel, periodic_frf};
 use fts::lti::c64;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -191,7 +187,7 @@ fn ct_frd_with_relative_weighting_recovers_every_pole() {
         .args(["--np", "3", "--nz", "1"])
         .assert()
         .code(1)
-        .stderr(predicates::str::contains("unstable"));
+        .stderr(predicate::str::contains("unstable"));
 }
 
 #[test]
@@ -202,21 +198,21 @@ fn bad_orders_and_files_exit_2_naming_them() {
         .args(["--np", "1", "--nz", "2"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("--nz"));
+        .stderr(predicate::str::contains("--nz"));
     fts()
         .args(["identify", "ct"])
         .arg(data("zaxis-multisine.csv"))
         .args(["--np", "2", "--nz", "1", "--delay", "-1"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("--delay"));
+        .stderr(predicate::str::contains("--delay"));
     fts()
         .args(["identify", "ct-frd"])
         .arg(data("zaxis-truth.json"))
         .args(["--np", "2", "--nz", "1"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("zaxis-truth.json"));
+        .stderr(predicate::str::contains("zaxis-truth.json"));
 }
 
 /// Median relative error of a `fts bode --json` estimate against the true
@@ -283,7 +279,7 @@ fn bode_averages_a_repeating_record_over_the_period_it_finds() {
         .args(["--period", "10.001"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("--period"));
+        .stderr(predicate::str::contains("--period"));
     // The identification plot says which estimate it drew.
     let dir = tempfile::tempdir().unwrap();
     fts()
@@ -294,7 +290,7 @@ fn bode_averages_a_repeating_record_over_the_period_it_finds() {
         .arg(&record)
         .assert()
         .success()
-        .stderr(predicates::str::contains(
+        .stderr(predicate::str::contains(
             "average of 3 periods x 5000 samples (period found in the input)",
         ));
 }

@@ -2,19 +2,14 @@
 //! records, the \[Li21\] closed loop, and every bad input exiting with code 2,
 //! naming the problem and leaving no output file.
 
-use assert_cmd::Command;
+use crate::common::cmd::{Command, fts, predicate};
 use fts::ident::excite::{SweepParams, SweepSpacing, sweep};
 use fts::ident::linear::filter_ab;
-use predicates::prelude::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 const LI21_B: [f64; 5] = [4.154, -9.631, 10.23, -5.511, 1.154];
 const LI21_A: [f64; 6] = [1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447];
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn dataset(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(rel)

@@ -2,13 +2,13 @@
 //! "Time series (input)", `fts.tf/1`, "Exit codes"): one test per way an
 //! input used to be ignored or misread.
 
-use assert_cmd::Command;
+use crate::common::cmd::Command;
 use serde_json::Value;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 fn fts(dir: &Path) -> Command {
-    let mut c = Command::cargo_bin("fts").unwrap();
+    let mut c = crate::common::cmd::fts();
     c.current_dir(dir);
     c
 }

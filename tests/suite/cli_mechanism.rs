@@ -2,13 +2,8 @@
 //! (0.55 um lost of 10 um), [Tang17]'s home Jacobian rows, the workspace
 //! plot, and bad input exiting 2 naming the flag.
 
-use assert_cmd::Command;
-use predicates::prelude::*;
+use crate::common::cmd::{Command, fts, predicate};
 use serde_json::Value;
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn json_of(cmd: &mut Command) -> Value {
     let out = cmd.assert().success().get_output().stdout.clone();
@@ -66,17 +61,17 @@ fn bad_mechanism_inputs_exit_2_naming_the_flag() {
         .args(["mechanism", "flexure-loss", "--k", "-1"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("--k"));
+        .stderr(predicate::str::contains("--k"));
     fts()
         .args(["mechanism", "3puu", "--rod-mm", "10"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("--rod-mm"));
+        .stderr(predicate::str::contains("--rod-mm"));
     fts()
         .args(["mechanism", "hinge", "--width-mm", "0"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("--width-mm"));
+        .stderr(predicate::str::contains("--width-mm"));
 }
 
 /// The inverse question with [Tang17]'s measured 3.87: a rigid bridge needs
@@ -131,8 +126,8 @@ fn bad_lever_and_bridge_inputs_exit_2_naming_the_flag() {
             .args(&args)
             .assert()
             .code(2)
-            .stderr(predicates::str::contains(flag))
-            .stderr(predicates::str::contains("panicked").not());
+            .stderr(predicate::str::contains(flag))
+            .stderr(predicate::str::contains("panicked").not());
     }
 }
 
@@ -224,8 +219,8 @@ fn amplifier_chain_inverse_and_loading() {
             .args(&args)
             .assert()
             .code(2)
-            .stderr(predicates::str::contains(flag))
-            .stderr(predicates::str::contains("panicked").not());
+            .stderr(predicate::str::contains(flag))
+            .stderr(predicate::str::contains("panicked").not());
     }
 }
 

@@ -3,13 +3,9 @@
 //! the same numbers gives byte-identical models, and every bad record exits 2
 //! with one line naming the file, line and field.
 
-use assert_cmd::Command;
+use crate::common::cmd::{Command, fts};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
@@ -397,7 +393,7 @@ fn absurd_orders_are_refused_not_a_panic() {
 #[cfg(target_os = "linux")]
 #[test]
 fn an_unwritable_stdout_exits_1_with_one_line() {
-    let bin = assert_cmd::cargo::cargo_bin("fts");
+    let bin = crate::common::cmd::fts_path();
     for args in [
         vec![
             "excite",

@@ -1,14 +1,9 @@
 //! `fts response`, the conversion commands and `fts simulate --reference
 //! step` from the outside: results, files, bounds and exit codes.
 
-use assert_cmd::Command;
-use predicates::prelude::*;
+use crate::common::cmd::{Command, fts, predicate};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

@@ -1,13 +1,8 @@
 //! `fts hinf | h2 | weight | mixsyn | c2d | ss-info` from the outside.
 
-use assert_cmd::Command;
-use predicates::prelude::*;
+use crate::common::cmd::{fts, predicate};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

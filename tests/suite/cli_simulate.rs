@@ -1,12 +1,7 @@
 //! `fts simulate` and `fts emit` end to end, and their bad inputs.
 
-use assert_cmd::Command;
-use predicates::prelude::*;
+use crate::common::cmd::{Command, fts, predicate};
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -3,16 +3,12 @@
 //! against an independent linear computation of the closed loop; and the
 //! `state_space` block's bad inputs.
 
-use assert_cmd::Command;
+use crate::common::cmd::{fts, predicate};
 use fts::io::controller_file::parse_controller;
 use fts::io::tf_json::parse_tf;
 use fts::lti::TransferFunction;
 use fts::lti::ss::StateSpace;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -296,5 +292,5 @@ fn bad_state_space_blocks_exit_2_naming_the_field() {
         .args(["--ts", "1e-4"])
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("sample time"));
+        .stderr(predicate::str::contains("sample time"));
 }

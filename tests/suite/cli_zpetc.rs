@@ -1,13 +1,8 @@
 //! `fts zpetc` and `fts tf info` end to end: happy paths, and every bad input
 //! exits with code 2, names the problem, never panics, and leaves no output.
 
-use assert_cmd::Command;
-use predicates::prelude::*;
+use crate::common::cmd::{fts, predicate};
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -3,16 +3,11 @@
 //! improvement on both paths, and `fts trajectory` / `fts contour` from the
 //! outside.
 
-use assert_cmd::Command;
+use crate::common::cmd::{Command, fts, predicate};
 use fts::sim::contour::AxisController;
 use fts::workflow::contour::{Contour, ContourInputs, PathShape, TrajectorySettings};
-use predicates::prelude::*;
 use serde_json::Value;
 use std::path::Path;
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 /// The \[Karagoz18\] loop on a fast traversal (30 mm/s reached), so that a
 /// debug build runs it in seconds.

@@ -1,13 +1,12 @@
 //! The Ding22 workflow (math.md §5): plant facts, H2 design, budget
 //! identity, PID comparison, sweep, CLI errors.
 
-use assert_cmd::Command;
+use crate::common::cmd::{fts, predicate};
 use faer::Mat;
 use fts::lti::norms::h2_norm;
 use fts::lti::ss::eigvals;
 use fts::synth::budget::ErrorBudget;
 use fts::synth::ding22::*;
-use predicates::prelude::*;
 use serde_json::Value;
 
 /// The error budget of `ev` on a log grid to 100 kHz, whose RMS (the grid
@@ -141,10 +140,6 @@ fn sweep_finds_the_direct_optimum() {
     assert_eq!(s.best, (best.1, best.2));
     let inside = |i: usize| i == 1;
     assert_eq!(s.interior, inside(best.1) && inside(best.2));
-}
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
 }
 
 #[test]

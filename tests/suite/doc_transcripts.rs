@@ -344,7 +344,7 @@ fn workdir() -> tempfile::TempDir {
 fn run(dir: &Path, args: &[String]) -> (bool, Vec<String>) {
     let log = dir.join(".transcript-output");
     let file = std::fs::File::create(&log).unwrap();
-    let status = Command::new(assert_cmd::cargo::cargo_bin("fts"))
+    let status = Command::new(crate::common::cmd::fts_path())
         .current_dir(dir)
         .args(args)
         .stdin(Stdio::null())

@@ -4,7 +4,7 @@
 //! expansion of `(z - r)^k`, roots by mpmath at 200 digits); no Python is
 //! needed here.
 
-use assert_cmd::Command;
+use crate::common::cmd::fts;
 use fts::lti::stability::{
     StabilityTest, hurwitz_roots_left, hurwitz_verdict, schur_roots_inside, schur_stable,
     schur_verdict,
@@ -211,12 +211,7 @@ fn tf_info_text(den: &[f64]) -> String {
         "format": "fts.tf/1", "var": "z^-1", "ts": 1e-3, "delay": 0, "num": [1.0], "den": den
     });
     std::fs::write(&path, doc.to_string()).unwrap();
-    let out = Command::cargo_bin("fts")
-        .unwrap()
-        .args(["tf", "info"])
-        .arg(&path)
-        .output()
-        .unwrap();
+    let out = fts().args(["tf", "info"]).arg(&path).output().unwrap();
     assert!(out.status.success());
     String::from_utf8_lossy(&out.stdout).into_owned()
 }

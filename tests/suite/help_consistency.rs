@@ -3,13 +3,9 @@
 //! whose lines parse and run, help that tells what the command writes, and
 //! completions and manual pages generated from the same definition.
 
-use assert_cmd::Command;
+use crate::common::cmd::fts;
 use std::collections::BTreeMap;
 use std::path::Path;
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 /// Every (sub)command below the root with its path (`identify arx`), the
 /// `help` pseudo-commands left out.

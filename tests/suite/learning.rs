@@ -3,6 +3,7 @@
 //! \[Li21\] PID `kp 0.3, ki 0.1` (derivative 0), `T = P C / (1 + P C)` with
 //! `C = kp + ki / (1 - z^-1)`.
 
+use crate::common::cmd::{Command, fts};
 use fts::ident::arx::Orders;
 use fts::io::controller_file::RepetitiveBlock;
 use fts::lti::DiscreteTf;
@@ -364,8 +365,8 @@ fn ilc_data(name: &str) -> String {
 
 /// `fts ilc` on the models of tests/data/ilc along the five-leaved
 /// trajectory, `trials` trials.
-fn ilc_on_the_wrong_model(trials: &str) -> assert_cmd::Command {
-    let mut cmd = assert_cmd::Command::cargo_bin("fts").unwrap();
+fn ilc_on_the_wrong_model(trials: &str) -> Command {
+    let mut cmd = fts();
     cmd.args(["ilc", "--hysteresis", &ilc_data("inverse-hysteresis.json")])
         .args(["--zpetc", &ilc_data("zpetc.json")])
         .args(["--closed-loop", &ilc_data("closed-loop.json")])
@@ -457,8 +458,7 @@ fn ilc_defaults_choose_a_law_the_wrong_model_still_supports() {
 /// result (0.25 %): at most 1 % after 10 trials with every setting chosen.
 #[test]
 fn ilc_defaults_reach_the_demo_on_the_sweep() {
-    let out = assert_cmd::Command::cargo_bin("fts")
-        .unwrap()
+    let out = fts()
         .args(["ilc", "--reference", "sweep", "--amplitude", "5"])
         .args(["--trials", "10", "--json"])
         .assert()

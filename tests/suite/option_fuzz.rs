@@ -16,6 +16,7 @@
 //!
 //! The runs are seeded ([`SEED`]), so CI sees the same ones every time.
 
+use crate::common::cmd::fts;
 use rand::{RngExt, SeedableRng};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -252,8 +253,7 @@ fn run(args: &[String], files: &BTreeMap<String, Vec<u8>>) -> Result<(), String>
     }
     let before = snapshot(tmp.path());
     let started = Instant::now();
-    let out = assert_cmd::Command::cargo_bin("fts")
-        .unwrap()
+    let out = fts()
         .args(args)
         .current_dir(tmp.path())
         .env("NO_COLOR", "1")

@@ -3,16 +3,11 @@
 //! after a rebuild; a failing step leaves every previous output intact;
 //! manifest errors exit 2 naming the line and field.
 
-use assert_cmd::Command;
+use crate::common::cmd::{Assert, fts, predicate};
 use fts::io::timeseries::{time_column, write_csv};
 use fts::sim::experiment::{ExperimentParams, align_triangle_record, triangle_record};
-use predicates::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
@@ -87,14 +82,14 @@ fn project(dir: &Path) {
     std::fs::write(dir.join("fts.toml"), MANIFEST).unwrap();
 }
 
-fn build(dir: &Path) -> assert_cmd::assert::Assert {
+fn build(dir: &Path) -> Assert {
     fts()
         .current_dir(dir)
         .args(["build", "-f", "fts.toml"])
         .assert()
 }
 
-fn check(dir: &Path) -> assert_cmd::assert::Assert {
+fn check(dir: &Path) -> Assert {
     fts().current_dir(dir).args(["build", "--check"]).assert()
 }
 

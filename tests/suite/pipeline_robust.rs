@@ -4,13 +4,8 @@
 //! manifest as from its command; a bad setting exits with the same code both
 //! ways.
 
-use assert_cmd::Command;
-use predicates::prelude::*;
+use crate::common::cmd::{fts, predicate};
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)

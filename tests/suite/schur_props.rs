@@ -175,3 +175,127 @@ fn unordered_form_and_trivial_sizes() {
         1
     );
 }
+
+/// The fixed cases of the forms and their fallbacks (the complex QZ with
+/// reordering, the real Schur form made triangular, the real QZ).
+mod fixed {
+    use faer::Mat;
+    use fts::lti::c64;
+    use fts::lti::schur::{
+        GenSchur, cplx, gen_schur, pencil_residual, quasi_triangular_eigenvalues, real_qz,
+        real_schur, real_to_complex_schur, schur, triangular_part,
+    };
+
+    fn dist(a: &Mat<c64>, b: &Mat<c64>) -> f64 {
+        (a - b).norm_l2()
+    }
+
+    #[test]
+    fn pencil_reordering_keeps_the_factorisation() {
+        let n = 7;
+        let m = Mat::from_fn(n, n, |i, j| {
+            ((i * 7 + j * 3) % 11) as f64 - 5.0 + (i == j) as u8 as f64
+        });
+        let l = Mat::from_fn(n, n, |i, j| {
+            if i == j {
+                2.0
+            } else {
+                ((i + 2 * j) % 5) as f64 * 0.1
+            }
+        });
+        let mut gs = gen_schur(&m, &l).unwrap();
+        let check = |gs: &GenSchur| {
+            let e1 = dist(&(&gs.q * &gs.s * gs.z.adjoint()), &cplx(&m));
+            let e2 = dist(&(&gs.q * &gs.t * gs.z.adjoint()), &cplx(&l));
+            assert!(e1 < 1e-12 * 50.0 && e2 < 1e-12 * 50.0, "{e1} {e2}");
+        };
+        check(&gs);
+        let k = gs.reorder(|a, b| (a / b).re < 0.0);
+        check(&gs);
+        for (i, (a, b)) in gs.pairs().into_iter().enumerate() {
+            assert_eq!((a / b).re < 0.0, i < k);
+        }
+    }
+
+    /// The fallback of `schur` (real Schur form made triangular by one
+    /// rotation per 2x2 block) on a matrix with three complex pairs and two
+    /// real eigenvalues: `U` unitary, `U^H A U` upper triangular to
+    /// rounding, and its diagonal the eigenvalues of the blocks.
+    #[test]
+    fn real_schur_made_triangular() {
+        let n = 8;
+        let a = Mat::from_fn(n, n, |i, j| {
+            ((i * 5 + j * 3) % 7) as f64 - 3.0 + if i + 1 == j { 4.0 } else { 0.0 }
+                - if j + 1 == i { 4.0 } else { 0.0 }
+        });
+        let rs = real_schur(&a).unwrap();
+        let blocks = rs.t.clone();
+        let (u, (r, dropped)) = triangular_part(&a, real_to_complex_schur(rs));
+        let scale = cplx(&a).norm_l2();
+        assert!(dropped < 1e-14 * scale, "{dropped}");
+        assert!(dist(&(u.adjoint() * &u), &Mat::identity(n, n)) < 1e-14);
+        assert!(dist(&(&u * &r * u.adjoint()), &cplx(&a)) < 1e-13 * scale);
+        let want = quasi_triangular_eigenvalues(&blocks);
+        let mut got: Vec<c64> = (0..n).map(|i| r[(i, i)]).collect();
+        assert!(want.iter().filter(|z| z.im != 0.0).count() >= 2);
+        // Each block eigenvalue matched to (and removed from) the nearest diagonal entry.
+        for w in &want {
+            let (k, d) = got
+                .iter()
+                .enumerate()
+                .map(|(k, g)| (k, (g - w).norm()))
+                .fold((0, f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
+            assert!(d < 1e-12 * scale, "{w} vs {got:?}");
+            got.remove(k);
+        }
+    }
+
+    /// The real-QZ fallback of `gen_schur` on a pencil with complex pairs:
+    /// both factors triangular, `Q`, `Z` unitary, the pencil reproduced,
+    /// and `det(M - lambda L) = 0` at every `lambda = s_ii / t_ii`.
+    #[test]
+    fn real_qz_made_triangular() {
+        let n = 7;
+        let m = Mat::from_fn(n, n, |i, j| {
+            ((i * 7 + j * 3) % 11) as f64 - 5.0 + if i + 1 == j { 6.0 } else { 0.0 }
+                - if j + 1 == i { 6.0 } else { 0.0 }
+        });
+        let l = Mat::from_fn(n, n, |i, j| {
+            if i == j {
+                2.0 + i as f64 * 0.1
+            } else {
+                ((i + 2 * j) % 5) as f64 * 0.1
+            }
+        });
+        let gs = real_qz(&m, &l).unwrap();
+        assert!(pencil_residual(&gs, &m, &l) < 1e-13);
+        assert!(dist(&(gs.q.adjoint() * &gs.q), &Mat::identity(n, n)) < 1e-13);
+        assert!(dist(&(gs.z.adjoint() * &gs.z), &Mat::identity(n, n)) < 1e-13);
+        let pairs = gs.pairs();
+        assert!(
+            pairs
+                .iter()
+                .filter(|(a, b)| (a / b).im.abs() > 1e-6)
+                .count()
+                >= 2
+        );
+        for (a, b) in pairs {
+            let lam = a / b;
+            let pencil = Mat::from_fn(n, n, |i, j| c64::new(m[(i, j)], 0.0) - lam * l[(i, j)]);
+            let sv = pencil.singular_values().unwrap();
+            let (lo, hi) = sv.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &x| {
+                (lo.min(x), hi.max(x))
+            });
+            assert!(lo < 1e-12 * hi, "{lam}: {lo} vs {hi}");
+        }
+    }
+
+    #[test]
+    fn schur_of_rotation() {
+        let a = Mat::from_fn(2, 2, |i, j| [[0.0, 1.0], [-1.0, 0.0]][i][j]);
+        let (u, r) = schur(&a).unwrap();
+        let back = &u * &r * u.adjoint();
+        assert!(dist(&back, &cplx(&a)) < 1e-14);
+        assert!((r[(0, 0)].norm() - 1.0).abs() < 1e-14);
+    }
+}

@@ -4,13 +4,9 @@
 //! on the unit circle names the `fts minreal` command that removes it, and
 //! that command works.
 
-use assert_cmd::Command;
+use crate::common::cmd::{fts, predicate};
 use serde_json::Value;
 use std::path::Path;
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn names(dir: &Path) -> Vec<String> {
     let mut n: Vec<String> = std::fs::read_dir(dir)
@@ -99,7 +95,7 @@ fn zpetc_tf_info_warns_of_the_pair() {
         .args(["tf", "info", "CL.json"])
         .assert()
         .success()
-        .stdout(predicates::str::contains(
+        .stdout(predicate::str::contains(
             "warning: near pole-zero cancellation on the unit circle: zero 0.9999999 with pole 0.9999998",
         ));
 }

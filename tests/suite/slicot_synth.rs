@@ -8,6 +8,7 @@
 //! controllers, which carry 4 decimals), and optimality checked on its own
 //! (the optimum formula, perturbations that never lower the cost).
 
+use crate::common::cmd::{fts, predicate};
 use faer::Mat;
 use fts::lti::c64;
 use fts::lti::norms::h2_norm;
@@ -393,8 +394,7 @@ fn sb10fd_published_poles() -> Vec<c64> {
 /// closed-loop poles SLICOT prints, to their 5 digits, and a norm below 15.
 #[test]
 fn sb10fd_cli_at_gamma_15_gives_the_published_closed_loop_poles() {
-    let out = assert_cmd::Command::cargo_bin("fts")
-        .unwrap()
+    let out = fts()
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .args(["hinf", "--generalized", "fixtures/slicot-sb10fd.json"])
         .args(["--nmeas", "2", "--ncon", "2", "--gamma", "15", "--json"])
@@ -440,18 +440,17 @@ fn sb10fd_cli_at_gamma_15_gives_the_published_closed_loop_poles() {
 /// refused with exit 1, naming the bisection bound.
 #[test]
 fn chosen_gamma_below_the_optimum_exits_1_naming_the_bound() {
-    assert_cmd::Command::cargo_bin("fts")
-        .unwrap()
+    fts()
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .args(["hinf", "--generalized", "fixtures/slicot-sb10fd.json"])
         .args(["--nmeas", "2", "--ncon", "2", "--gamma", "10", "-o"])
         .arg(std::env::temp_dir().join("fts-below-optimum-k.json"))
         .assert()
         .code(1)
-        .stderr(predicates::str::contains(
+        .stderr(predicate::str::contains(
             "no stabilising controller achieves gamma 10",
         ))
-        .stderr(predicates::str::contains("bisection bound 10.18425"));
+        .stderr(predicate::str::contains("bisection bound 10.18425"));
     assert!(
         !std::env::temp_dir()
             .join("fts-below-optimum-k.json")

@@ -5,12 +5,8 @@
 //!
 //! Add a kind by adding a row to `CASES` (and to `FAILURES`).
 
-use assert_cmd::Command;
+use crate::common::cmd::fts;
 use std::path::{Path, PathBuf};
-
-fn fts() -> Command {
-    Command::cargo_bin("fts").unwrap()
-}
 
 fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)

@@ -20,7 +20,6 @@ use super::zoh::DelayedFilter;
 use super::{CtError, CtModel, check_delay, check_orders, rel_change, stabilised};
 use crate::ident::ls::{LstsqParams, lstsq};
 use faer::Mat;
-use faer::linalg::solvers::Solve;
 
 /// Settings of [`srivc`].
 #[derive(Debug, Clone, PartialEq)]
@@ -260,7 +259,7 @@ fn iv_solve(zeta: &Mat<f64>, phi: &Mat<f64>, target: &[f64]) -> Result<Vec<f64>,
     let t = Mat::from_fn(target.len(), 1, |k, _| target[k]);
     let zt = zeta.transpose() * &t;
     let rhs = Mat::from_fn(cols, 1, |i, _| dz[i] * zt[(i, 0)]);
-    let x = scaled.partial_piv_lu().solve(&rhs);
+    let x = fts_kernels::dense::lu_solve(scaled.as_ref(), rhs.as_ref());
     let theta: Vec<f64> = (0..cols).map(|i| dp[i] * x[(i, 0)]).collect();
     if theta.iter().all(|v| v.is_finite()) {
         Ok(theta)

@@ -139,7 +139,7 @@ pub fn solve_from_r(
 ) -> Result<LsSolution, LsError> {
     let p = cols - 1;
     let r11 = Mat::from_fn(p, p, |i, j| if i <= j { r_full[j * cols + i] } else { 0.0 });
-    let sv = r11.singular_values().map_err(|_| LsError::Svd)?;
+    let sv = fts_kernels::dense::singular_values(r11.as_ref()).map_err(|_| LsError::Svd)?;
     let smax = sv.iter().copied().fold(0.0, f64::max);
     let smin = sv.iter().copied().fold(f64::INFINITY, f64::min);
     let condition_number = smax / smin;

@@ -23,3 +23,4 @@ pub fn proptest_config(cases: u32) -> ProptestConfig {
     }
 }
 pub mod cc;
+pub mod cmd;

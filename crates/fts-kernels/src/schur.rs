@@ -29,7 +29,7 @@
 // `!(x < y)` is deliberate: it is also true for NaN, which must fail the test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::c64;
+use crate::c64;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::ComputeEigenvectors;
 use faer::linalg::gevd::{GeneralizedSchurParams, gen_hessenberg, qz_cplx, qz_real};
@@ -83,7 +83,8 @@ fn unblocked_qz(params: GeneralizedSchurParams) -> GeneralizedSchurParams {
     }
 }
 
-fn cplx(m: &Mat<f64>) -> Mat<c64> {
+#[doc(hidden)]
+pub fn cplx(m: &Mat<f64>) -> Mat<c64> {
     Mat::from_fn(m.nrows(), m.ncols(), |i, j| c64::new(m[(i, j)], 0.0))
 }
 
@@ -125,7 +126,8 @@ pub fn gen_schur(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
 }
 
 /// `max(||Q S Z^H - M||, ||Q T Z^H - L||)` relative to `||M||`, `||L||`.
-fn pencil_residual(gs: &GenSchur, m: &Mat<f64>, l: &Mat<f64>) -> f64 {
+#[doc(hidden)]
+pub fn pencil_residual(gs: &GenSchur, m: &Mat<f64>, l: &Mat<f64>) -> f64 {
     let rel = |x: &Mat<c64>, a: &Mat<f64>| {
         let a = cplx(a);
         fro_c(&(&gs.q * x * gs.z.adjoint() - &a)) / fro_c(&a).max(f64::MIN_POSITIVE)
@@ -271,7 +273,8 @@ fn complex_qz(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
 
 /// The real QZ of the pencil (`S` quasi-triangular, `T` triangular), made
 /// complex triangular.
-fn real_qz(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
+#[doc(hidden)]
+pub fn real_qz(m: &Mat<f64>, l: &Mat<f64>) -> Result<GenSchur, SchurError> {
     let mut f = QzFactors::with_triangular_l(m, l);
     f.hessenberg();
     f.real_qz();
@@ -515,7 +518,8 @@ fn fro_c(m: &Mat<c64>) -> f64 {
 
 /// `U` and `(R, dropped)`: `R` the upper triangle of `U^H A U`, `dropped`
 /// the Frobenius norm of what lies below its diagonal.
-fn triangular_part(a: &Mat<f64>, u: Mat<c64>) -> (Mat<c64>, (Mat<c64>, f64)) {
+#[doc(hidden)]
+pub fn triangular_part(a: &Mat<f64>, u: Mat<c64>) -> (Mat<c64>, (Mat<c64>, f64)) {
     let n = a.nrows();
     let mut r = u.adjoint() * cplx(a) * &u;
     let mut dropped = 0.0;
@@ -532,7 +536,8 @@ fn triangular_part(a: &Mat<f64>, u: Mat<c64>) -> (Mat<c64>, (Mat<c64>, f64)) {
 /// standardised 2x2 block `[a b; c a]` is triangularised by the rotation
 /// `G = [c' s; -s c]` built from its eigenvalue `mu` (MATLAB `rsf2csf`:
 /// `r = hypot(mu - T22, T21)`, `c = (mu - T22)/r`, `s = T21/r`).
-fn real_to_complex_schur(rs: RealSchur) -> Mat<c64> {
+#[doc(hidden)]
+pub fn real_to_complex_schur(rs: RealSchur) -> Mat<c64> {
     let n = rs.t.nrows();
     let mut t = cplx(&rs.t);
     let mut u = cplx(&rs.q);
@@ -1059,122 +1064,4 @@ pub fn ordered_real_schur(
         n_selected,
         residual,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn dist(a: &Mat<c64>, b: &Mat<c64>) -> f64 {
-        (a - b).norm_l2()
-    }
-
-    #[test]
-    fn pencil_reordering_keeps_the_factorisation() {
-        let n = 7;
-        let m = Mat::from_fn(n, n, |i, j| {
-            ((i * 7 + j * 3) % 11) as f64 - 5.0 + (i == j) as u8 as f64
-        });
-        let l = Mat::from_fn(n, n, |i, j| {
-            if i == j {
-                2.0
-            } else {
-                ((i + 2 * j) % 5) as f64 * 0.1
-            }
-        });
-        let mut gs = gen_schur(&m, &l).unwrap();
-        let check = |gs: &GenSchur| {
-            let e1 = dist(&(&gs.q * &gs.s * gs.z.adjoint()), &cplx(&m));
-            let e2 = dist(&(&gs.q * &gs.t * gs.z.adjoint()), &cplx(&l));
-            assert!(e1 < 1e-12 * 50.0 && e2 < 1e-12 * 50.0, "{e1} {e2}");
-        };
-        check(&gs);
-        let k = gs.reorder(|a, b| (a / b).re < 0.0);
-        check(&gs);
-        for (i, (a, b)) in gs.pairs().into_iter().enumerate() {
-            assert_eq!((a / b).re < 0.0, i < k);
-        }
-    }
-
-    /// The fallback of `schur` (real Schur form made triangular by one
-    /// rotation per 2x2 block) on a matrix with three complex pairs and two
-    /// real eigenvalues: `U` unitary, `U^H A U` upper triangular to
-    /// rounding, and its diagonal the eigenvalues of the blocks.
-    #[test]
-    fn real_schur_made_triangular() {
-        let n = 8;
-        let a = Mat::from_fn(n, n, |i, j| {
-            ((i * 5 + j * 3) % 7) as f64 - 3.0 + if i + 1 == j { 4.0 } else { 0.0 }
-                - if j + 1 == i { 4.0 } else { 0.0 }
-        });
-        let rs = real_schur(&a).unwrap();
-        let blocks = rs.t.clone();
-        let (u, (r, dropped)) = triangular_part(&a, real_to_complex_schur(rs));
-        let scale = cplx(&a).norm_l2();
-        assert!(dropped < 1e-14 * scale, "{dropped}");
-        assert!(dist(&(u.adjoint() * &u), &Mat::identity(n, n)) < 1e-14);
-        assert!(dist(&(&u * &r * u.adjoint()), &cplx(&a)) < 1e-13 * scale);
-        let want = quasi_triangular_eigenvalues(&blocks);
-        let mut got: Vec<c64> = (0..n).map(|i| r[(i, i)]).collect();
-        assert!(want.iter().filter(|z| z.im != 0.0).count() >= 2);
-        // Each block eigenvalue matched to (and removed from) the nearest diagonal entry.
-        for w in &want {
-            let (k, d) = got
-                .iter()
-                .enumerate()
-                .map(|(k, g)| (k, (g - w).norm()))
-                .fold((0, f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
-            assert!(d < 1e-12 * scale, "{w} vs {got:?}");
-            got.remove(k);
-        }
-    }
-
-    /// The real-QZ fallback of `gen_schur` on a pencil with complex pairs:
-    /// both factors triangular, `Q`, `Z` unitary, the pencil reproduced,
-    /// and `det(M - lambda L) = 0` at every `lambda = s_ii / t_ii`.
-    #[test]
-    fn real_qz_made_triangular() {
-        let n = 7;
-        let m = Mat::from_fn(n, n, |i, j| {
-            ((i * 7 + j * 3) % 11) as f64 - 5.0 + if i + 1 == j { 6.0 } else { 0.0 }
-                - if j + 1 == i { 6.0 } else { 0.0 }
-        });
-        let l = Mat::from_fn(n, n, |i, j| {
-            if i == j {
-                2.0 + i as f64 * 0.1
-            } else {
-                ((i + 2 * j) % 5) as f64 * 0.1
-            }
-        });
-        let gs = real_qz(&m, &l).unwrap();
-        assert!(pencil_residual(&gs, &m, &l) < 1e-13);
-        assert!(dist(&(gs.q.adjoint() * &gs.q), &Mat::identity(n, n)) < 1e-13);
-        assert!(dist(&(gs.z.adjoint() * &gs.z), &Mat::identity(n, n)) < 1e-13);
-        let pairs = gs.pairs();
-        assert!(
-            pairs
-                .iter()
-                .filter(|(a, b)| (a / b).im.abs() > 1e-6)
-                .count()
-                >= 2
-        );
-        for (a, b) in pairs {
-            let lam = a / b;
-            let pencil = Mat::from_fn(n, n, |i, j| c64::new(m[(i, j)], 0.0) - lam * l[(i, j)]);
-            let sv = pencil.singular_values().unwrap();
-            let (lo, hi) = sv.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &x| {
-                (lo.min(x), hi.max(x))
-            });
-            assert!(lo < 1e-12 * hi, "{lam}: {lo} vs {hi}");
-        }
-    }
-
-    #[test]
-    fn schur_of_rotation() {
-        let a = Mat::from_fn(2, 2, |i, j| [[0.0, 1.0], [-1.0, 0.0]][i][j]);
-        let (u, r) = schur(&a).unwrap();
-        let back = &u * &r * u.adjoint();
-        assert!(dist(&back, &cplx(&a)) < 1e-14);
-        assert!((r[(0, 0)].norm() - 1.0).abs() < 1e-14);
-    }
 }

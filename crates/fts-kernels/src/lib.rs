@@ -1,0 +1,16 @@
+//! fts's dense numerical kernels, behind functions of concrete types.
+//!
+//! faer's decompositions and rustfft's planner are generic: every crate
+//! that calls them compiles its own copy. fts calls them only through this
+//! crate, so they are compiled once, optimised, and not again in each build
+//! of fts (its library, its unit-test harness). The numerical content is
+//! fts's: the ordered Schur forms ([`schur`]), thin wrappers of faer's
+//! decompositions ([`dense`]) and of a planned real FFT ([`fft`]).
+
+pub mod dense;
+pub mod fft;
+pub mod schur;
+
+/// Complex double, the same type faer uses (`faer::c64`).
+#[allow(non_camel_case_types)]
+pub type c64 = num_complex::Complex<f64>;
