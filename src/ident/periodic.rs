@@ -148,7 +148,7 @@ pub fn periodic_response(
         });
     }
     let periods = n / period - skip;
-    let spectra = PeriodSpectra::new(u, y, period, skip, periods)?;
+    let spectra = PeriodSpectra::new(u, y, period, skip, periods);
     let bins = period / 2 + 1;
     let peak = (1..bins)
         .map(|k| spectra.u_mean[k].norm_sqr())
@@ -197,13 +197,7 @@ struct PeriodSpectra {
 }
 
 impl PeriodSpectra {
-    fn new(
-        u: &[f64],
-        y: &[f64],
-        period: usize,
-        skip: usize,
-        periods: usize,
-    ) -> Result<Self, FreqError> {
+    fn new(u: &[f64], y: &[f64], period: usize, skip: usize, periods: usize) -> Self {
         let fft = RealFft::new(period);
         let bins = fft.bins();
         let zero = c64::new(0.0, 0.0);
@@ -231,7 +225,7 @@ impl PeriodSpectra {
                 s.pyu[k] += b * a.conj();
             }
         }
-        Ok(s)
+        s
     }
 
     fn coherence(&self, k: usize) -> f64 {

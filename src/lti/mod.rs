@@ -24,9 +24,9 @@ pub mod stability;
 pub mod tf;
 pub mod zeros;
 
-/// Complex double, the same type faer uses (`faer::c64`).
-#[allow(non_camel_case_types)]
-pub type c64 = num_complex::Complex<f64>;
+/// Complex double, the same type faer uses (`faer::c64`); defined beside the
+/// kernels that return it.
+pub use fts_kernels::c64;
 
 pub use filter::{TdfFilter, lsim};
 pub use poly::Poly;
