@@ -282,6 +282,10 @@ pub struct MultiAxisLoop {
     /// The controllers as the multi-axis file that the step runs.
     pub file: MultiAxisControllerFile,
     disturbances: [Vec<Sine>; 3],
+    /// For each axis, the first axis with the same disturbance (itself if
+    /// none before it): the sines of one disturbance are evaluated once a
+    /// sample however many axes it is added to.
+    disturbance_source: [usize; 3],
     /// Each axis's own closed loop, judged by its poles.
     pub axis_loops: [AxisLoop; 3],
     limits: CommandLimits,
@@ -582,12 +586,19 @@ impl MultiAxisLoop {
         let step = file
             .runtime_step()
             .map_err(|e| ContourError::Setup(format!("runtime step: {e}")))?;
+        let disturbances = plants.map(|(_, d)| d);
+        let disturbance_source = std::array::from_fn(|i| {
+            (0..i)
+                .find(|&j| disturbances[j] == disturbances[i])
+                .unwrap_or(i)
+        });
         Ok(Self {
             ts,
             plants: blocks.try_into().expect("three axes"),
             controllers: step,
             file,
-            disturbances: plants.map(|(_, d)| d),
+            disturbances,
+            disturbance_source,
             axis_loops,
             limits: CommandLimits::default(),
             limited_samples: 0,
@@ -637,7 +648,16 @@ impl MultiAxisLoop {
     pub fn sample(&mut self, k: usize, reference: Vec3, tangent: Vec3) -> LoopSample {
         let t = k as f64 * self.ts;
         let position: Vec3 = std::array::from_fn(|i| self.plants[i].output(0.0));
-        let y: Vec3 = std::array::from_fn(|i| position[i] + self.disturbance(i, t));
+        let mut disturbance = [0.0; 3];
+        for i in 0..3 {
+            let source = self.disturbance_source[i];
+            disturbance[i] = if source < i {
+                disturbance[source]
+            } else {
+                self.disturbance(i, t)
+            };
+        }
+        let y: Vec3 = std::array::from_fn(|i| position[i] + disturbance[i]);
         let friction: Vec3 = std::array::from_fn(|i| self.friction_force(i, position[i]));
         let u = self.controllers.step(&reference, &tangent, &y);
         let (lo, hi) = (self.limits.min, self.limits.max);

@@ -1025,15 +1025,18 @@ pub(crate) fn ss_block(k: &StateSpaceSpec<'_>) -> Result<SsBlock, RuntimeError> 
 #[inline]
 pub(crate) fn ss_step(k: &mut SsBlock, error: f64, feedforward: f64) -> f64 {
     let n = k.n;
-    let x = &k.x[..n];
+    // The states before the update, copied whole (a fixed-size copy is
+    // inlined; the update then writes `k.x` in place, and no freshly
+    // written buffer is read back, which would stall store forwarding).
+    let before = k.x;
+    let x = &before[..n];
     let mut cx = 0.0;
     for (cj, xj) in k.c[..n].iter().zip(x) {
         cx += cj * xj;
     }
     let unclamped = feedforward + (cx + k.d * error);
     let command = unclamped.clamp(k.output_min, k.output_max);
-    let mut next = [0.0; MAX_SS_ORDER];
-    for ((xi, row), bi) in next[..n].iter_mut().zip(&k.a[..n]).zip(&k.b[..n]) {
+    for ((xi, row), bi) in k.x[..n].iter_mut().zip(&k.a[..n]).zip(&k.b[..n]) {
         let mut acc = 0.0;
         for (aij, xj) in row[..n].iter().zip(x) {
             acc += aij * xj;
@@ -1045,13 +1048,13 @@ pub(crate) fn ss_step(k: &mut SsBlock, error: f64, feedforward: f64) -> f64 {
         && (unclamped > k.output_max || unclamped < k.output_min)
         && {
             let mut cnext = 0.0;
-            for (ci, xi) in k.c[..n].iter().zip(&next[..n]) {
+            for (ci, xi) in k.c[..n].iter().zip(&k.x[..n]) {
                 cnext += ci * xi;
             }
             (unclamped > k.output_max && cnext > cx) || (unclamped < k.output_min && cnext < cx)
         };
-    if !hold {
-        k.x[..n].copy_from_slice(&next[..n]);
+    if hold {
+        k.x = before;
     }
     command
 }

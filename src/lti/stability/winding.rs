@@ -355,21 +355,31 @@ impl<'a> Walk<'a> {
 }
 
 /// `terms + 1` synthetic divisions by `(x - z)` of the descending
-/// coefficients `work`: the remainders, which are the Taylor coefficients
+/// coefficients `start`: the remainders, which are the Taylor coefficients
 /// about `z` (`step(q, a)` is one Horner step `a + z q`).
-fn synthetic_divisions<T: Copy>(
-    mut work: Vec<T>,
-    terms: usize,
-    step: impl Fn(T, T) -> T,
-) -> Vec<T> {
-    let mut out = Vec::with_capacity(terms + 1);
-    let mut len = work.len();
-    for _ in 0..=terms {
-        for i in 1..len {
-            work[i] = step(work[i - 1], work[i]);
+fn synthetic_divisions<T: Copy>(start: Vec<T>, terms: usize, step: impl Fn(T, T) -> T) -> Vec<T> {
+    // Division `j` turns the sequence `w_(j-1)` into `w_j`, `w_j[i] =
+    // step(w_j[i-1], w_(j-1)[i])` for `1 <= i < len - j` (`w_(-1)` the
+    // coefficients), and yields its last value, `c_j`. Walking `i` in the
+    // outer loop and the divisions in the inner one makes the same steps on
+    // the same operands (so the same values, bit for bit) as one division
+    // after the other, but each division's chain no longer waits for the
+    // whole previous division: consecutive `i` overlap in the pipeline.
+    let len = start.len();
+    let terms = terms.min(len - 1);
+    let mut out = vec![start[0]; terms + 1];
+    // Last value of each division so far; every division starts at w[0].
+    let mut last = vec![start[0]; terms + 1];
+    for (i, &a) in start.iter().enumerate().skip(1) {
+        let mut v = a;
+        // Divisions that still reach index i: j < len - i.
+        for (j, q) in last.iter_mut().enumerate().take((len - i).min(terms + 1)) {
+            v = step(*q, v);
+            *q = v;
+            if i + 1 + j == len {
+                out[j] = v;
+            }
         }
-        out.push(work[len - 1]);
-        len -= 1;
     }
     out
 }
