@@ -75,12 +75,15 @@ fn render(command: &Command) -> anyhow::Result<Vec<u8>> {
     Ok(page)
 }
 
-#[cfg(test)]
-mod tests {
+/// Checks of this module's private parts, run by the integration suite
+/// (`tests/suite/cli_internals.rs`): the command line is left out of the
+/// library's unit-test build, which would otherwise compile it a second
+/// time.
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn one_page_per_subcommand_each_roff() {
+    pub fn one_page_per_subcommand_each_roff() {
         let command = super::super::command();
         let pages = pages(&command).unwrap();
         let names: Vec<&str> = pages.iter().map(|(n, _)| n.as_str()).collect();

@@ -64,6 +64,16 @@ mod tf;
 mod virtual_record;
 mod zpetc;
 
+/// The checks of the command line's private parts, for the integration
+/// suite.
+#[doc(hidden)]
+pub mod internal_checks {
+    pub use super::checks as cli;
+    pub use super::loop_analysis::checks as loop_analysis;
+    pub use super::manual::checks as manual;
+    pub use super::names::checks as names;
+}
+
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -487,8 +497,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-#[cfg(test)]
-mod tests {
+/// Checks of this module's private parts, run by the integration suite
+/// (`tests/suite/cli_internals.rs`): the command line is left out of the
+/// library's unit-test build, which would otherwise compile it a second
+/// time.
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use std::ffi::OsString;
 
@@ -496,8 +510,7 @@ mod tests {
         list.iter().map(OsString::from).collect()
     }
 
-    #[test]
-    fn negative_values_reach_their_option() {
+    pub fn negative_values_reach_their_option() {
         let joined = join_negative_values(args(&[
             "fts", "excite", "--ts", "-1e-4", "--offset", "-inf", "-o", "-2", "--freq", "-x",
         ]));
@@ -516,8 +529,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn one_file_named_by_two_result_options_is_refused() {
+    pub fn one_file_named_by_two_result_options_is_refused() {
         let e = reject_duplicate_outputs(&args(&["fts", "zpetc", "-o", "z.json", "--plot=z.json"]))
             .unwrap_err();
         assert!(e.contains("(-o and --plot)"), "{e}");

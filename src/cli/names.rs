@@ -83,7 +83,6 @@ impl Names {
     }
 
     /// The command's clap definition.
-    #[cfg(test)]
     pub fn command(&self) -> &Command {
         &self.command
     }
@@ -183,7 +182,6 @@ impl Names {
     /// Every `--name` in `message` that is not an option of this command
     /// (nor `--help`/`--version`): a message must never name a flag the
     /// user cannot type here.
-    #[cfg(test)]
     pub fn foreign_flags(&self, message: &str) -> Vec<String> {
         flags_in(message)
             .into_iter()
@@ -200,7 +198,6 @@ impl Names {
 }
 
 /// The `--name` words of a message (a name is letters, digits and dashes).
-#[cfg(test)]
 pub fn flags_in(message: &str) -> Vec<String> {
     let mut out = Vec::new();
     let bytes = message.as_bytes();
@@ -222,8 +219,12 @@ pub fn flags_in(message: &str) -> Vec<String> {
     out
 }
 
-#[cfg(test)]
-mod tests {
+/// Checks of this module's private parts, run by the integration suite
+/// (`tests/suite/cli_internals.rs`): the command line is left out of the
+/// library's unit-test build, which would otherwise compile it a second
+/// time.
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::workflow as w;
     use clap::CommandFactory;
@@ -378,8 +379,7 @@ mod tests {
     /// Every setting of every command's steps is an argument's id there
     /// (so an error about it names that option), or is listed as set by
     /// other means.
-    #[test]
-    fn every_setting_is_the_id_of_an_option_of_its_command() {
+    pub fn every_setting_is_the_id_of_an_option_of_its_command() {
         let mut missing = Vec::new();
         for (path, keys) in commands() {
             let cmd = leaf(&path);
@@ -414,8 +414,7 @@ mod tests {
 
     /// No message about any setting of a command names a flag the command
     /// does not have: each setting renders as its option, or as `'field'`.
-    #[test]
-    fn messages_name_only_flags_of_their_command() {
+    pub fn messages_name_only_flags_of_their_command() {
         for (path, keys) in commands() {
             let names = typed(&path, &[]);
             for key in &keys {
@@ -440,8 +439,7 @@ mod tests {
         Box::leak(s.to_owned().into_boxed_str())
     }
 
-    #[test]
-    fn a_setting_is_named_as_typed() {
+    pub fn a_setting_is_named_as_typed() {
         let e = StepError::setting("gain", "expected a positive number, got -1");
         assert_eq!(
             typed(&["ilc"], &["--learning-gain=-1"]).message(&e),
@@ -481,16 +479,14 @@ mod tests {
         assert_eq!(typed(&["trajectory"], &[]).message(&shape), "<SHAPE>: bad");
     }
 
-    #[test]
-    fn flags_are_found_in_messages() {
+    pub fn flags_are_found_in_messages() {
         assert_eq!(
             flags_in("--a-b: x --c=1, (--d) a--e --- --F -- x"),
             vec!["--a-b", "--c", "--d"]
         );
     }
 
-    #[test]
-    fn the_leaf_command_is_remembered() {
+    pub fn the_leaf_command_is_remembered() {
         let n = names(&["mechanism", "hinge"], &["--width-mm", "2"]);
         assert_eq!(n.command().get_name(), "hinge");
     }
