@@ -333,10 +333,7 @@ impl NyquistPoints {
 const CRITICAL_X: [f64; 1] = [-1.0];
 const CRITICAL_Y: [f64; 1] = [0.0];
 
-/// Checks of this module's private parts, run by the integration suite
-/// (`tests/suite/cli_internals.rs`): the command line is left out of the
-/// library's unit-test build, which would otherwise compile it a second
-/// time.
+/// Checks of this module's private parts (see `cli::internal_checks`).
 #[doc(hidden)]
 pub mod checks {
     use super::*;

@@ -75,10 +75,7 @@ fn render(command: &Command) -> anyhow::Result<Vec<u8>> {
     Ok(page)
 }
 
-/// Checks of this module's private parts, run by the integration suite
-/// (`tests/suite/cli_internals.rs`): the command line is left out of the
-/// library's unit-test build, which would otherwise compile it a second
-/// time.
+/// Checks of this module's private parts (see `cli::internal_checks`).
 #[doc(hidden)]
 pub mod checks {
     use super::*;

@@ -64,8 +64,10 @@ mod tf;
 mod virtual_record;
 mod zpetc;
 
-/// The checks of the command line's private parts, for the integration
-/// suite.
+/// The checks of the command line's private parts, each beside the code it
+/// checks, run by the integration suite (`tests/suite/cli_internals.rs`):
+/// the library's unit-test build leaves the command line out, which it
+/// would otherwise compile a second time.
 #[doc(hidden)]
 pub mod internal_checks {
     pub use super::checks as cli;
@@ -497,10 +499,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// Checks of this module's private parts, run by the integration suite
-/// (`tests/suite/cli_internals.rs`): the command line is left out of the
-/// library's unit-test build, which would otherwise compile it a second
-/// time.
+/// Checks of this module's private parts (see `internal_checks`).
 #[doc(hidden)]
 pub mod checks {
     use super::*;

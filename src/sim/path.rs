@@ -170,11 +170,7 @@ impl Path {
     }
 }
 
-/// Distance from `p` to the segment `[a, b]`.
-pub fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f64 {
-    segment_distance_squared(p, a, b).sqrt()
-}
-
+/// Squared distance from `p` to the segment `[a, b]`.
 fn segment_distance_squared(p: Vec3, a: Vec3, b: Vec3) -> f64 {
     let ab = add(b, a, -1.0);
     let ap = add(p, a, -1.0);

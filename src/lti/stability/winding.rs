@@ -264,11 +264,11 @@ impl<'a> Walk<'a> {
         let terms = TAYLOR_TERMS.min(n);
         let c = match self.precision {
             Precision::Double => {
-                let start = self.p.iter().map(|&a| c64::new(a, 0.0)).collect();
+                let start = self.p.iter().map(|&a| c64::new(a, 0.0));
                 synthetic_divisions(start, terms, |q, a| a + z * q)
             }
             Precision::DoubleDouble => {
-                let start = self.p.iter().map(|&a| (Dd(a, 0.0), Dd::ZERO)).collect();
+                let start = self.p.iter().map(|&a| (Dd(a, 0.0), Dd::ZERO));
                 synthetic_divisions(start, terms, |(qr, qi): (Dd, Dd), (ar, ai)| {
                     (
                         ar.add(qr.mul(z.re)).sub(qi.mul(z.im)),
@@ -284,10 +284,7 @@ impl<'a> Walk<'a> {
         // relative, so inflating by gamma_{2n+4} gives upper bounds.
         let x = z.norm() * (1.0 + 4.0 * UNIT_ROUNDOFF);
         let inflate = 1.0 + gamma(UNIT_ROUNDOFF, 2.0 * n as f64 + 4.0);
-        let absolute =
-            synthetic_divisions(self.p.iter().map(|a| a.abs()).collect(), terms, |q, a| {
-                a + x * q
-            })
+        let absolute = synthetic_divisions(self.p.iter().map(|a| a.abs()), terms, |q, a| a + x * q)
             .into_iter()
             .map(|v| v * inflate)
             .collect();
@@ -355,30 +352,42 @@ impl<'a> Walk<'a> {
 }
 
 /// `terms + 1` synthetic divisions by `(x - z)` of the descending
-/// coefficients `start`: the remainders, which are the Taylor coefficients
-/// about `z` (`step(q, a)` is one Horner step `a + z q`).
-fn synthetic_divisions<T: Copy>(start: Vec<T>, terms: usize, step: impl Fn(T, T) -> T) -> Vec<T> {
+/// `coefficients`: the remainders, which are the Taylor coefficients about
+/// `z` (`step(q, a)` is one Horner step `a + z q`).
+fn synthetic_divisions<T: Copy>(
+    coefficients: impl ExactSizeIterator<Item = T>,
+    terms: usize,
+    step: impl Fn(T, T) -> T,
+) -> Vec<T> {
     // Division `j` turns the sequence `w_(j-1)` into `w_j`, `w_j[i] =
     // step(w_j[i-1], w_(j-1)[i])` for `1 <= i < len - j` (`w_(-1)` the
-    // coefficients), and yields its last value, `c_j`. Walking `i` in the
-    // outer loop and the divisions in the inner one makes the same steps on
-    // the same operands (so the same values, bit for bit) as one division
-    // after the other, but each division's chain no longer waits for the
-    // whole previous division: consecutive `i` overlap in the pipeline.
-    let len = start.len();
+    // coefficients), and yields its last value, `c_j = w_j[len - 1 - j]`.
+    // Walking `i` in the outer loop and the divisions in the inner one
+    // makes the same steps on the same operands (so the same values, bit
+    // for bit) as one division after the other, but each division's chain
+    // no longer waits for the whole previous division: consecutive `i`
+    // overlap in the pipeline.
+    let len = coefficients.len();
+    let mut coefficients = coefficients;
+    let Some(first) = coefficients.next() else {
+        return Vec::new();
+    };
     let terms = terms.min(len - 1);
-    let mut out = vec![start[0]; terms + 1];
+    // `c_j` for the divisions that never step (`len - 1 - j == 0`).
+    let mut out = vec![first; terms + 1];
     // Last value of each division so far; every division starts at w[0].
-    let mut last = vec![start[0]; terms + 1];
-    for (i, &a) in start.iter().enumerate().skip(1) {
-        let mut v = a;
+    let mut last = vec![first; terms + 1];
+    for (i, a) in coefficients.enumerate().map(|(k, a)| (k + 1, a)) {
         // Divisions that still reach index i: j < len - i.
-        for (j, q) in last.iter_mut().enumerate().take((len - i).min(terms + 1)) {
+        let reaching = (len - i).min(terms + 1);
+        let mut v = a;
+        for q in &mut last[..reaching] {
             v = step(*q, v);
             *q = v;
-            if i + 1 + j == len {
-                out[j] = v;
-            }
+        }
+        // Index i is the last of division len - 1 - i.
+        if len - i <= terms + 1 {
+            out[len - 1 - i] = v;
         }
     }
     out
@@ -391,7 +400,7 @@ mod tests {
     #[test]
     fn synthetic_divisions_are_taylor_coefficients() {
         // p(x) = x^3 - 2x + 5 about 2: p(2) = 9, p'(2) = 10, p''(2)/2 = 6, 1.
-        let c = synthetic_divisions(vec![1.0, 0.0, -2.0, 5.0], 3, |q, a| a + 2.0 * q);
+        let c = synthetic_divisions([1.0, 0.0, -2.0, 5.0].into_iter(), 3, |q, a| a + 2.0 * q);
         assert_eq!(c, vec![9.0, 10.0, 6.0, 1.0]);
     }
 
