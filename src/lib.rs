@@ -46,12 +46,15 @@
 //! are in Hz unless a name says rad/s.
 
 /// The command line (`fts ...`): flags into steps, reports rendered, exit
-/// codes. Not part of the library's API. Left out of the unit-test build
-/// (a third of its compile time): its checks run in the integration suite.
+/// codes. Not part of the library's API.
 #[doc(hidden)]
-#[cfg(not(test))]
 pub mod cli;
 pub mod ident;
+/// The checks of the library's private parts, run by the integration suite
+/// (`tests/suite/checks.rs`); compiled only with the `checks` feature.
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod internal_checks;
 pub mod io;
 pub mod lti;
 pub mod pipeline;

@@ -334,6 +334,7 @@ const CRITICAL_X: [f64; 1] = [-1.0];
 const CRITICAL_Y: [f64; 1] = [0.0];
 
 /// Checks of this module's private parts (see `cli::internal_checks`).
+#[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {
     use super::*;

@@ -76,6 +76,7 @@ fn render(command: &Command) -> anyhow::Result<Vec<u8>> {
 }
 
 /// Checks of this module's private parts (see `cli::internal_checks`).
+#[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {
     use super::*;

@@ -65,9 +65,9 @@ mod virtual_record;
 mod zpetc;
 
 /// The checks of the command line's private parts, each beside the code it
-/// checks, run by the integration suite (`tests/suite/cli_internals.rs`):
-/// the library's unit-test build leaves the command line out, which it
-/// would otherwise compile a second time.
+/// checks, run by the integration suite (`tests/suite/cli_internals.rs`)
+/// like the library's (`crate::internal_checks`).
+#[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod internal_checks {
     pub use super::checks as cli;
@@ -500,6 +500,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 /// Checks of this module's private parts (see `internal_checks`).
+#[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {
     use super::*;

@@ -83,6 +83,7 @@ impl Names {
     }
 
     /// The command's clap definition.
+    #[cfg(feature = "checks")]
     pub fn command(&self) -> &Command {
         &self.command
     }
@@ -182,6 +183,7 @@ impl Names {
     /// Every `--name` in `message` that is not an option of this command
     /// (nor `--help`/`--version`): a message must never name a flag the
     /// user cannot type here.
+    #[cfg(feature = "checks")]
     pub fn foreign_flags(&self, message: &str) -> Vec<String> {
         flags_in(message)
             .into_iter()
@@ -198,6 +200,7 @@ impl Names {
 }
 
 /// The `--name` words of a message (a name is letters, digits and dashes).
+#[cfg(feature = "checks")]
 pub fn flags_in(message: &str) -> Vec<String> {
     let mut out = Vec::new();
     let bytes = message.as_bytes();
@@ -220,6 +223,7 @@ pub fn flags_in(message: &str) -> Vec<String> {
 }
 
 /// Checks of this module's private parts (see `cli::internal_checks`).
+#[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {
     use super::*;

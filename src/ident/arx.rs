@@ -241,8 +241,9 @@ pub fn arx_residuals(model: &PolyModel, u: &[f64], y: &[f64], start: usize) -> V
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::ident::linear::filter_ab;
     use crate::ident::testutil::{chirp, noise};
@@ -254,8 +255,7 @@ mod tests {
         )
     }
 
-    #[test]
-    fn noise_free_li21_recovered_to_1e9() {
+    pub fn noise_free_li21_recovered_to_1e9() {
         let (b, a) = li21();
         let u = chirp(20_000, 1e-4, 1000.0);
         let y = filter_ab(&b, &a, 5, &u);
@@ -271,8 +271,7 @@ mod tests {
         assert!(est.criteria.loss < 1e-20);
     }
 
-    #[test]
-    fn equation_error_noise_estimates_within_std_devs() {
+    pub fn equation_error_noise_estimates_within_std_devs() {
         // A y = B u + e with white e: ARX is the maximum-likelihood estimator,
         // unbiased; each estimate lies within 3.5 of its own standard
         // deviations of the truth (a 2e-4 two-sided event per coefficient).
@@ -297,8 +296,7 @@ mod tests {
     /// model's residuals: the rows' squared errors over all `N` samples, `N`
     /// in FPE / AIC / BIC, the noise variance over `rows - d`, and MATLAB's
     /// own relation `LossFcn = NoiseVariance (N - n0 - d) / N`.
-    #[test]
-    fn criteria_are_matlab_arx_report() {
+    pub fn criteria_are_matlab_arx_report() {
         let n = 300;
         let u: Vec<f64> = noise(n, 21).iter().map(|v| v.signum()).collect();
         let e = noise(n, 22);
@@ -329,8 +327,7 @@ mod tests {
         ));
     }
 
-    #[test]
-    fn errors() {
+    pub fn errors() {
         let u = vec![1.0; 30];
         let y: Vec<f64> = (0..30).map(|k| k as f64).collect();
         // A constant input is refused whatever the orders: with nb = 1 the
@@ -365,8 +362,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn reported_std_devs_match_monte_carlo_spread() {
+    pub fn reported_std_devs_match_monte_carlo_spread() {
         // 200 noise realisations of A y = B u + e: the spread of the
         // estimates must match the standard deviations ARX reports (the
         // sample std of a std over 200 runs is good to about 5 %).

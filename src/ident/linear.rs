@@ -562,12 +562,12 @@ impl Criteria {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn simulation_prediction_and_fit_distinction() {
+    pub fn simulation_prediction_and_fit_distinction() {
         // y(k) = 0.5 y(k-1) + u(k-1): the ARX predictor of the true model is
         // exact on noise-free data, and so is the simulation.
         let m = PolyModel {
@@ -602,8 +602,7 @@ mod tests {
         assert!((f.simulation_zero_ic_percent - f.prediction_percent).abs() > 1e-3);
     }
 
-    #[test]
-    fn initial_conditions_are_estimated() {
+    pub fn initial_conditions_are_estimated() {
         // The same model started from y(-1) = 3: simulation from rest misses
         // the transient, the compare-style IC estimate removes it.
         let m = PolyModel {
@@ -622,8 +621,7 @@ mod tests {
         assert!(f.simulation_zero_ic_percent < 90.0);
     }
 
-    #[test]
-    fn white_noise_passes_and_coloured_fails() {
+    pub fn white_noise_passes_and_coloured_fails() {
         // Deterministic pseudo-random sequence (LCG) for white noise.
         let mut s = 12345u64;
         let mut rnd = || {
@@ -644,8 +642,7 @@ mod tests {
         assert!(!whiteness(&leak, &u, 25).independent);
     }
 
-    #[test]
-    fn criteria_formulas() {
+    pub fn criteria_formulas() {
         let c = Criteria::new(0.5, 100, 4);
         assert!((c.fpe - 0.5 * 1.04 / 0.96).abs() < 1e-15);
         assert!((c.naic - (0.5f64.ln() + 0.08)).abs() < 1e-15);
@@ -658,8 +655,7 @@ mod tests {
     /// rounding of 1.6575 and d = 6 reproduce all five figures to the digits
     /// printed, and no other d from 1 to 20 does; with the loss taken as
     /// exactly 1.6575, AICc would print 1.0152e+03.
-    #[test]
-    fn criteria_match_matlab_aic_documentation_example() {
+    pub fn criteria_match_matlab_aic_documentation_example() {
         let rounds_to = |x: f64, want: f64, unit: f64| (x - want).abs() <= 0.5 * unit;
         let matches = |v: f64, d: usize| {
             let c = Criteria::new(v, 300, d);
@@ -681,8 +677,7 @@ mod tests {
         assert!((c.aicc - c.aic - 2.0 * 6.0 * 7.0 / 293.0).abs() < 1e-9);
     }
 
-    #[test]
-    fn filter_matches_difference_equation() {
+    pub fn filter_matches_difference_equation() {
         // Direct evaluation of a0 y(k) = sum b_i u(k-nk-i) - sum_{i>0} a_i y(k-i),
         // for records shorter and longer than the warm-up.
         let b = [0.3, -0.2, 0.1];

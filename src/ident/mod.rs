@@ -21,5 +21,5 @@ pub mod metrics;
 pub mod oe;
 pub mod periodic;
 pub mod structure;
-#[cfg(test)]
+#[cfg(feature = "checks")]
 pub(crate) mod testutil;

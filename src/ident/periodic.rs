@@ -238,8 +238,9 @@ impl PeriodSpectra {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::ident::linear::filter_ab;
     use crate::ident::testutil::noise;
@@ -249,8 +250,7 @@ mod tests {
         (0..one.len() * times).map(|k| one[k % one.len()]).collect()
     }
 
-    #[test]
-    fn the_period_of_a_repeated_record_is_found_and_an_aperiodic_one_has_none() {
+    pub fn the_period_of_a_repeated_record_is_found_and_an_aperiodic_one_has_none() {
         let one = noise(250, 4);
         assert_eq!(detect_period(&repeated(&one, 2)), Some(250));
         assert_eq!(detect_period(&repeated(&one, 7)[..1700]), Some(250));
@@ -271,8 +271,7 @@ mod tests {
         assert_eq!(detect_period(&sine), Some(20));
     }
 
-    #[test]
-    fn averaging_whole_periods_gives_the_system_at_its_lines() {
+    pub fn averaging_whole_periods_gives_the_system_at_its_lines() {
         // Noiseless: exact at every excited line once the transient is
         // skipped, coherence 1.
         let period = 128;
@@ -296,8 +295,7 @@ mod tests {
         assert_eq!(lines, period / 2 - 1, "DC and Nyquist are left out");
     }
 
-    #[test]
-    fn output_noise_averages_down_and_lowers_the_coherence() {
+    pub fn output_noise_averages_down_and_lowers_the_coherence() {
         // Noise of standard deviation s on y: the averaged line's error is
         // about s sqrt(P) / (|U| sqrt(periods)), and the coherence
         // |mean Y|^2 / mean|Y|^2 drops below 1.
@@ -323,8 +321,7 @@ mod tests {
         assert!(lowest < 0.999 && lowest > 0.5, "lowest coherence {lowest}");
     }
 
-    #[test]
-    fn records_too_short_or_without_input_are_refused() {
+    pub fn records_too_short_or_without_input_are_refused() {
         let u = repeated(&noise(64, 1), 3);
         let p = PeriodicParams {
             period: 64,

@@ -15,7 +15,7 @@
 
 mod c_header;
 mod document;
-mod multiaxis;
+pub(crate) mod multiaxis;
 
 pub use c_header::{C_RUNTIME_C, C_RUNTIME_H, parse_c_header, to_c_files, to_c_header};
 pub use multiaxis::{
@@ -899,8 +899,9 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     s
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use serde_json::json;
 
@@ -949,8 +950,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn sha256_known_vector() {
+    pub fn sha256_known_vector() {
         // FIPS 180-2 example "abc".
         assert_eq!(
             sha256_hex(b"abc"),
@@ -958,8 +958,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn json_round_trip_is_exact_and_stable() {
+    pub fn json_round_trip_is_exact_and_stable() {
         let f = sample();
         let text = f.to_json_string();
         let back = parse_controller(&text, "c.json").unwrap();
@@ -967,8 +966,7 @@ mod tests {
         assert_eq!(back.to_json_string(), text);
     }
 
-    #[test]
-    fn c_header_carries_the_same_numbers() {
+    pub fn c_header_carries_the_same_numbers() {
         let f = sample();
         let header = to_c_header(&f);
         let back = parse_c_header(&header, "c.h").unwrap();
@@ -980,8 +978,7 @@ mod tests {
         assert_eq!(h0.cbrt_gain.to_bits(), h1.cbrt_gain.to_bits());
     }
 
-    #[test]
-    fn refuses_bad_files() {
+    pub fn refuses_bad_files() {
         let good = sample().to_json_string();
         let doc: Value = serde_json::from_str(&good).unwrap();
         let edit = |f: &dyn Fn(&mut Value)| {
@@ -1095,8 +1092,7 @@ mod tests {
         files
     }
 
-    #[test]
-    fn every_block_kind_round_trips_byte_identically() {
+    pub fn every_block_kind_round_trips_byte_identically() {
         for f in every_kind() {
             let text = f.to_json_string();
             let back = parse_controller(&text, "c.json").unwrap_or_else(|e| panic!("{e}\n{text}"));
@@ -1105,8 +1101,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn c_header_carries_every_block_kind() {
+    pub fn c_header_carries_every_block_kind() {
         // The header has no model name, units or provenance.
         let numbers = |h: &Option<HysteresisBlock>| {
             h.clone().map(|h| HysteresisBlock {
@@ -1129,8 +1124,7 @@ mod tests {
         parse_controller(&doc.to_string(), "controller.json").unwrap_err()
     }
 
-    #[test]
-    fn a_type_error_deep_in_a_block_names_its_path() {
+    pub fn a_type_error_deep_in_a_block_names_its_path() {
         let ss = &every_kind()[6];
         assert!(ss.state_space().is_some());
         let e = error_of(ss, |d| d["blocks"][2]["a"][1][0] = json!("x"));
@@ -1147,8 +1141,7 @@ mod tests {
         assert_eq!(e.field.as_deref(), Some("units.command"), "{e}");
     }
 
-    #[test]
-    fn unknown_and_missing_keys_are_named() {
+    pub fn unknown_and_missing_keys_are_named() {
         let parallel = &every_kind()[2];
         type Edit<'a> = &'a dyn Fn(&mut Value);
         let cases: [(Edit, &str, &str); 6] = [
@@ -1193,8 +1186,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn derived_fields_are_checked_against_the_blocks() {
+    pub fn derived_fields_are_checked_against_the_blocks() {
         let parallel = &every_kind()[2];
         let e = error_of(parallel, |d| d["blocks"][2]["kd"] = json!(1.0));
         assert_eq!(e.field.as_deref(), Some("blocks[2].kd"), "{e}");

@@ -482,8 +482,9 @@ fn dead_zone_stage(
     }))
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn file() -> ModelFile {
@@ -526,8 +527,7 @@ mod tests {
     /// An input beyond the identified range is named with the range and the
     /// excursion; inside it, or without a recorded range, nothing is said;
     /// a file without `input_range` still loads.
-    #[test]
-    fn an_input_beyond_the_identified_range_is_named() {
+    pub fn an_input_beyond_the_identified_range_is_named() {
         let mut f = file();
         let note = f.range_excursion(&[0.0, 218.0, -20.0]).unwrap();
         assert!(note.contains("[-20, 218] V"), "{note}");
@@ -550,8 +550,7 @@ mod tests {
         assert_eq!(e.field.as_deref(), Some("input_range"));
     }
 
-    #[test]
-    fn round_trip_is_exact() {
+    pub fn round_trip_is_exact() {
         let f = file();
         let text = model_to_string(&f);
         assert!(text.contains("\"mapping\": \"voltage->displacement\""));
@@ -559,8 +558,7 @@ mod tests {
     }
 
     /// The analytic inverse of MPI-deadzone: a PI model with an input stage.
-    #[test]
-    fn input_dead_zone_round_trips() {
+    pub fn input_dead_zone_round_trips() {
         let mut f = file();
         f.model.kind = ModelKind::Pi;
         f.model.input_dead_zone = f.model.dead_zone.take();
@@ -573,8 +571,7 @@ mod tests {
         assert!(e.to_string().contains("input dead-zone stage"), "{e}");
     }
 
-    #[test]
-    fn operator_counts_and_magnitudes_are_bounded() {
+    pub fn operator_counts_and_magnitudes_are_bounded() {
         let many = format!(
             r#"{{"format": "fts.hysteresis/1", "model": "pi", "operator": "play-lower",
                 "thresholds": [{}], "weights": [1]}}"#,
@@ -598,8 +595,7 @@ mod tests {
 
     /// Type errors name their path, inside nested objects too; an array
     /// where an object belongs is refused.
-    #[test]
-    fn errors_name_their_path() {
+    pub fn errors_name_their_path() {
         let head = r#"{"format": "fts.hysteresis/1", "model": "mpi-deadzone", "operator": "play-lower", "thresholds": [0, 2], "weights": [1, 0.2]"#;
         for (tail, field, needle) in [
             (r#", "dead_zone": [[0], [1]]}"#, "dead_zone", "an object"),
@@ -622,8 +618,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn mismatched_lengths_name_the_field() {
+    pub fn mismatched_lengths_name_the_field() {
         let text = model_to_string(&file())
             .replace("\"weights\": [\n    0.3333333333333333,", "\"weights\": [");
         let e = parse_model(&text, "m.json").unwrap_err();

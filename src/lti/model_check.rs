@@ -174,8 +174,9 @@ impl std::fmt::Display for TrapPole {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::lti::Poly;
 
@@ -185,8 +186,7 @@ mod tests {
         DiscreteTf::new(num.into_coeffs(), den.into_coeffs(), 1, 1e-4).unwrap()
     }
 
-    #[test]
-    fn a_pair_at_one_is_found_and_a_distant_one_is_not() {
+    pub fn a_pair_at_one_is_found_and_a_distant_one_is_not() {
         let r = |x: f64| c64::new(x, 0.0);
         let g = tf(&[r(1.0 - 1e-7), r(-0.3)], &[r(1.0 - 2e-7), r(0.6)]);
         let pairs = unit_circle_pairs(&g).unwrap();
@@ -201,8 +201,7 @@ mod tests {
         assert!(unit_circle_pairs(&g).unwrap().is_empty());
     }
 
-    #[test]
-    fn an_undamped_pole_near_minus_one_is_a_trap() {
+    pub fn an_undamped_pole_near_minus_one_is_a_trap() {
         // 1/(1 + 0.999999 z^-1) peaks at 1e6 at Nyquist; its median gain is
         // about 0.7 (1/|1 + e^{-jw}| = 1/(2 cos(w/2)) at w = pi/2).
         let r = |x: f64| c64::new(x, 0.0);

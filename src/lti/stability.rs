@@ -31,7 +31,7 @@ use num_traits::{Signed, Zero};
 
 use super::c64;
 
-mod winding;
+pub(crate) mod winding;
 
 /// Highest degree tested exactly (a degree-100 polynomial with coefficients
 /// spread over 1e-10..1e10 takes tens of milliseconds).
@@ -478,8 +478,9 @@ pub fn hurwitz_certified(descending: &[f64]) -> Option<bool> {
     })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     /// Descending coefficients of `prod (x - r)`.
@@ -496,8 +497,7 @@ mod tests {
         c
     }
 
-    #[test]
-    fn schur_closed_forms() {
+    pub fn schur_closed_forms() {
         assert_eq!(schur_stable(&expand(&[0.5, -0.9, 0.99])), Some(true));
         assert_eq!(schur_stable(&expand(&[0.5, 1.01])), Some(false));
         // On the circle is not stable.
@@ -513,8 +513,7 @@ mod tests {
         assert_eq!(schur_stable(&[1.0, f64::NAN]), None);
     }
 
-    #[test]
-    fn clustered_root_as_stored_is_unstable() {
+    pub fn clustered_root_as_stored_is_unstable() {
         // numpy's float expansion of (z - 0.99)^8 as stored: its largest
         // root has modulus 1.00567 (200-digit roots of these very floats,
         // tests/data/stability/gen_clusters.py), though every root finder
@@ -536,8 +535,7 @@ mod tests {
         assert_eq!(schur_stable(&scaled), Some(false));
     }
 
-    #[test]
-    fn hurwitz_closed_forms() {
+    pub fn hurwitz_closed_forms() {
         assert_eq!(hurwitz_stable(&expand(&[-1.0, -2.0, -3.0])), Some(true));
         assert_eq!(hurwitz_stable(&expand(&[-1.0, 2.0])), Some(false));
         // s^2 + 1: roots on the axis.
@@ -553,8 +551,7 @@ mod tests {
         assert_eq!(hurwitz_stable(&[1.0, 1.0, 0.0]), Some(false));
     }
 
-    #[test]
-    fn full_mantissa_coefficients_stop_at_the_work_budget() {
+    pub fn full_mantissa_coefficients_stop_at_the_work_budget() {
         // 1 + sum a_k z^-k with sum |a_k| = 0.5 and full 53-bit mantissas:
         // stable by Rouche on |z| = 1. Exactly, the Schur–Cohn rationals
         // grow ~115 bits a step; the recursion now stops at EXACT_MAX_WORK
@@ -586,8 +583,7 @@ mod tests {
         assert_eq!(v.test, StabilityTest::Certified);
     }
 
-    #[test]
-    fn agrees_with_well_separated_roots() {
+    pub fn agrees_with_well_separated_roots() {
         // Random real and complex roots away from the boundary: the exact
         // verdicts equal the verdicts from the roots themselves.
         let mut seed = 7u64;
@@ -645,8 +641,7 @@ mod tests {
         c
     }
 
-    #[test]
-    fn certified_never_contradicts_exact() {
+    pub fn certified_never_contradicts_exact() {
         // Random degrees 1..12, roots anywhere including near the circle
         // and clustered: wherever both decide they agree, and the certified
         // test decides the separated ones.
@@ -687,8 +682,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn certified_decides_high_degrees() {
+    pub fn certified_decides_high_degrees() {
         // Degree 40-160 with the poles of a sampled, lightly damped plant
         // (moduli 0.7-0.99), and the same with one real root moved to 1.05:
         // decided both ways, where the exact test gives up.
@@ -711,8 +705,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn winding_decides_degrees_100_to_160() {
+    pub fn winding_decides_degrees_100_to_160() {
         // Where the discs of near-coincident roots overlap the circle, the
         // argument principle still counts the roots inside. The stored
         // expansions need not keep the poles drawn (moduli 0.7-0.99): at
@@ -746,8 +739,7 @@ mod tests {
         assert!(decided_by_winding > 0);
     }
 
-    #[test]
-    fn certified_calls_a_root_on_the_boundary_too_close() {
+    pub fn certified_calls_a_root_on_the_boundary_too_close() {
         // The stored expansion of (z - 0.99)^8 has a root at 1.00567: the
         // floating recursion must not call it stable (it cannot see past
         // the rounding), the exact test says unstable.

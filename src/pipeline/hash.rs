@@ -122,12 +122,12 @@ impl Lock {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn lock_round_trips() {
+    pub fn lock_round_trips() {
         let mut lock = Lock::default();
         lock.steps.insert(
             "b".into(),

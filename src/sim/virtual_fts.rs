@@ -392,8 +392,9 @@ impl VirtualFts {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn quiet() -> VirtualFtsParams {
@@ -403,8 +404,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn fixture_is_valid_and_round_trips() {
+    pub fn fixture_is_valid_and_round_trips() {
         let p = VirtualFtsParams::default_plant();
         p.validate().unwrap();
         let text = serde_json::to_string(&p).unwrap();
@@ -412,8 +412,7 @@ mod tests {
         assert_eq!(back, p);
     }
 
-    #[test]
-    fn static_gain_and_stroke() {
+    pub fn static_gain_and_stroke() {
         // Hold 10 V: the amplifier gives G*10 V and the output settles near
         // kappa * (d V + q V^2 - h_sat).
         let mut fts = VirtualFts::new(quiet()).unwrap();
@@ -433,8 +432,7 @@ mod tests {
         assert!((clipped.true_position() - x).abs() < 1e-9);
     }
 
-    #[test]
-    fn hysteresis_is_asymmetric_and_about_ten_percent_wide() {
+    pub fn hysteresis_is_asymmetric_and_about_ten_percent_wide() {
         // Slow 1 Hz triangle 0 -> 10 -> 0 V twice; compare branches at 5 V
         // (plant delay and lag are negligible at 1 Hz).
         let width = loop_width(quiet(), 1.0);
@@ -467,8 +465,7 @@ mod tests {
         (down - up) / top
     }
 
-    #[test]
-    fn rate_dependence_widens_fast_loops_only() {
+    pub fn rate_dependence_widens_fast_loops_only() {
         let with = |c: f64| VirtualFtsParams {
             piezo: PiezoParams {
                 rate_dependence: Some(RateDependence {
@@ -509,8 +506,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn deterministic_for_a_seed() {
+    pub fn deterministic_for_a_seed() {
         let run = |seed| {
             let mut p = VirtualFtsParams::default_plant();
             p.seed = seed;
@@ -523,8 +519,7 @@ mod tests {
         assert_ne!(run(7), run(8));
     }
 
-    #[test]
-    fn validation_names_fields() {
+    pub fn validation_names_fields() {
         let mut p = VirtualFtsParams::default_plant();
         p.flexure.mode_hz = -1.0;
         assert_eq!(p.validate().unwrap_err().field, "flexure.mode_hz");

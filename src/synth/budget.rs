@@ -113,14 +113,14 @@ pub fn exact_rms_per_source(cl: &StateSpace, output: usize) -> Result<Vec<f64>, 
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::lti::norms::h2_norm;
     use crate::lti::ss::hcat;
 
-    #[test]
-    fn rms_matches_the_h2_norm() {
+    pub fn rms_matches_the_h2_norm() {
         // Two sources: 1/(s+1) and 10/(s^2 + s + 100); RMS^2 = sum of H2^2.
         let g1 = StateSpace::from_tf(&[1.0], &[1.0, 1.0], None).unwrap();
         let g2 = StateSpace::from_tf(&[10.0], &[1.0, 1.0, 100.0], None).unwrap();

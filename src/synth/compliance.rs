@@ -333,8 +333,9 @@ pub fn chain_amplification(bridge: &TwoPort, lever: &TwoPort) -> ChainAmplificat
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::super::mechanism::{BridgeLimb, Lever, li21_f};
     use super::*;
 
@@ -350,8 +351,7 @@ mod tests {
 
     /// With no fillets the integrals are a cantilever's closed forms:
     /// `l/(E b t)`, `4 l^3/(E b t^3)`, `6 l^2/(E b t^3)`, `12 l/(E b t^3)`.
-    #[test]
-    fn a_straight_leaf_is_a_cantilever() {
+    pub fn a_straight_leaf_is_a_cantilever() {
         let g = li21_hinge(0.0);
         let c = hinge_compliance(&g);
         let (e, b, l, t) = (g.youngs_modulus, g.width, g.length, g.thickness);
@@ -374,8 +374,7 @@ mod tests {
     /// (closed form against quadrature), so the stiffnesses combine in
     /// series (4.4996 N m/rad at the Li21 design with b = 10 mm), not as
     /// Eq. 2's sum (35.1830).
-    #[test]
-    fn fillets_add_in_series_with_the_beam() {
+    pub fn fillets_add_in_series_with_the_beam() {
         let g = li21_hinge(0.002);
         let c = hinge_compliance(&g);
         let (e, b, l, t, r) = (g.youngs_modulus, g.width, g.length, g.thickness, g.radius);
@@ -404,8 +403,7 @@ mod tests {
     /// Hinges as points (axial and rotational compliance only) make the
     /// compliance-matrix bridge the pseudo-rigid-body limb of
     /// `mechanism::BridgeLimb`, derived independently from its stored energy.
-    #[test]
-    fn point_hinges_give_the_pseudo_rigid_body_bridge() {
+    pub fn point_hinges_give_the_pseudo_rigid_body_bridge() {
         let (ka, kr) = (1.7e8, 35.0);
         let point = [[1.0 / ka, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0 / kr]];
         for deg in [3.0, 10.0, 14.488, 30.0, 60.0] {
@@ -437,8 +435,7 @@ mod tests {
     }
 
     /// The same for the lever: a point pivot gives `mechanism::Lever`.
-    #[test]
-    fn a_point_pivot_gives_the_pseudo_rigid_body_lever() {
+    pub fn a_point_pivot_gives_the_pseudo_rigid_body_lever() {
         let (kt, kr) = (1.7e8, 4.5);
         let point = [[1.0 / kt, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0 / kr]];
         let chain = LeverChain {
@@ -462,8 +459,7 @@ mod tests {
     /// A real hinge: the two-port is symmetric positive definite, the ratio
     /// tends to `cot a` as the hinges' axial compliance vanishes, and the
     /// chain's overall ratio is the stages' product when the lever is soft.
-    #[test]
-    fn real_hinges_rigid_limit_and_chaining() {
+    pub fn real_hinges_rigid_limit_and_chaining() {
         let g = HingeGeometry {
             youngs_modulus: 206e9,
             width: 0.008,

@@ -148,12 +148,12 @@ impl Stages {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn grammar() {
+    pub fn grammar() {
         for s in VALID_STAGE_STRINGS {
             assert_eq!(Stages::parse(s).unwrap().name(), s);
         }

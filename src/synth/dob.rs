@@ -273,12 +273,12 @@ pub fn reference_commands(
     Ok(out)
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn q_has_unity_dc_gain_and_the_binomial_poles() {
+    pub fn q_has_unity_dc_gain_and_the_binomial_poles() {
         let (num, den) = q_filter(1000.0, 3, 1e-5).unwrap();
         let dc = num.iter().sum::<f64>() / den.iter().sum::<f64>();
         assert!((dc - 1.0).abs() < 1e-12, "{dc}");
@@ -293,8 +293,7 @@ mod tests {
         assert!(q_filter(100.0, 0, 1e-5).is_err());
     }
 
-    #[test]
-    fn nominal_inverse_is_the_plant_inverted_and_nmp_is_refused() {
+    pub fn nominal_inverse_is_the_plant_inverted_and_nmp_is_refused() {
         // P = z^-1 (2 - z^-1)/(1 - 0.5 z^-1)... minimum phase: (2 - 0.5 z^-1).
         let ts = 1e-3;
         let g = tf_ss(&[0.0, 2.0, -0.5], &[1.0, -0.9, 0.2], ts).unwrap();

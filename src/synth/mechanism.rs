@@ -401,15 +401,15 @@ pub fn workspace(m: &Puu3, p: &WorkspaceParams) -> Workspace {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     /// The lever against its limits (pin pivot: `L_out/L_in`), Clapeyron's
     /// theorem (the work `F x_in / 2` equals the energy stored in the
     /// pivot) and its inverse.
-    #[test]
-    fn lever_limits_energy_and_inverse() {
+    pub fn lever_limits_energy_and_inverse() {
         let pin = Lever {
             input_arm: 0.01,
             output_arm: 0.0387,
@@ -445,8 +445,7 @@ mod tests {
     /// equals the free output of the limb's 2x2 stiffness matrix, built
     /// here by rotating `diag(k_a, k_t)` (an independent route); the peak
     /// and the inverse roots reproduce themselves.
-    #[test]
-    fn bridge_limb_limits_stiffness_matrix_peak_and_inverse() {
+    pub fn bridge_limb_limits_stiffness_matrix_peak_and_inverse() {
         let a = 10f64.to_radians();
         let rigid = BridgeLimb {
             angle: a,
@@ -502,8 +501,7 @@ mod tests {
         assert!((ideal_bridge_angle(3.87).to_degrees() - 14.488203).abs() < 1e-6);
     }
 
-    #[test]
-    fn li21_eq1_loses_0_55_um_of_10() {
+    pub fn li21_eq1_loses_0_55_um_of_10() {
         let (delivered, lost) = flexure_displacement(200.0, 11.6, 10.0);
         assert!((lost - 0.5482).abs() < 1e-4, "{lost}");
         assert_eq!(format!("{lost:.2}"), "0.55");
@@ -513,8 +511,7 @@ mod tests {
     /// `f(s)` at the Li21 design `s = 2/0.6` against the value numpy
     /// computes from the same printed formula (22.976318924585193), and the
     /// straight-beam limit `R -> 0`.
-    #[test]
-    fn li21_eq2_f_and_its_limits() {
+    pub fn li21_eq2_f_and_its_limits() {
         assert!((li21_f(2.0 / 0.6) - 22.976318924585193).abs() < 1e-12);
         let g = HingeGeometry {
             youngs_modulus: 2e11,
@@ -530,8 +527,7 @@ mod tests {
     /// \[Tang17\] home pose: `d = 43`, `h = sqrt(60^2 - 43^2)`, rows
     /// `[-d/h, 0, 1]`, `[d/(2h), -+ d sqrt(3)/(2h), 1]` = `[-1.0276, 0, 1]`,
     /// `[0.5138, -+0.8899, 1]`.
-    #[test]
-    fn tang17_home_jacobian_has_the_published_rows() {
+    pub fn tang17_home_jacobian_has_the_published_rows() {
         let j = Puu3::default().jacobian(0.0, 0.0).unwrap();
         let published = [
             [-1.0276, 0.0, 1.0],
@@ -550,8 +546,7 @@ mod tests {
     /// Forward kinematics undo the inverse ones to ~1e-12 (mm) over the
     /// micrometre workspace and beyond, and `solve3` against a known
     /// product.
-    #[test]
-    fn forward_kinematics_invert_the_inverse() {
+    pub fn forward_kinematics_invert_the_inverse() {
         let m = Puu3::default();
         let home = m.inverse(0.0, 0.0, 0.0).unwrap();
         let back = m.forward(home).unwrap();
@@ -579,8 +574,7 @@ mod tests {
         assert!(solve3(&[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]], x).is_none());
     }
 
-    #[test]
-    fn jacobian_is_the_derivative_of_the_inverse_kinematics() {
+    pub fn jacobian_is_the_derivative_of_the_inverse_kinematics() {
         let m = Puu3::default();
         let (x, y, z, h) = (0.07, -0.05, 42.0, 1e-6);
         let j = m.jacobian(x, y).unwrap();
@@ -602,8 +596,7 @@ mod tests {
     /// linearised bound allows: pure z up to the stroke, and the x extent
     /// within `stroke / (1.0276 + 0.5138)` (the stroke shared by rows 1
     /// and 2 of J).
-    #[test]
-    fn workspace_respects_the_linearised_bounds() {
+    pub fn workspace_respects_the_linearised_bounds() {
         let w = workspace(
             &Puu3::default(),
             &WorkspaceParams {

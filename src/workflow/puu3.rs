@@ -659,8 +659,9 @@ impl fmt::Display for Puu3TrackReport {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn short(mode: ControlMode, amplitude_um: [f64; 3]) -> Puu3Track {
@@ -675,8 +676,7 @@ mod tests {
 
     /// Slider references from the inverse kinematics, poses back by Newton:
     /// with unit joint loops every task error is rounding.
-    #[test]
-    fn ideal_joint_loops_track_exactly() {
+    pub fn ideal_joint_loops_track_exactly() {
         let r = Puu3Track {
             joints: JointModel::Ideal,
             amplitude_um: [20.0, 15.0, 10.0],
@@ -697,8 +697,7 @@ mod tests {
 
     /// For small motions the task-space law is the joint-space one: the
     /// poses of the two runs differ by far less than their errors.
-    #[test]
-    fn joint_and_task_control_agree_for_small_motions() {
+    pub fn joint_and_task_control_agree_for_small_motions() {
         let amp = [1.0, 1.0, 0.5];
         let a = short(ControlMode::Joint, amp).run().unwrap();
         let b = short(ControlMode::Task, amp).run().unwrap();
@@ -719,8 +718,7 @@ mod tests {
 
     /// A z-only command moves the three identical sliders together: x and
     /// y stay within the sensor noise, reported as cross-coupling.
-    #[test]
-    fn z_only_motion_barely_couples() {
+    pub fn z_only_motion_barely_couples() {
         let r = short(ControlMode::Joint, [0.0, 0.0, 10.0]).run().unwrap();
         assert!(r.task[2].max_um > 1.0, "{:?}", r.task);
         assert!(
@@ -733,8 +731,7 @@ mod tests {
     }
 
     /// A pose beyond the sliders' travel or the rods' reach is bad input.
-    #[test]
-    fn a_point_outside_the_workspace_is_refused() {
+    pub fn a_point_outside_the_workspace_is_refused() {
         for amp in [[0.0, 0.0, 60.0], [200.0, 0.0, 0.0]] {
             match short(ControlMode::Joint, amp).run() {
                 Err(StepError::Input { message, .. }) => {

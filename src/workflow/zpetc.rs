@@ -474,8 +474,9 @@ impl ZpetcReport {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn plant() -> DiscreteTf {
@@ -483,15 +484,13 @@ mod tests {
         DiscreteTf::new(vec![0.2, 0.3], vec![1.0, -0.5], 1, 1e-4).unwrap()
     }
 
-    #[test]
-    fn defaults_are_the_library_defaults() {
+    pub fn defaults_are_the_library_defaults() {
         let s = DesignZpetc::default();
         assert_eq!(s.params(), ZpetcParams::default());
         assert!(s.validate().is_ok());
     }
 
-    #[test]
-    fn each_bad_setting_is_named() {
+    pub fn each_bad_setting_is_named() {
         let cases = [
             (
                 DesignZpetc {
@@ -537,8 +536,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_filter_times_the_plant_has_zero_phase_and_unit_dc() {
+    pub fn the_filter_times_the_plant_has_zero_phase_and_unit_dc() {
         let r = DesignZpetc::default().design(&plant(), "p").unwrap();
         assert!(r.check.max_phase_error_rad < 1e-9);
         assert!((r.check.dc_gain - 1.0).abs() < 1e-12);
@@ -546,8 +544,7 @@ mod tests {
         assert!(text.contains("kept: |z| >= rho"), "{text}");
     }
 
-    #[test]
-    fn a_zero_at_dc_is_the_models_fault() {
+    pub fn a_zero_at_dc_is_the_models_fault() {
         let g = DiscreteTf::new(vec![1.0, -1.0], vec![1.0, -0.5], 1, 1e-4).unwrap();
         assert!(matches!(
             DesignZpetc::default().design(&g, "p"),

@@ -1,8 +1,8 @@
 //! Checks of the command line's private parts (argument rewriting, manual
 //! pages, option names in messages, the loop plot's span). They live
-//! beside the code they check, in `fts::cli`'s `checks` modules, and run
-//! here: the library's unit-test build leaves the command line out, which
-//! would otherwise be compiled a second time for nine tests.
+//! beside the code they check, in `fts::cli`'s `checks` modules (compiled
+//! with the `checks` feature), and run here like the library's checks
+//! (`checks.rs`).
 
 use fts::cli::internal_checks::{cli, loop_analysis, manual, names};
 

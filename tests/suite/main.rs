@@ -12,6 +12,7 @@ mod analysis_oracle;
 mod bad_input;
 mod c_runtime;
 mod c_runtime_multiaxis;
+mod checks;
 mod cli_bounds;
 mod cli_hysteresis;
 mod cli_identify_ct;

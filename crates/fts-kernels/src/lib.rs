@@ -2,8 +2,8 @@
 //!
 //! faer's decompositions and rustfft's planner are generic: every crate
 //! that calls them compiles its own copy. fts calls them only through this
-//! crate, so they are compiled once, optimised, and not again in each build
-//! of fts (its library, its unit-test harness). The numerical content is
+//! crate, so they are compiled once, optimised, whichever profile builds
+//! fts, and not again whenever fts's own code changes. The numerical content is
 //! fts's: the ordered Schur forms ([`schur`]), thin wrappers of faer's
 //! decompositions ([`dense`]) and of a planned real FFT ([`fft`]).
 

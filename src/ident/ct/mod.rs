@@ -246,5 +246,6 @@ pub(crate) fn check_delay(delay: f64) -> Result<(), CtError> {
     }
 }
 
-#[cfg(test)]
-mod tests;
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks;

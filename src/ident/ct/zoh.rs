@@ -187,8 +187,9 @@ fn shifted_held(u: &[f64], h: f64, delay: f64) -> Vec<f64> {
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     /// A denominator whose companion matrix has a 1-norm of 1e80 (an SRIVC
@@ -196,8 +197,7 @@ mod tests {
     /// overflowed its norm estimates and squared `u64::MAX` times. The
     /// filter is now built in bounded time; its output is finite or NaN,
     /// which the regression refuses.
-    #[test]
-    fn a_huge_denominator_is_sampled_in_bounded_time() {
+    pub fn a_huge_denominator_is_sampled_in_bounded_time() {
         let start = std::time::Instant::now();
         let y = simulate(&[1.0], &[1.0, 1e40, 1e80], 1.0, 0.0, &[1.0; 10]);
         assert_eq!(y.len(), 10);
@@ -210,8 +210,7 @@ mod tests {
 
     /// First order `K/(T s + 1)` with delay `tau`, unit step: the closed form
     /// `K (1 - exp(-(t - tau)/T))` for `t >= tau`.
-    #[test]
-    fn delayed_step_of_a_first_order_lag_matches_the_closed_form() {
+    pub fn delayed_step_of_a_first_order_lag_matches_the_closed_form() {
         let (k, tc, tau, h) = (2.5, 0.013, 0.00437, 0.001);
         let u = vec![1.0; 60];
         let y = simulate(&[k / tc], &[1.0, 1.0 / tc], h, tau, &u);
@@ -228,8 +227,7 @@ mod tests {
 
     /// Second order `w^2/(s^2 + 2 z w s + w^2)`, unit step, no delay: the
     /// textbook underdamped step response, and `p x` is its derivative.
-    #[test]
-    fn second_order_step_and_its_derivative_match_the_closed_form() {
+    pub fn second_order_step_and_its_derivative_match_the_closed_form() {
         let (w, z, h) = (30.0f64, 0.2f64, 0.01);
         let wd = w * (1.0 - z * z).sqrt();
         let phi = (z / (1.0 - z * z).sqrt()).atan();

@@ -917,13 +917,13 @@ where
     })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::ident::hysteresis::operators::play_into;
 
-    #[test]
-    fn regressor_columns_match_the_operators() {
+    pub fn regressor_columns_match_the_operators() {
         // Every column equals the operator run on its own (portable path of
         // `play_into`), whichever kernel `fill` dispatches to; 11 operators
         // exercise a full group of 8 and a partial one.

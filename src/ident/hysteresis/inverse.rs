@@ -175,12 +175,12 @@ pub fn analytic_inverse(model: &HysteresisModel) -> Result<HysteresisModel, Inve
     })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn two_operator_inverse_by_hand() {
+    pub fn two_operator_inverse_by_hand() {
         // w = [1, 1], r = [0, 1]: loading curve slope 1 up to 1, then 2.
         // Inverse: r' = [0, 1], w' = [1, -1/(2*1)] -> slope 1 then 1/2.
         let m = HysteresisModel {

