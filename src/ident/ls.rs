@@ -583,25 +583,11 @@ fn fold_kernel<const FMA: bool>(
     block: &mut [f64],
     rows: usize,
 ) {
-    // Makes the reflector of column j (R[j, j] becomes alpha); None if the
-    // block column is already zero.
-    let reflector = |r: &mut [f64], bj: &[f64], j: usize| -> Option<(f64, f64)> {
-        let sigma = dot::<FMA>(bj, bj);
-        if sigma == 0.0 {
-            return None;
-        }
-        let x = r[j * n + j];
-        let norm = (x * x + sigma).sqrt();
-        let alpha = if x > 0.0 { -norm } else { norm };
-        let v0 = x - alpha;
-        r[j * n + j] = alpha;
-        Some((v0, 2.0 / (v0 * v0 + sigma)))
-    };
     let mut j = 0;
     while j < n {
         let (head, tail) = block.split_at_mut((j + 1) * ld);
         let bj = &head[j * ld..j * ld + rows];
-        let Some((v0j, beta_j)) = reflector(r, bj, j) else {
+        let Some((v0j, beta_j)) = reflector::<FMA>(n, r, bj, j) else {
             j += 1;
             continue;
         };
@@ -616,7 +602,7 @@ fn fold_kernel<const FMA: bool>(
         r[k * n + j] -= s * v0j;
         axpy::<FMA>(-s, bj, bk);
         let bk = &bk_all[..rows];
-        match reflector(r, bk, k) {
+        match reflector::<FMA>(n, r, bk, k) {
             Some((v0k, beta_k)) => {
                 let cross = dot::<FMA>(bk, bj);
                 for l in k + 1..n {
@@ -640,6 +626,25 @@ fn fold_kernel<const FMA: bool>(
         }
         j += 2;
     }
+}
+
+/// Makes the reflector of column `j` (`R[j, j]` becomes alpha): `(v0,
+/// beta)`, or `None` if the block column is already zero. A function, not a
+/// closure, so that it is inlined into the caller's target features (a
+/// closure is compiled for the baseline CPU, where `mul_add` is a library
+/// call).
+#[inline(always)]
+fn reflector<const FMA: bool>(n: usize, r: &mut [f64], bj: &[f64], j: usize) -> Option<(f64, f64)> {
+    let sigma = dot::<FMA>(bj, bj);
+    if sigma == 0.0 {
+        return None;
+    }
+    let x = r[j * n + j];
+    let norm = (x * x + sigma).sqrt();
+    let alpha = if x > 0.0 { -norm } else { norm };
+    let v0 = x - alpha;
+    r[j * n + j] = alpha;
+    Some((v0, 2.0 / (v0 * v0 + sigma)))
 }
 
 /// `(a . c, b . c)` in one pass.

@@ -257,3 +257,125 @@ pub fn keep_rows_cuts_both_signals_or_refuses() {
     d.keep_rows(1, Some(3)).unwrap();
     assert_eq!((d.input, d.output), (vec![2.0, 3.0], vec![20.0, 30.0]));
 }
+
+pub fn classic_mac_line_ends_and_quotes_within_a_line() {
+    let d = io("t,u,y\r0,1,2\r1,\"3,5\",4\r", &IoColumns::default());
+    // A quoted comma is one field (which is then not a number here).
+    let e = d.unwrap_err().to_string();
+    assert!(e.contains("line 3") && e.contains("'u'"), "{e}");
+    let d = io("t,u,y\r0,\"1.5\",2\r1,3,4\r", &IoColumns::default()).unwrap();
+    assert_eq!(d.input, vec![1.5, 3.0]);
+    let e = io("t,u,y\n0,\"1.5\n\",2\n", &IoColumns::default()).unwrap_err();
+    let e = e.to_string();
+    assert!(e.contains("line 2") && e.contains("quoted field"), "{e}");
+}
+
+/// A record of `rows` rows `t,u,y` = `k/10, k/2, -k`, with a bad cell on
+/// row `bad` (1-based data row) if given, and a comment line every 1000.
+fn long_record(rows: usize, bad: Option<usize>) -> String {
+    let mut text = String::from("t,u,y\n");
+    for k in 0..rows {
+        if k % 1000 == 999 {
+            text.push_str("# a comment line\n");
+        }
+        if Some(k + 1) == bad {
+            text.push_str(&format!("{},oops,{}\n", k as f64 / 10.0, -(k as f64)));
+        } else {
+            text.push_str(&format!(
+                "{},{},{}\n",
+                k as f64 / 10.0,
+                k as f64 / 2.0,
+                -(k as f64)
+            ));
+        }
+    }
+    text
+}
+
+/// Records longer than a block, cut between threads: every value in
+/// order, line numbers counted across blocks and pieces.
+pub fn records_read_in_blocks_and_pieces_keep_order_and_lines() {
+    let rows = 900_000; // about 19 MB: three blocks, each cut in pieces
+    let text = long_record(rows, None);
+    assert!(text.len() > 2 * super::BLOCK_BYTES);
+    let d = io(&text, &IoColumns::default()).unwrap();
+    assert_eq!(d.input.len(), rows);
+    for (k, (&u, &y)) in d.input.iter().zip(&d.output).enumerate() {
+        assert!(u == k as f64 / 2.0 && y == -(k as f64), "row {k}");
+    }
+    assert!((d.ts.unwrap() - 0.1).abs() < 1e-12);
+    // A bad cell deep in the file: its line is the file's (header, data
+    // rows and one comment line per 1000 rows before it).
+    let bad = 800_123;
+    let e = io(&long_record(rows, Some(bad)), &IoColumns::default()).unwrap_err();
+    let line = 1 + bad + (bad - 1) / 1000;
+    let text = e.to_string();
+    assert!(
+        text.contains(&format!("line {line},")) && text.contains("'u'"),
+        "{text}"
+    );
+}
+
+pub fn pieces_are_whole_lines() {
+    let text = b"a\nbb\nccc\ndddd\neeeee\n";
+    for parts in 1..6 {
+        let pieces = super::cut_at_lines(text, parts, 1);
+        assert_eq!(pieces.concat(), text.to_vec());
+        assert!(pieces.iter().all(|p| p.ends_with(b"\n")));
+    }
+    assert_eq!(super::cut_at_lines(text, 4, 1 << 10).len(), 1);
+    assert_eq!(super::count_lines(b"a\nb"), 2);
+    assert_eq!(super::count_lines(b"a\nb\n"), 2);
+    assert_eq!(super::count_lines(b""), 0);
+}
+
+/// The reader's number parser reads what `str::parse::<f64>` reads, to the
+/// same bits, and refuses what it refuses.
+pub fn numbers_parse_as_rust_parses_them() {
+    let texts = [
+        "0",
+        "-0",
+        "+1.5",
+        "1.",
+        ".5",
+        "1e5",
+        "1E-5",
+        "-2.5e+300",
+        "1e-320",
+        "4.9e-324",
+        "1e400",
+        "-1e400",
+        "inf",
+        "-inf",
+        "Infinity",
+        "NaN",
+        "nan",
+        "0.1",
+        "0.30000000000000004",
+        "2.2250738585072011e-308",
+        "9007199254740993",
+        "123456789012345678901234567890",
+        "0.0022559138209001794",
+        "1e",
+        "e5",
+        "--1",
+        "1.2.3",
+        "0x10",
+        "1_000",
+        "",
+        ".",
+        "+",
+        "1e+",
+        "١",
+        "1 ",
+        " 1",
+        "1,5",
+    ];
+    for text in texts {
+        let ours = parse_number(text.as_bytes(), Delimiter::Comma);
+        let rust = text.parse::<f64>().ok();
+        assert_eq!(ours.map(f64::to_bits), rust.map(f64::to_bits), "{text:?}");
+    }
+    assert_eq!(parse_number(b"1,5", Delimiter::Semicolon), Some(1.5));
+    assert_eq!(parse_number(b"1,5,2", Delimiter::Semicolon), None);
+}

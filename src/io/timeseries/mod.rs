@@ -5,11 +5,18 @@
 //! comma-, semicolon-, tab- or whitespace-separated; the separator is sniffed
 //! from the header line (or the first data row; an Excel `sep=X` first line
 //! names it) or forced with [`Layout::delimiter`]. A preamble above the
-//! header is skipped with [`Layout::header_row`]. Delimited files go through the `csv`
-//! crate (quoting, an empty first field as in the SmartHysteresis piezo
-//! record) with one reused record; whitespace files (DaISy `.dat`, MATLAB
-//! `save -ascii`) are split by hand. Lines starting with `#` and blank lines
-//! are skipped. A units row under the header (`s,V,um`) is recognised.
+//! header is skipped with [`Layout::header_row`]. Lines are cut at the
+//! separator (memchr); a line holding a quote is unquoted by `csv-core`
+//! (RFC 4180: quoted separators and doubled quotes within the line; a
+//! quoted field running past its line is refused), and an empty first field
+//! counts (the SmartHysteresis piezo record). Whitespace files (DaISy
+//! `.dat`, MATLAB `save -ascii`) are cut at runs of spaces and tabs. After
+//! the first data row the file is read in blocks of whole lines, each cut
+//! between the machine's cores; numbers are parsed from the bytes
+//! (`fast-float2`, to the values `str::parse::<f64>` gives). Line ends are
+//! `\n`, `\r\n` or a lone `\r` (classic Mac). Lines starting with `#`, blank
+//! lines and lines of empty fields are skipped. A units row under the
+//! header (`s,V,um`) is recognised.
 //! MATLAB v5/v7 `.mat` files are recognised by their content and read by
 //! variable name ([`super::mat`]).
 //!
@@ -425,11 +432,12 @@ fn read_table_with<R: BufRead>(
     };
     let (head, have) = read_head(&mut rows, layout)?;
     let plan = TextPlan::new(&head, layout, time, pick, source)?;
+    let delimiter = rows.delimiter;
     let Samples {
         columns,
         time: t,
         lines,
-    } = read_rows(&mut rows, have, &plan, source)?;
+    } = read_rows(rows, have, &plan, source)?;
     if lines.rows < min_rows {
         return Err(InputError::new(
             source,
@@ -459,7 +467,7 @@ fn read_table_with<R: BufRead>(
         timing,
         rows: lines.rows,
         had_header: head.header.is_some(),
-        delimiter: Some(rows.delimiter),
+        delimiter: Some(delimiter),
     })
 }
 
@@ -519,45 +527,279 @@ impl TextPlan {
     }
 }
 
-/// The parsed rows of a text file.
-struct Samples {
+/// Where the rows of a text file were: a [`LineMap`] for the whole file,
+/// a plain list for a block parsed on its own thread.
+trait RowLines: Default {
+    fn push(&mut self, line: usize);
+}
+
+impl RowLines for LineMap {
+    fn push(&mut self, line: usize) {
+        LineMap::push(self, line);
+    }
+}
+
+impl RowLines for Vec<usize> {
+    fn push(&mut self, line: usize) {
+        Vec::push(self, line);
+    }
+}
+
+/// The parsed rows of a text file (or of a block of it).
+struct Samples<L> {
     columns: Vec<Vec<f64>>,
     /// The time column in seconds.
     time: Option<Vec<f64>>,
-    lines: LineMap,
+    lines: L,
 }
 
-/// Parses the planned columns of every row from the current one on.
-fn read_rows<R: BufRead>(
-    rows: &mut RowReader<'_, R>,
-    mut have: bool,
-    plan: &TextPlan,
-    source: &str,
-) -> Result<Samples, InputError> {
-    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); plan.columns.len()];
-    let mut t: Option<Vec<f64>> = plan.time.as_ref().map(|_| Vec::new());
-    let mut lines = LineMap::default();
-    let delimiter = rows.delimiter;
-    while have {
-        let (count, line) = (rows.field_count(), rows.line);
+impl<L: RowLines> Samples<L> {
+    fn new(plan: &TextPlan) -> Self {
+        Self::with_capacity(plan, 0)
+    }
+
+    fn with_capacity(plan: &TextPlan, rows: usize) -> Self {
+        Self {
+            columns: vec![Vec::with_capacity(rows); plan.columns.len()],
+            time: plan.time.as_ref().map(|_| Vec::with_capacity(rows)),
+            lines: L::default(),
+        }
+    }
+
+    /// Parses the planned fields of the row on `line`.
+    fn push<'f>(
+        &mut self,
+        plan: &TextPlan,
+        source: &str,
+        line: usize,
+        (count, delimiter): (usize, Delimiter),
+        field: impl Fn(usize) -> Option<&'f [u8]>,
+    ) -> Result<(), InputError> {
         let value = |index: usize, name: &str| {
             let cell = Cell { source, line, name };
-            cell.parse(rows.field(index), index, count, delimiter)
+            cell.parse(field(index), index, count, delimiter)
         };
-        for ((index, name), column) in plan.columns.iter().zip(columns.iter_mut()) {
+        for ((index, name), column) in plan.columns.iter().zip(self.columns.iter_mut()) {
             column.push(value(*index, name)?);
         }
-        if let (Some(tc), Some(t)) = (&plan.time, t.as_mut()) {
+        if let (Some(tc), Some(t)) = (&plan.time, self.time.as_mut()) {
             t.push(value(tc.index, &tc.name)? * tc.unit.0.seconds());
         }
-        lines.push(line);
-        have = rows.next()?;
+        self.lines.push(line);
+        Ok(())
     }
-    Ok(Samples {
-        columns,
-        time: t,
-        lines,
-    })
+}
+
+/// Parses the planned columns of every row from the current one on: the
+/// current row as `rows` holds it, the rest of the file in blocks.
+fn read_rows<R: BufRead>(
+    rows: RowReader<'_, R>,
+    have: bool,
+    plan: &TextPlan,
+    source: &str,
+) -> Result<Samples<LineMap>, InputError> {
+    let mut samples = Samples::new(plan);
+    if !have {
+        return Ok(samples);
+    }
+    let shape = (rows.field_count(), rows.delimiter);
+    samples.push(plan, source, rows.line, shape, |i| rows.field(i))?;
+    let delimiter = rows.delimiter;
+    let rest = rows.into_rest();
+    let mut blocks = Blocks {
+        parser: LineParser {
+            plan,
+            source,
+            delimiter,
+        },
+        reader: rest.reader,
+        lines_read: rest.lines_read,
+        workers: std::thread::available_parallelism().map_or(1, |n| n.get().min(8)),
+    };
+    blocks.read_into(&mut samples)?;
+    Ok(samples)
+}
+
+/// Bytes read at a time; a block's whole lines are cut between threads.
+const BLOCK_BYTES: usize = 1 << 23;
+/// Blocks smaller than this are parsed on the calling thread.
+const PARALLEL_BYTES: usize = 1 << 18;
+/// The longest line read (a file without line ends is refused, not held).
+const MAX_LINE_BYTES: usize = 1 << 26;
+
+/// The rows after the first data row, read in blocks of whole lines.
+struct Blocks<'a, R> {
+    parser: LineParser<'a>,
+    reader: rows::Input<R>,
+    /// Lines before the first one in the blocks.
+    lines_read: usize,
+    workers: usize,
+}
+
+/// What parsing a line needs (shared by the threads of a block).
+struct LineParser<'a> {
+    plan: &'a TextPlan,
+    source: &'a str,
+    delimiter: Delimiter,
+}
+
+impl<R: BufRead> Blocks<'_, R> {
+    fn read_into(&mut self, samples: &mut Samples<LineMap>) -> Result<(), InputError> {
+        let source = self.parser.source;
+        let io_err = |e: std::io::Error| InputError::new(source, format!("cannot read: {e}"));
+        let mut buf: Vec<u8> = Vec::new();
+        let mut next_line = self.lines_read + 1;
+        loop {
+            let carried = buf.len();
+            buf.resize(carried + BLOCK_BYTES, 0);
+            let mut filled = carried;
+            let eof = loop {
+                match std::io::Read::read(&mut self.reader, &mut buf[filled..]) {
+                    Ok(0) => break true,
+                    Ok(n) => filled += n,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                    Err(e) => return Err(io_err(e)),
+                }
+                if filled == buf.len() {
+                    break false;
+                }
+            };
+            buf.truncate(filled);
+            let whole = match memchr::memrchr(b'\n', &buf) {
+                _ if eof => filled,
+                Some(i) => i + 1,
+                None if filled > MAX_LINE_BYTES => {
+                    return Err(InputError::new(
+                        source,
+                        format!("line {next_line} is longer than {MAX_LINE_BYTES} bytes"),
+                    ));
+                }
+                None => continue,
+            };
+            next_line += self.parse(&buf[..whole], next_line, samples)?;
+            buf.drain(..whole);
+            if eof {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Parses the whole lines `text`, the first of them line `first`, into
+    /// `samples`; the number of lines.
+    fn parse(
+        &self,
+        text: &[u8],
+        first: usize,
+        samples: &mut Samples<LineMap>,
+    ) -> Result<usize, InputError> {
+        let parts = cut_at_lines(text, self.workers, PARALLEL_BYTES);
+        let mut firsts = vec![first];
+        for part in &parts[..parts.len() - 1] {
+            firsts.push(firsts.last().unwrap_or(&first) + memchr::memchr_iter(b'\n', part).count());
+        }
+        let lines = firsts[parts.len() - 1] - first + count_lines(parts[parts.len() - 1]);
+        let parser = &self.parser;
+        if parts.len() == 1 {
+            parser.parse_part(text, first, samples)?;
+            return Ok(lines);
+        }
+        // The first piece is parsed here, straight into `samples`; the
+        // others on threads of their own, into vectors sized for them.
+        let (head, tail) = parts.split_first().unwrap_or((&text, &[]));
+        let (own, others) = std::thread::scope(|scope| {
+            let handles: Vec<_> = tail
+                .iter()
+                .zip(&firsts[1..])
+                .map(|(part, &line)| {
+                    scope.spawn(move || {
+                        let mut out: Samples<Vec<usize>> =
+                            Samples::with_capacity(parser.plan, count_lines(part));
+                        parser.parse_part(part, line, &mut out).map(|()| out)
+                    })
+                })
+                .collect();
+            let own = parser.parse_part(head, first, samples);
+            let others: Vec<_> = handles
+                .into_iter()
+                .map(|h| {
+                    h.join()
+                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+                })
+                .collect();
+            (own, others)
+        });
+        own?;
+        for part in others {
+            let part = part?;
+            for (all, more) in samples.columns.iter_mut().zip(part.columns) {
+                all.extend_from_slice(&more);
+            }
+            if let (Some(all), Some(more)) = (samples.time.as_mut(), part.time) {
+                all.extend_from_slice(&more);
+            }
+            for line in part.lines {
+                samples.lines.push(line);
+            }
+        }
+        Ok(lines)
+    }
+}
+
+impl LineParser<'_> {
+    /// Parses the lines of `text` (the first is line `first`) one by one.
+    fn parse_part<L: RowLines>(
+        &self,
+        text: &[u8],
+        first: usize,
+        out: &mut Samples<L>,
+    ) -> Result<(), InputError> {
+        // A splitter of its own: a clone of csv-core's reader does not
+        // unquote (csv-core 0.1.13), so each piece builds one.
+        let mut split = rows::Split::new(self.delimiter);
+        let mut fields = rows::Fields::default();
+        let mut start = 0;
+        let mut line = first;
+        while start < text.len() {
+            let end = memchr::memchr(b'\n', &text[start..]).map_or(text.len(), |i| start + i + 1);
+            let row = rows::strip_line_end(&text[start..end]);
+            let kept = split
+                .split(row, &mut fields)
+                .map_err(|m| InputError::new(self.source, m).at_line(line))?;
+            if kept {
+                let shape = (fields.len(), self.delimiter);
+                out.push(self.plan, self.source, line, shape, |i| fields.get(row, i))?;
+            }
+            start = end;
+            line += 1;
+        }
+        Ok(())
+    }
+}
+
+/// Lines in `text`: its line ends, and one more for a last line without one.
+fn count_lines(text: &[u8]) -> usize {
+    memchr::memchr_iter(b'\n', text).count()
+        + usize::from(!text.ends_with(b"\n") && !text.is_empty())
+}
+
+/// `text` cut into at most `parts` pieces of whole lines, none smaller
+/// than `min_bytes` (so a small text is one piece).
+fn cut_at_lines(text: &[u8], parts: usize, min_bytes: usize) -> Vec<&[u8]> {
+    let parts = parts.clamp(1, (text.len() / min_bytes).max(1));
+    let mut pieces = Vec::with_capacity(parts);
+    let mut start = 0;
+    for k in 1..parts {
+        let target = (text.len() * k / parts).max(start);
+        let Some(end) = memchr::memchr(b'\n', &text[target..]).map(|i| target + i + 1) else {
+            break;
+        };
+        pieces.push(&text[start..end]);
+        start = end;
+    }
+    if start < text.len() || pieces.is_empty() {
+        pieces.push(&text[start..]);
+    }
+    pieces
 }
 
 /// The MAT-file counterpart of the text path: variables by name.

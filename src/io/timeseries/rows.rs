@@ -110,27 +110,210 @@ impl LineMap {
     }
 }
 
-/// Rows of a text file, one at a time, with their fields as trimmed byte
-/// slices in a reused buffer.
-enum Rows<R: BufRead> {
+/// How a line is cut into fields.
+pub(super) enum Split {
+    /// One separator byte; a line holding a quote is unquoted by csv-core
+    /// (RFC 4180: quoted separators, doubled quotes).
     Delimited {
-        reader: csv::Reader<std::io::Chain<std::io::Cursor<Vec<u8>>, R>>,
-        record: csv::ByteRecord,
+        byte: u8,
+        quoted: Box<csv_core::Reader>,
     },
-    Whitespace {
-        reader: R,
-        pending: Option<Vec<u8>>,
-        line: Vec<u8>,
-        spans: Vec<(usize, usize)>,
-        line_no: usize,
-    },
+    /// Runs of spaces and tabs.
+    Whitespace,
 }
 
+/// The fields of one line: byte spans of the line itself or, for a line
+/// with quotes, of its unquoted text.
+#[derive(Default)]
+pub(super) struct Fields {
+    spans: Vec<(usize, usize)>,
+    unquoted: Vec<u8>,
+    ends: Vec<usize>,
+    from_unquoted: bool,
+}
+
+impl Fields {
+    pub(super) fn len(&self) -> usize {
+        self.spans.len()
+    }
+
+    /// Field `index`, trimmed.
+    pub(super) fn get<'a>(&'a self, line: &'a [u8], index: usize) -> Option<&'a [u8]> {
+        let text = if self.from_unquoted {
+            &self.unquoted[..]
+        } else {
+            line
+        };
+        self.spans.get(index).map(|&(a, b)| trim(&text[a..b]))
+    }
+
+    fn all_empty(&self, line: &[u8]) -> bool {
+        (0..self.len()).all(|i| self.get(line, i).is_none_or(<[u8]>::is_empty))
+    }
+}
+
+impl Split {
+    pub(super) fn new(delimiter: Delimiter) -> Self {
+        match delimiter.byte() {
+            Some(byte) => Self::Delimited {
+                byte,
+                quoted: Box::new(csv_core::ReaderBuilder::new().delimiter(byte).build()),
+            },
+            None => Self::Whitespace,
+        }
+    }
+
+    /// Cuts `line` (without its line end) into `fields`; `Ok(false)` for a
+    /// line to skip (blank, a comment, or only empty fields).
+    pub(super) fn split(&mut self, line: &[u8], fields: &mut Fields) -> Result<bool, String> {
+        if is_skipped(line) {
+            return Ok(false);
+        }
+        fields.spans.clear();
+        fields.from_unquoted = false;
+        match self {
+            Self::Whitespace => {
+                let mut start = None;
+                for (i, b) in line.iter().enumerate() {
+                    match (b.is_ascii_whitespace(), start) {
+                        (false, None) => start = Some(i),
+                        (true, Some(s)) => {
+                            fields.spans.push((s, i));
+                            start = None;
+                        }
+                        _ => {}
+                    }
+                }
+                if let Some(s) = start {
+                    fields.spans.push((s, line.len()));
+                }
+                Ok(true)
+            }
+            Self::Delimited { byte, quoted } => {
+                if memchr::memchr(b'"', line).is_some() {
+                    unquote(quoted, line, fields)?;
+                } else {
+                    let mut start = 0;
+                    for end in memchr::memchr_iter(*byte, line) {
+                        fields.spans.push((start, end));
+                        start = end + 1;
+                    }
+                    fields.spans.push((start, line.len()));
+                }
+                Ok(!fields.all_empty(line))
+            }
+        }
+    }
+}
+
+/// The fields of a line with quotes, by csv-core.
+fn unquote(reader: &mut csv_core::Reader, line: &[u8], fields: &mut Fields) -> Result<(), String> {
+    use csv_core::ReadRecordResult::{End, InputEmpty, Record};
+    if line.iter().filter(|&&b| b == b'"').count() % 2 == 1 {
+        return Err("malformed CSV: a quoted field does not end on its line".into());
+    }
+    reader.reset();
+    fields.unquoted.resize(line.len(), 0);
+    fields.ends.resize(line.len() + 1, 0);
+    let (mut input, mut nout, mut nend) = (line, 0, 0);
+    loop {
+        let (result, nin, o, e) = reader.read_record(
+            input,
+            &mut fields.unquoted[nout..],
+            &mut fields.ends[nend..],
+        );
+        input = &input[nin..];
+        nout += o;
+        nend += e;
+        match result {
+            InputEmpty => {}
+            Record | End => break,
+            _ => return Err("malformed CSV: a field could not be read".into()),
+        }
+    }
+    let mut start = 0;
+    for &end in &fields.ends[..nend] {
+        fields.spans.push((start, end));
+        start = end;
+    }
+    fields.from_unquoted = true;
+    Ok(())
+}
+
+/// The text source: the reader itself, or the whole input in memory with
+/// classic Mac line ends (a lone `\r`) turned into `\n`.
+pub(super) enum Input<R> {
+    Stream(R),
+    Memory(std::io::Cursor<Vec<u8>>),
+}
+
+impl<R: BufRead> std::io::Read for Input<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        match self {
+            Self::Stream(r) => r.read(buf),
+            Self::Memory(c) => c.read(buf),
+        }
+    }
+}
+
+impl<R: BufRead> BufRead for Input<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        match self {
+            Self::Stream(r) => r.fill_buf(),
+            Self::Memory(c) => c.fill_buf(),
+        }
+    }
+
+    fn consume(&mut self, amount: usize) {
+        match self {
+            Self::Stream(r) => r.consume(amount),
+            Self::Memory(c) => c.consume(amount),
+        }
+    }
+}
+
+impl<R: BufRead> Input<R> {
+    /// `reader`, read whole and translated when its first buffer has a lone
+    /// `\r` line end.
+    fn new(mut reader: R) -> std::io::Result<Self> {
+        let peek = reader.fill_buf()?;
+        let lone_cr = peek.windows(2).any(|w| w[0] == b'\r' && w[1] != b'\n');
+        if !lone_cr {
+            return Ok(Self::Stream(reader));
+        }
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut reader, &mut bytes)?;
+        let mut out = Vec::with_capacity(bytes.len());
+        for (i, &b) in bytes.iter().enumerate() {
+            out.push(if b == b'\r' && bytes.get(i + 1) != Some(&b'\n') {
+                b'\n'
+            } else {
+                b
+            });
+        }
+        Ok(Self::Memory(std::io::Cursor::new(out)))
+    }
+}
+
+/// Rows of a text file, one at a time, with their fields as trimmed byte
+/// slices of a reused line buffer.
 pub(super) struct RowReader<'s, R: BufRead> {
-    rows: Rows<R>,
+    reader: Input<R>,
+    pending: Option<Vec<u8>>,
+    text: Vec<u8>,
+    fields: Fields,
+    split: Split,
+    line_no: usize,
     source: &'s str,
     pub(super) line: usize,
     pub(super) delimiter: Delimiter,
+}
+
+/// What follows the rows read one at a time: the source and the number of
+/// lines consumed.
+pub(super) struct Rest<R> {
+    pub(super) reader: Input<R>,
+    pub(super) lines_read: usize,
 }
 
 fn trim(bytes: &[u8]) -> &[u8] {
@@ -142,6 +325,12 @@ fn is_skipped(line: &[u8]) -> bool {
     t.is_empty() || t[0] == b'#'
 }
 
+/// `line` without its `\n` or `\r\n`.
+pub(super) fn strip_line_end(line: &[u8]) -> &[u8] {
+    let line = line.strip_suffix(b"\n").unwrap_or(line);
+    line.strip_suffix(b"\r").unwrap_or(line)
+}
+
 impl<'s, R: BufRead> RowReader<'s, R> {
     /// Reads up to the header line (`header_row`, 1-based, or else the
     /// first non-comment line), sniffs the separator from it and sets up the
@@ -150,20 +339,19 @@ impl<'s, R: BufRead> RowReader<'s, R> {
     /// Skipped lines stay in the count, so rows keep the line numbers of the
     /// file.
     pub(super) fn open(
-        mut reader: R,
+        reader: R,
         source: &'s str,
         forced: Option<Delimiter>,
         header_row: Option<usize>,
     ) -> Result<Option<Self>, InputError> {
         let io_err = |e: std::io::Error| InputError::new(source, format!("cannot read: {e}"));
-        // What the CSV reader sees first: an empty line for each skipped
-        // line (so its line count stays the file's), then the header line.
-        let mut preamble = Vec::new();
+        let mut reader = Input::new(reader).map_err(io_err)?;
+        let mut line = Vec::new();
         let mut line_no = 0;
         let mut excel_sep = None;
-        let first = loop {
-            let start = preamble.len();
-            if reader.read_until(b'\n', &mut preamble).map_err(io_err)? == 0 {
+        loop {
+            line.clear();
+            if reader.read_until(b'\n', &mut line).map_err(io_err)? == 0 {
                 return match header_row {
                     Some(h) => Err(InputError::new(
                         source,
@@ -173,56 +361,39 @@ impl<'s, R: BufRead> RowReader<'s, R> {
                 };
             }
             line_no += 1;
-            if line_no == 1 && preamble.starts_with(b"\xEF\xBB\xBF") {
-                preamble.drain(..3); // UTF-8 byte order mark (spreadsheet exports)
+            if line_no == 1 && line.starts_with(b"\xEF\xBB\xBF") {
+                line.drain(..3); // UTF-8 byte order mark (spreadsheet exports)
             }
-            let line = &preamble[start.min(preamble.len())..];
             if line_no == 1
-                && let Some(sep) = Delimiter::from_excel_line(line)
+                && let Some(sep) = Delimiter::from_excel_line(&line)
             {
                 excel_sep = Some(sep.map_err(|m| InputError::new(source, m).at_line(1))?);
             }
             let skipped = match header_row {
                 Some(h) if line_no < h => true,
-                Some(_) if is_skipped(line) => {
+                Some(_) if is_skipped(&line) => {
                     return Err(InputError::new(
                         source,
                         "the header row is blank or a comment, not column names",
                     )
                     .at_line(line_no));
                 }
-                _ => is_skipped(line) || (line_no == 1 && excel_sep.is_some()),
+                _ => is_skipped(&line) || (line_no == 1 && excel_sep.is_some()),
             };
             if !skipped {
-                break start.min(preamble.len());
+                break;
             }
-            preamble.truncate(start);
-            preamble.push(b'\n');
-        };
+        }
         let delimiter = forced
             .or(excel_sep)
-            .unwrap_or_else(|| Delimiter::sniff(&preamble[first..]));
-        let rows = match delimiter.byte() {
-            Some(byte) => Rows::Delimited {
-                reader: csv::ReaderBuilder::new()
-                    .has_headers(false)
-                    .flexible(true)
-                    .delimiter(byte)
-                    .comment(Some(b'#'))
-                    .buffer_capacity(1 << 16)
-                    .from_reader(std::io::Read::chain(std::io::Cursor::new(preamble), reader)),
-                record: csv::ByteRecord::new(),
-            },
-            None => Rows::Whitespace {
-                reader,
-                line: Vec::new(),
-                pending: Some(preamble[first..].to_vec()),
-                spans: Vec::new(),
-                line_no: line_no - 1,
-            },
-        };
+            .unwrap_or_else(|| Delimiter::sniff(&line));
         Ok(Some(Self {
-            rows,
+            reader,
+            pending: Some(line),
+            text: Vec::new(),
+            fields: Fields::default(),
+            split: Split::new(delimiter),
+            line_no: line_no - 1,
             source,
             line: 0,
             delimiter,
@@ -232,80 +403,46 @@ impl<'s, R: BufRead> RowReader<'s, R> {
     /// Advances to the next data row; `false` at the end.
     pub(super) fn next(&mut self) -> Result<bool, InputError> {
         let source = self.source;
-        match &mut self.rows {
-            Rows::Delimited { reader, record } => loop {
-                match reader.read_byte_record(record) {
-                    Ok(false) => return Ok(false),
-                    Ok(true) => {
-                        self.line = record.position().map_or(0, |p| p.line() as usize);
-                        if record.iter().any(|f| !trim(f).is_empty()) {
-                            return Ok(true);
-                        }
-                    }
-                    Err(e) => {
-                        let line = e.position().map(|p| p.line() as usize);
-                        let mut err = InputError::new(source, format!("malformed CSV: {e}"));
-                        if let Some(line) = line {
-                            err = err.at_line(line);
-                        }
-                        return Err(err);
-                    }
-                }
-            },
-            Rows::Whitespace {
-                reader,
-                pending,
-                line,
-                spans,
-                line_no,
-            } => loop {
-                line.clear();
-                if let Some(p) = pending.take() {
-                    *line = p;
-                } else if reader
-                    .read_until(b'\n', line)
-                    .map_err(|e| InputError::new(source, format!("cannot read: {e}")))?
-                    == 0
-                {
-                    return Ok(false);
-                }
-                *line_no += 1;
-                if is_skipped(line) {
-                    continue;
-                }
-                spans.clear();
-                let mut start = None;
-                for (i, b) in line.iter().enumerate() {
-                    match (b.is_ascii_whitespace(), start) {
-                        (false, None) => start = Some(i),
-                        (true, Some(s)) => {
-                            spans.push((s, i));
-                            start = None;
-                        }
-                        _ => {}
-                    }
-                }
-                if let Some(s) = start {
-                    spans.push((s, line.len()));
-                }
-                self.line = *line_no;
+        loop {
+            self.text.clear();
+            if let Some(p) = self.pending.take() {
+                self.text = p;
+            } else if self
+                .reader
+                .read_until(b'\n', &mut self.text)
+                .map_err(|e| InputError::new(source, format!("cannot read: {e}")))?
+                == 0
+            {
+                return Ok(false);
+            }
+            self.line_no += 1;
+            let line = strip_line_end(&self.text);
+            let kept = self
+                .split
+                .split(line, &mut self.fields)
+                .map_err(|m| InputError::new(source, m).at_line(self.line_no))?;
+            if kept {
+                self.line = self.line_no;
                 return Ok(true);
-            },
+            }
+        }
+    }
+
+    /// The rest of the file, for reading in blocks.
+    pub(super) fn into_rest(self) -> Rest<R> {
+        debug_assert!(self.pending.is_none());
+        Rest {
+            reader: self.reader,
+            lines_read: self.line_no,
         }
     }
 
     pub(super) fn field_count(&self) -> usize {
-        match &self.rows {
-            Rows::Delimited { record, .. } => record.len(),
-            Rows::Whitespace { spans, .. } => spans.len(),
-        }
+        self.fields.len()
     }
 
     pub(super) fn field(&self, index: usize) -> Option<&[u8]> {
-        match &self.rows {
-            Rows::Delimited { record, .. } => record.get(index).map(trim),
-            Rows::Whitespace { line, spans, .. } => spans.get(index).map(|&(a, b)| &line[a..b]),
-        }
+        self.fields.get(strip_line_end(&self.text), index)
     }
 
     pub(super) fn fields_text(&self) -> Vec<String> {
@@ -323,9 +460,11 @@ impl<'s, R: BufRead> RowReader<'s, R> {
 }
 
 /// Parses a number; in a semicolon file a decimal comma (`1,5`) is accepted.
+/// The text is read as Rust's `str::parse::<f64>` reads it (the same
+/// correctly rounded values; tested), by `fast-float2` straight from the
+/// bytes.
 pub(super) fn parse_number(field: &[u8], delimiter: Delimiter) -> Option<f64> {
-    let text = std::str::from_utf8(field).ok()?;
-    match text.parse::<f64>() {
+    match fast_float2::parse::<f64, _>(field) {
         Ok(v) => Some(v),
         Err(_) if delimiter == Delimiter::Semicolon && field.len() <= 64 => {
             let mut buf = [0u8; 64];
@@ -341,7 +480,7 @@ pub(super) fn parse_number(field: &[u8], delimiter: Delimiter) -> Option<f64> {
             if commas != 1 || field.contains(&b'.') {
                 return None;
             }
-            std::str::from_utf8(buf).ok()?.parse().ok()
+            fast_float2::parse(&*buf).ok()
         }
         Err(_) => None,
     }
