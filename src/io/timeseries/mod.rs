@@ -647,11 +647,15 @@ impl<R: BufRead> Blocks<'_, R> {
     fn read_into(&mut self, samples: &mut Samples<LineMap>) -> Result<(), InputError> {
         let source = self.parser.source;
         let io_err = |e: std::io::Error| InputError::new(source, format!("cannot read: {e}"));
-        let mut buf: Vec<u8> = Vec::new();
+        // One buffer for the whole file (grown only for a line longer than
+        // a block); the unfinished last line of a block moves to its front.
+        let mut buf = vec![0u8; BLOCK_BYTES];
+        let mut carried = 0;
         let mut next_line = self.lines_read + 1;
         loop {
-            let carried = buf.len();
-            buf.resize(carried + BLOCK_BYTES, 0);
+            if carried == buf.len() {
+                buf.resize(carried + BLOCK_BYTES, 0);
+            }
             let mut filled = carried;
             let eof = loop {
                 match std::io::Read::read(&mut self.reader, &mut buf[filled..]) {
@@ -664,8 +668,7 @@ impl<R: BufRead> Blocks<'_, R> {
                     break false;
                 }
             };
-            buf.truncate(filled);
-            let whole = match memchr::memrchr(b'\n', &buf) {
+            let whole = match memchr::memrchr(b'\n', &buf[..filled]) {
                 _ if eof => filled,
                 Some(i) => i + 1,
                 None if filled > MAX_LINE_BYTES => {
@@ -674,10 +677,14 @@ impl<R: BufRead> Blocks<'_, R> {
                         format!("line {next_line} is longer than {MAX_LINE_BYTES} bytes"),
                     ));
                 }
-                None => continue,
+                None => {
+                    carried = filled;
+                    continue;
+                }
             };
             next_line += self.parse(&buf[..whole], next_line, samples)?;
-            buf.drain(..whole);
+            buf.copy_within(whole..filled, 0);
+            carried = filled - whole;
             if eof {
                 return Ok(());
             }
@@ -692,29 +699,33 @@ impl<R: BufRead> Blocks<'_, R> {
         first: usize,
         samples: &mut Samples<LineMap>,
     ) -> Result<usize, InputError> {
-        let parts = cut_at_lines(text, self.workers, PARALLEL_BYTES);
-        let mut firsts = vec![first];
-        for part in &parts[..parts.len() - 1] {
-            firsts.push(firsts.last().unwrap_or(&first) + memchr::memchr_iter(b'\n', part).count());
-        }
-        let lines = firsts[parts.len() - 1] - first + count_lines(parts[parts.len() - 1]);
         let parser = &self.parser;
-        if parts.len() == 1 {
-            parser.parse_part(text, first, samples)?;
-            return Ok(lines);
+        let parts = cut_at_lines(text, self.workers, PARALLEL_BYTES);
+        let [head, tail @ ..] = &parts[..] else {
+            return Ok(0);
+        };
+        if tail.is_empty() {
+            return parser.parse_part(text, first, samples);
         }
+        // Each piece's first line, from the line counts of those before it.
+        let counts: Vec<usize> = parts.iter().map(|p| count_lines(p)).collect();
+        let firsts = counts.iter().scan(first, |next, &n| {
+            let line = *next;
+            *next += n;
+            Some(line)
+        });
         // The first piece is parsed here, straight into `samples`; the
         // others on threads of their own, into vectors sized for them.
-        let (head, tail) = parts.split_first().unwrap_or((&text, &[]));
         let (own, others) = std::thread::scope(|scope| {
             let handles: Vec<_> = tail
                 .iter()
-                .zip(&firsts[1..])
-                .map(|(part, &line)| {
+                .zip(firsts.skip(1))
+                .zip(&counts[1..])
+                .map(|((part, line), &rows)| {
                     scope.spawn(move || {
                         let mut out: Samples<Vec<usize>> =
-                            Samples::with_capacity(parser.plan, count_lines(part));
-                        parser.parse_part(part, line, &mut out).map(|()| out)
+                            Samples::with_capacity(parser.plan, rows);
+                        parser.parse_part(part, line, &mut out).map(|_| out)
                     })
                 })
                 .collect();
@@ -741,18 +752,19 @@ impl<R: BufRead> Blocks<'_, R> {
                 samples.lines.push(line);
             }
         }
-        Ok(lines)
+        Ok(counts.iter().sum())
     }
 }
 
 impl LineParser<'_> {
-    /// Parses the lines of `text` (the first is line `first`) one by one.
+    /// Parses the lines of `text` (the first is line `first`) one by one;
+    /// the number of lines.
     fn parse_part<L: RowLines>(
         &self,
         text: &[u8],
         first: usize,
         out: &mut Samples<L>,
-    ) -> Result<(), InputError> {
+    ) -> Result<usize, InputError> {
         // A splitter of its own: a clone of csv-core's reader does not
         // unquote (csv-core 0.1.13), so each piece builds one.
         let mut split = rows::Split::new(self.delimiter);
@@ -772,7 +784,7 @@ impl LineParser<'_> {
             start = end;
             line += 1;
         }
-        Ok(())
+        Ok(line - first)
     }
 }
 
