@@ -3,6 +3,10 @@
 //! named here is a `checks` module beside the code it checks, compiled only
 //! with the `checks` feature that `cargo test` turns on.
 
+pub use crate::cli::checks as cli;
+pub use crate::cli::loop_analysis::checks as cli_loop_analysis;
+pub use crate::cli::manual::checks as cli_manual;
+pub use crate::cli::names::checks as cli_names;
 pub use crate::ident::arx::checks as ident_arx;
 pub use crate::ident::ct::checks as ident_ct;
 pub use crate::ident::ct::zoh::checks as ident_ct_zoh;

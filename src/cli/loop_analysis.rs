@@ -333,14 +333,14 @@ impl NyquistPoints {
 const CRITICAL_X: [f64; 1] = [-1.0];
 const CRITICAL_Y: [f64; 1] = [0.0];
 
-/// Checks of this module's private parts (see `cli::internal_checks`).
+/// Checks of this module's private parts (run by `tests/suite/checks.rs`).
 #[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {
     use super::*;
 
-    pub fn the_mixsyn_loop_plot_spans_its_features_not_fourteen_decades(repository: &Path) {
-        let root = repository.join("examples/mixsyn");
+    pub fn the_mixsyn_loop_plot_spans_its_features_not_fourteen_decades() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/mixsyn");
         let g = read_loop_system(&root.join("plant.json")).unwrap();
         let k = read_loop_system(&root.join("K.json")).unwrap();
         let report = analyze_loop(&g, &k, &LoopParams::default()).unwrap();

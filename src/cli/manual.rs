@@ -75,7 +75,7 @@ fn render(command: &Command) -> anyhow::Result<Vec<u8>> {
     Ok(page)
 }
 
-/// Checks of this module's private parts (see `cli::internal_checks`).
+/// Checks of this module's private parts (run by `tests/suite/checks.rs`).
 #[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {

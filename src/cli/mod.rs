@@ -53,28 +53,16 @@ mod identify_ct;
 mod identify_hysteresis;
 mod identify_linear;
 mod learning;
-mod loop_analysis;
-mod manual;
+pub(crate) mod loop_analysis;
+pub(crate) mod manual;
 mod mechanism;
-mod names;
+pub(crate) mod names;
 mod response;
 mod robust;
 mod simulate;
 mod tf;
 mod virtual_record;
 mod zpetc;
-
-/// The checks of the command line's private parts, each beside the code it
-/// checks, run by the integration suite (`tests/suite/cli_internals.rs`)
-/// like the library's (`crate::internal_checks`).
-#[cfg(feature = "checks")]
-#[doc(hidden)]
-pub mod internal_checks {
-    pub use super::checks as cli;
-    pub use super::loop_analysis::checks as loop_analysis;
-    pub use super::manual::checks as manual;
-    pub use super::names::checks as names;
-}
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -499,7 +487,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// Checks of this module's private parts (see `internal_checks`).
+/// Checks of this module's private parts (run by `tests/suite/checks.rs`).
 #[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {

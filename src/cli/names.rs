@@ -222,7 +222,7 @@ pub fn flags_in(message: &str) -> Vec<String> {
     out
 }
 
-/// Checks of this module's private parts (see `cli::internal_checks`).
+/// Checks of this module's private parts (run by `tests/suite/checks.rs`).
 #[cfg(feature = "checks")]
 #[doc(hidden)]
 pub mod checks {

@@ -18,7 +18,6 @@ mod cli_hysteresis;
 mod cli_identify_ct;
 mod cli_identify_linear;
 mod cli_inputs;
-mod cli_internals;
 mod cli_loop;
 mod cli_mechanism;
 mod cli_records;
