@@ -69,6 +69,7 @@ pub use crate::synth::compliance::checks as synth_compliance;
 pub use crate::synth::composite::checks as synth_composite;
 pub use crate::synth::ding22::checks as synth_ding22;
 pub use crate::synth::dob::checks as synth_dob;
+pub use crate::synth::hinf::central::checks as synth_hinf_central;
 pub use crate::synth::ilc::checks as synth_ilc;
 pub use crate::synth::mechanism::checks as synth_mechanism;
 pub use crate::synth::pid::checks as synth_pid;

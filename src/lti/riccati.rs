@@ -74,6 +74,29 @@ pub struct RiccatiSolution {
     /// meets on the imaginary axis and the stabilising solution ceases to
     /// exist: the H-infinity search extrapolates its square.
     pub axis_gap: Option<f64>,
+    /// CARE: the Hamiltonian's stable invariant subspace, before the Newton
+    /// refinement (`None` for the DARE and for `n = 0`).
+    pub subspace: Option<StableSubspace>,
+}
+
+/// A basis `[U1; U2]` of the stable invariant subspace of a Hamiltonian `H`
+/// with `H [U1; U2] = [U1; U2] T11`, so that `X = U2 U1^-1`.
+///
+/// Near a level where the stabilising solution ceases to exist (`U1`
+/// becomes singular, `X` unbounded), formulas in `U1`, `U2` and `T11` stay
+/// well-conditioned where formulas in `X` do not: `X`'s rounding error is
+/// `eps ||X||` in every direction, which swamps its small eigenvalues,
+/// whereas the basis is accurate to `eps / sep` in each entry (the
+/// descriptor form of the H-infinity central controller; Safonov,
+/// Limebeer & Chiang 1989, Int. J. Control 50(6)).
+#[derive(Debug, Clone)]
+pub struct StableSubspace {
+    /// Upper block of the basis.
+    pub u1: Mat<f64>,
+    /// Lower block of the basis.
+    pub u2: Mat<f64>,
+    /// The restriction of `H` to the subspace (quasi-upper-triangular).
+    pub t11: Mat<f64>,
 }
 
 fn abs_mat(m: &Mat<f64>) -> Mat<f64> {
@@ -236,6 +259,7 @@ fn care_g_hamiltonian(
             newton_steps: 0,
             residual_floor: 0.0,
             axis_gap: None,
+            subspace: None,
         });
     }
     // The Hamiltonian, if asked balanced by an exact diagonal similarity
@@ -278,6 +302,11 @@ fn care_g_hamiltonian(
     }
     let z = Mat::from_fn(2 * n, 2 * n, |i, j| os.q[(i, j)] * scales[i]);
     let mut x = subspace_solution_real(&z, n)?;
+    let subspace = StableSubspace {
+        u1: Mat::from_fn(n, n, |i, j| z[(i, j)]),
+        u2: Mat::from_fn(n, n, |i, j| z[(n + i, j)]),
+        t11: Mat::from_fn(n, n, |i, j| os.t[(i, j)]),
+    };
     let (mut res, mut rel, mut den) = care_residual(a, g, q, &x, scale);
     // Newton–Kleinman in correction form: (A - GX)' D + D (A - GX) + Res(X) = 0,
     // continued while the (accurately evaluated) residual decreases, until it
@@ -318,6 +347,7 @@ fn care_g_hamiltonian(
         closed_loop,
         newton_steps: steps,
         axis_gap: Some(axis_gap),
+        subspace: Some(subspace),
     })
 }
 
@@ -435,6 +465,7 @@ pub fn dare(
             newton_steps: 0,
             residual_floor: 0.0,
             axis_gap: None,
+            subspace: None,
         });
     }
     // Symplectic pencil lambda L - M, M = [A~, 0; -Q~, I], L = [I, G; 0, A~'] (Pappas et al. 1980).
@@ -498,6 +529,7 @@ pub fn dare(
         closed_loop,
         newton_steps: steps,
         axis_gap: None,
+        subspace: None,
     })
 }
 

@@ -18,9 +18,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::dhinf::discrete_central;
-use super::genplant::{
-    Normalised, Partition, SynthError, chol_factor, denormalise, inv_or, normalise,
-};
+use super::genplant::{Normalised, Partition, SynthError, denormalise, normalise};
 use crate::lti::c2d::bilinear_to_discrete;
 use crate::lti::c64;
 use crate::lti::freqresp::HessenbergResponse;
@@ -28,6 +26,8 @@ use crate::lti::norms::{HinfNorm, bilinear_to_continuous, hinf_norm};
 use crate::lti::riccati::{RiccatiSolution, care};
 use crate::lti::ss::{StateSpace, eigvals, hcat, sigma_max, sub, tr, vcat};
 use faer::Mat;
+
+pub(crate) mod central;
 
 /// Options of the synthesis.
 #[derive(Debug, Clone, Copy)]
@@ -147,6 +147,9 @@ pub fn fastest_pole(sys: &StateSpace) -> f64 {
 /// The central controller and residuals at one gamma, or why it is infeasible.
 struct AtGamma {
     k: StateSpace,
+    /// The same controller in descriptor form (`None` where it could not
+    /// be formed), tried where `k` misses its level or fails to stabilise.
+    alternative: Option<StateSpace>,
     xres: f64,
     yres: f64,
     floor: f64,
@@ -260,62 +263,24 @@ fn central(p: &Partition, gamma: f64) -> Result<AtGamma, SynthError> {
 }
 
 /// The central controller from the Riccati pair at `gamma`, if the
-/// coupling condition (iv) holds.
+/// coupling condition (iv) holds: the explicit form, with the descriptor
+/// form beside it ([`central`]'s module doc says why both).
 fn central_from(p: &Partition, gamma: f64, pair: RiccatiPair) -> Result<AtGamma, SynthError> {
-    let (n, m1, m2, p1, p2) = (p.n(), p.m1(), p.m2(), p.p1(), p.p2());
     let g2 = gamma * gamma;
-    let infeasible = |why: String| SynthError::Infeasible(why);
     // rho(XY) < g^2 (1 - 1e-10).
     if !(pair.coupling > -(1.0 - 1e-10f64).ln()) {
-        return Err(infeasible(format!(
+        return Err(SynthError::Infeasible(format!(
             "spectral radius of XY {:.4e} >= gamma^2",
             g2 / pair.coupling.exp()
         )));
     }
     let RiccatiPair { xs, ys, .. } = pair;
-    let (x, y) = (&xs.x, &ys.x);
-    let b = hcat(&p.b1, &p.b2);
-    // F = -R^-1 (D1.'C1 + B'X) = -Kx, L = -(B1 D.1' + Y C') R~^-1 = -Ky'.
-    let f = -&xs.k;
-    let l = -tr(&ys.k);
-    let f1 = sub(&f, 0, m1, 0, n);
-    let f2 = sub(&f, m1, m1 + m2, 0, n);
-    let f12 = sub(&f1, m1 - p2, m1, 0, n);
-    let l1 = sub(&l, 0, n, 0, p1);
-    let l2 = sub(&l, 0, n, p1, p1 + p2);
-    let l12 = sub(&l1, 0, n, p1 - m2, p1);
-    let [d1111, d1112, d1121, d1122] = blocks(&p.d11, p1 - m2, m1 - p2);
-    let gi1 = |k: usize| Mat::<f64>::identity(k, k) * g2;
-    // (g^2 I - D1111 D1111')^-1 and (g^2 I - D1111' D1111)^-1.
-    let w1 = inv_or(
-        &(&gi1(p1 - m2) - &d1111 * tr(&d1111)),
-        "g^2 I - D1111 D1111'",
-    )?;
-    let w2 = inv_or(
-        &(&gi1(m1 - p2) - tr(&d1111) * &d1111),
-        "g^2 I - D1111' D1111",
-    )?;
-    let dh11 = &(-(&d1121 * tr(&d1111) * &w1 * &d1112)) - &d1122;
-    let dh12 = chol_factor(&(Mat::<f64>::identity(m2, m2) - &d1121 * &w2 * tr(&d1121)))
-        .ok_or_else(|| infeasible("D^12 factor is not positive definite".into()))?;
-    let dh21t = chol_factor(&(Mat::<f64>::identity(p2, p2) - tr(&d1112) * &w1 * &d1112))
-        .ok_or_else(|| infeasible("D^21 factor is not positive definite".into()))?;
-    let dh21 = tr(&dh21t); // D^21' D^21 = L L'
-    let zinf = inv_or(
-        &(Mat::<f64>::identity(n, n) - &(y * x * (1.0 / g2))),
-        "I - Y X / gamma^2",
-    )?;
-    let bh2 = &zinf * &(&p.b2 + &l12) * &dh12;
-    let ch2 = -(&dh21 * &(&p.c2 + &f12));
-    let dh12i = inv_or(&dh12, "D^12")?;
-    let dh21i = inv_or(&dh21, "D^21")?;
-    let bh1 = &(-(&zinf * &l2)) + &bh2 * &dh12i * &dh11;
-    let ch1 = &f2 + &dh11 * &dh21i * &ch2;
-    let ah = &(&p.a + &b * &f) + &bh1 * &dh21i * &ch2;
-    let k = StateSpace::new(ah, bh1, ch1, dh11, None)
-        .map_err(|e| SynthError::Numerical(e.to_string()))?;
+    let k = central::explicit(p, gamma, &xs, &ys)?;
+    // A failure of the second form only withdraws the alternative.
+    let alternative = central::descriptor(p, gamma, &xs, &ys).unwrap_or(None);
     Ok(AtGamma {
         k,
+        alternative,
         xres: xs.residual,
         yres: ys.residual,
         floor: xs.residual_floor.max(ys.residual_floor),
@@ -376,13 +341,21 @@ fn probe(p: &Partition, pss: &StateSpace, gamma: f64) -> Probe {
     }
 }
 
-/// `r`, if its controller stabilises the normalised plant `pss`.
-fn stabilising(pss: &StateSpace, r: AtGamma) -> Result<AtGamma, SynthError> {
-    let cl = pss
-        .lft(&r.k)
-        .map_err(|_| SynthError::Infeasible("closed loop not well posed".into()))?;
-    match cl.is_stable() {
-        Ok(true) => Ok(r),
+/// `r`, if its controller stabilises the normalised plant `pss`, or its
+/// descriptor form in its place if only that one does.
+fn stabilising(pss: &StateSpace, mut r: AtGamma) -> Result<AtGamma, SynthError> {
+    let stabilises = |k: &StateSpace| {
+        pss.lft(k)
+            .is_ok_and(|cl| matches!(cl.is_stable(), Ok(true)))
+    };
+    if stabilises(&r.k) {
+        return Ok(r);
+    }
+    match r.alternative.take() {
+        Some(k) if stabilises(&k) => {
+            r.k = k;
+            Ok(r)
+        }
         _ => Err(SynthError::Infeasible(
             "the central controller does not stabilise the plant (numerically)".into(),
         )),
@@ -900,7 +873,34 @@ impl Verify<'_> {
     /// The controller on the original plant: for a discrete plant SB10DD's
     /// discrete central controller at `gamma` when it exists, else (and for
     /// continuous plants) the continuous central controller, mapped back.
+    /// When that controller misses its level, the continuous central
+    /// controller's descriptor form is built too, and the better kept.
     fn build(&self, at: &AtGamma, gamma: f64) -> Result<Built, SynthError> {
+        let first = self.build_first(at, gamma)?;
+        let meets = |b: &Built| self.acceptable(b) && b.achieved <= gamma * (1.0 + VERIFY_RTOL);
+        let Some(alternative) = at.alternative.as_ref().filter(|_| !meets(&first)) else {
+            return Ok(first);
+        };
+        let form = ControllerForm::ContinuousDescriptor;
+        // The alternative only ever replaces a controller; its failure (a
+        // pole the Tustin map cannot take) leaves the first one.
+        let Ok(second) = finish(self.plant, self.norm, self.p0, alternative, form) else {
+            return Ok(first);
+        };
+        let better = self.acceptable(&second)
+            && (!self.acceptable(&first) || second.achieved < first.achieved);
+        Ok(if better { second } else { first })
+    }
+
+    /// Stable and, for a discrete plant, no moved pole closer to the unit
+    /// circle than the pole margin.
+    fn acceptable(&self, b: &Built) -> bool {
+        b.stable
+            && (self.plant.ts.is_none()
+                || moved_pole_margin(&b.poles, &self.plant.a) >= self.opts.pole_margin)
+    }
+
+    fn build_first(&self, at: &AtGamma, gamma: f64) -> Result<Built, SynthError> {
         if let (Some(dp), Some(ts)) = (&self.discrete, self.plant.ts)
             && let Ok(c) = discrete_central(dp, gamma, ts)
         {
@@ -908,7 +908,8 @@ impl Verify<'_> {
             built.residuals = Some((c.x_residual, c.z_residual, c.residual_floor));
             return Ok(built);
         }
-        finish(self.plant, self.norm, self.p0, at)
+        let form = ControllerForm::ContinuousCentral;
+        finish(self.plant, self.norm, self.p0, &at.k, form)
     }
 
     fn result(&self, built: Built, at: &AtGamma, gamma: f64, gamma_opt: f64) -> HinfResult {
@@ -1035,6 +1036,10 @@ pub enum ControllerForm {
     ContinuousCentral,
     /// SLICOT SB10DD's discrete central controller ([`super::dhinf`]).
     DiscreteCentral,
+    /// The continuous central controller in descriptor form (built from the
+    /// Hamiltonians' stable subspaces; [`central`]), where the explicit
+    /// form misses its level.
+    ContinuousDescriptor,
 }
 
 impl ControllerForm {
@@ -1043,6 +1048,7 @@ impl ControllerForm {
         match self {
             ControllerForm::ContinuousCentral => "continuous central (Thm 17.1)",
             ControllerForm::DiscreteCentral => "discrete central (SB10DD)",
+            ControllerForm::ContinuousDescriptor => "continuous central, descriptor form",
         }
     }
 }
@@ -1065,9 +1071,10 @@ fn finish(
     plant: &StateSpace,
     norm: &Normalised,
     p0: &Partition,
-    at: &AtGamma,
+    k: &StateSpace,
+    form: ControllerForm,
 ) -> Result<Built, SynthError> {
-    let kc = denormalise(&at.k, norm, &p0.d22)?;
+    let kc = denormalise(k, norm, &p0.d22)?;
     // Back to discrete time if needed.
     // Balanced (an exact powers-of-two similarity): the central controller
     // of a cheap-control problem has poles near 1e8 rad/s beside 0.2 rad/s,
@@ -1078,7 +1085,7 @@ fn finish(
         Some(ts) => bilinear_to_discrete(&kc, 2.0 / ts, ts)
             .map_err(|e| SynthError::Numerical(e.to_string()))?,
     };
-    close(plant, k, ControllerForm::ContinuousCentral)
+    close(plant, k, form)
 }
 
 /// The closed loop of `k` on the original plant, its poles and norm.
