@@ -234,11 +234,59 @@ fn care_g_scaled(
     q: &Mat<f64>,
     scale: f64,
 ) -> Result<RiccatiSolution, RiccatiError> {
+    if let Some(zero) = zero_solution(a, g, q, scale) {
+        return Ok(zero);
+    }
     care_g_hamiltonian(a, g, q, scale, false).or_else(|e| match e {
         RiccatiError::NoStabilizing(_) | RiccatiError::Schur(_) => {
             care_g_hamiltonian(a, g, q, scale, true).map_err(|_| e)
         }
         e => Err(e),
+    })
+}
+
+/// `X = 0` when it is the stabilising solution: `Q` (the cross term
+/// already removed) vanishes to rounding against the terms it came from
+/// (`scale`), and `A` is Hurwitz. The Hamiltonian is then block triangular,
+/// `[A, -G; 0, -A']`, with eigenvalues `eig(A)` and their mirror images.
+///
+/// The shortcut matters where a mode of `A` lies close to the imaginary
+/// axis: the H-infinity filter equation of a mixed-sensitivity problem
+/// (`Q = B1 (I - D.1' R~^-1 D.1) B1' = 0` exactly, since `R~ e_y = D.1`)
+/// carries the performance weight's pole `-p`, and with `p` at 1e-9 times
+/// the bandwidth the pair `+-p` is closer than `sqrt(eps)` to a Jordan
+/// block: the Schur method's eigenvalues land on the axis, and a feasible
+/// level is declared infeasible. `A`'s own eigenvalue `-p` is computed to
+/// `eps ||A||`. `None` when the shortcut does not apply.
+fn zero_solution(a: &Mat<f64>, g: &Mat<f64>, q: &Mat<f64>, scale: f64) -> Option<RiccatiSolution> {
+    let n = a.nrows();
+    if n == 0 || !(scale > 0.0) || !(fro(q) <= 64.0 * f64::EPSILON * scale) {
+        return None;
+    }
+    let closed_loop = eigvals(a).ok()?;
+    if !closed_loop.iter().all(|l| l.re < 0.0) {
+        return None;
+    }
+    let x = Mat::<f64>::zeros(n, n);
+    let (_, residual, den) = care_residual(a, g, q, &x, scale);
+    let axis_gap = closed_loop
+        .iter()
+        .map(|l| l.re.abs())
+        .fold(f64::INFINITY, f64::min);
+    Some(RiccatiSolution {
+        residual_floor: care_floor(&x, a, den),
+        x,
+        k: Mat::zeros(0, n),
+        residual,
+        closed_loop,
+        newton_steps: 0,
+        axis_gap: Some(axis_gap),
+        // H [I; 0] = [A; -Q] = [I; 0] A.
+        subspace: Some(StableSubspace {
+            u1: Mat::identity(n, n),
+            u2: Mat::zeros(n, n),
+            t11: a.clone(),
+        }),
     })
 }
 
@@ -583,6 +631,29 @@ pub mod checks {
             s.x
         );
         assert!(s.residual < 1e-14);
+    }
+
+    pub fn a_vanishing_q_with_a_hurwitz_closed_loop_gives_zero() {
+        // Q = S R^-1 S' makes Q~ = 0; A - B R^-1 S' = diag(-1e-9, -1) is
+        // Hurwitz, with a mode 1e-9 from the axis. X = 0 exactly, K = S'.
+        let (eps_mode, b, s_) = (1e-9, m(&[&[1.0], &[1.0]]), m(&[&[1.0], &[2.0]]));
+        let a = m(&[&[1.0 - eps_mode, 2.0], &[1.0, 1.0]]);
+        let q = &s_ * tr(&s_);
+        let sol = care(&a, &b, &q, &m(&[&[1.0]]), Some(&s_)).unwrap();
+        assert_eq!(fro(&sol.x), 0.0);
+        assert!((sol.k[(0, 0)] - 1.0).abs() < 1e-15 && (sol.k[(0, 1)] - 2.0).abs() < 1e-15);
+        let mut re: Vec<f64> = sol.closed_loop.iter().map(|l| l.re).collect();
+        re.sort_by(f64::total_cmp);
+        assert!(
+            (re[0] + 1.0).abs() < 1e-14 && (re[1] + eps_mode).abs() < 1e-15,
+            "{re:?}"
+        );
+        let basis = sol.subspace.unwrap();
+        assert_eq!(fro(&basis.u2), 0.0);
+        // A Q~ of 1e-6 is not rounding: the Hamiltonian decides, and X != 0.
+        let q2 = &q + Mat::<f64>::identity(2, 2) * 1e-6;
+        let sol2 = care(&a, &b, &q2, &m(&[&[1.0]]), Some(&s_)).unwrap();
+        assert!(fro(&sol2.x) > 1e-9, "{:?}", sol2.x);
     }
 
     pub fn unstabilisable_is_an_error() {

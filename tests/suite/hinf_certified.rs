@@ -37,30 +37,27 @@ use fts::synth::hinf::{HinfOptions, HinfResult, hinfsyn};
 use fts::synth::mixsyn::mixsyn;
 use serde::Deserialize;
 
-/// `(problem [path], reason)` for the checks fts misses today (13 of the 68
-/// syntheses; 31 before the central controller's descriptor form was tried
-/// where the explicit one misses its level or fails to stabilise, 46 before
-/// closed-loop norms were confirmed in double-double and a controller
-/// missing its level was replaced by the best of a ladder of levels). None
-/// is dishonest (every reported gamma is at least the recomputed norm).
-/// What is left: Karagoz18 Y with `W_u` of 1e-4 and below, a weight pole at
-/// 1e-9 times the bandwidth, and the DC servo with `W_u = 1e-6`.
+/// `(problem [path], reason)` for the checks fts misses today: 10 of the 68
+/// syntheses. There were 46 before closed-loop norms were confirmed in
+/// double-double and a controller missing its level was replaced by the
+/// best of a ladder of levels; 31 before the central controller's
+/// descriptor form was tried where the explicit one misses its level or
+/// fails to stabilise; 13 before the filter Riccati equation of a
+/// mixed-sensitivity problem was solved by `Y = 0` directly (its
+/// Hamiltonian's pair `+-p` at a weight pole of 1e-9 times the bandwidth
+/// had landed on the axis). None is dishonest (every reported gamma is at
+/// least the recomputed norm). What is left is cheap control: `W_u` of
+/// 1e-4 and below on Karagoz18 Y, and of 1e-6 (1e-4 discrete) on the DC
+/// servo. Every one is a central controller that misses its level, by
+/// 1.1e-4 to 5.9e-4 of the optimum.
 const KNOWN: &[(&str, &str)] = &[
     (
-        "A dc-servo p/wb=1e-09 [hinfsyn]",
-        "the search's bound is above the optimum (the +-p pair or the cheap-control Hamiltonian is within rounding of the imaginary axis near it): achieved +1.56e-3 above g_hi; bisection bound +1.47e-3 above g_hi",
-    ),
-    (
-        "A dc-servo p/wb=1e-09 [mixsyn]",
-        "the search's bound is above the optimum (the +-p pair or the cheap-control Hamiltonian is within rounding of the imaginary axis near it): achieved +1.56e-3 above g_hi; bisection bound +1.47e-3 above g_hi",
-    ),
-    (
         "B dc-servo wu=1e-06 [hinfsyn]",
-        "the search's bound is above the optimum (the +-p pair or the cheap-control Hamiltonian is within rounding of the imaginary axis near it): achieved +6.40e-4 above g_hi; bisection bound +3.34e-4 above g_hi",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +5.88e-4 above g_hi",
     ),
     (
         "B dc-servo wu=1e-06 [mixsyn]",
-        "the search's bound is above the optimum (the +-p pair or the cheap-control Hamiltonian is within rounding of the imaginary axis near it): achieved +6.40e-4 above g_hi; bisection bound +3.34e-4 above g_hi",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +5.88e-4 above g_hi",
     ),
     (
         "B karagoz-y wu=0.0001 [hinfsyn]",
@@ -72,31 +69,27 @@ const KNOWN: &[(&str, &str)] = &[
     ),
     (
         "B karagoz-y wu=1e-05 [hinfsyn]",
-        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +1.94e-4 above g_hi",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +1.99e-4 above g_hi",
     ),
     (
         "B karagoz-y wu=1e-05 [mixsyn]",
-        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +1.94e-4 above g_hi",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +1.99e-4 above g_hi",
     ),
     (
         "B karagoz-y wu=1e-06 [hinfsyn]",
-        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +3.40e-4 above g_hi",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +4.79e-4 above g_hi",
     ),
     (
         "B karagoz-y wu=1e-06 [mixsyn]",
-        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +3.40e-4 above g_hi",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +4.79e-4 above g_hi",
     ),
     (
-        "C dc-servo p/wb=1e-09 ts=1e-3 [hinfsyn]",
-        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +1.04e-4 above g_hi",
-    ),
-    (
-        "C dc-servo wu=1e-06 ts=1e-3 [hinfsyn]",
-        "the search's bound is above the optimum (the +-p pair or the cheap-control Hamiltonian is within rounding of the imaginary axis near it): achieved +6.20e-4 above g_hi; bisection bound +5.36e-4 above g_hi",
+        "C dc-servo wu=0.0001 ts=1e-3 [hinfsyn]",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +1.99e-4 above g_hi",
     ),
     (
         "C karagoz-y wu=1e-06 ts=1e-4 [hinfsyn]",
-        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +3.75e-4 above g_hi",
+        "neither form of the central controller meets its level on this cheap-control loop (best of the ladder): achieved +2.53e-4 above g_hi",
     ),
 ];
 
@@ -204,7 +197,16 @@ fn check(c: &Case, label: &str, p: &StateSpace, r: &HinfResult, fail: &mut Vec<S
     let bs = hinf_norm(&cl.balanced(), 1e-9)
         .map_or(f64::INFINITY, |h| sigma_extended(&cl.balanced(), h.omega));
     let peak = sweep_peak(&cl);
-    let achieved = bs.max(peak);
+    // The peak frequency fts reports is one more place to look (the value
+    // there is evaluated here, in double-double): on a flat low-frequency
+    // plateau beside a pole at 1e-6 rad/s the double sweep's values are off
+    // by 3e-4, and its best point can miss the plateau.
+    let reported = if r.peak_omega.is_finite() {
+        sigma_extended(&cl.balanced(), r.peak_omega)
+    } else {
+        0.0
+    };
+    let achieved = bs.max(peak).max(reported);
     if !(r.gamma >= achieved * (1.0 - 1e-6)) {
         bad(format!(
             "gamma not honest: reported {} vs recomputed {achieved} (sweep {peak})",
