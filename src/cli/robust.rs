@@ -13,7 +13,7 @@ use super::common::{
     write_atomic,
 };
 use crate::io::ss_json;
-use crate::lti::norms::{HinfNorm, NormError, h2_norm, hinf_norm};
+use crate::lti::norms::{HinfNorm, NormError, h2_norm, hinf_norm_confirmed};
 use crate::lti::ss::StateSpace;
 use crate::lti::zeros::invariant_zeros;
 use crate::workflow::robust::poles_summary;
@@ -356,7 +356,7 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
         _ => Value::Null,
     };
     let h2 = norm(h2_norm(&sys));
-    let hinf = hinf_norm(&sys, 1e-9).ok();
+    let hinf = hinf_norm_confirmed(&sys, 1e-9).ok();
     let zeros = invariant_zeros(&sys, None)?;
     if args.json {
         print_json(&json!({

@@ -503,6 +503,22 @@ pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
         .map_or(f64::INFINITY, |g| crate::lti::ss::sigma_max_c(&g))
 }
 
+/// [`hinf_norm`], then [`confirm_extended`] on a log grid spanning the
+/// poles (400 points, two decades beyond them, up to Nyquist): what the
+/// user-facing norm reports, so that a stiff realisation's peak is the
+/// double-double value, and its certificate is withdrawn when double
+/// precision was off.
+pub fn hinf_norm_confirmed(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
+    let mut h = hinf_norm(sys, rtol)?;
+    let nyquist = sys.ts.map(|t| std::f64::consts::PI / t);
+    let grid: Vec<f64> = log_grid(&sys.poles()?, 400, 100.0)
+        .into_iter()
+        .filter(|w| nyquist.is_none_or(|n| *w <= n))
+        .collect();
+    confirm_extended(sys, &grid, &mut h);
+    Ok(h)
+}
+
 /// Whether a norm computed in double precision on `sys` can be trusted:
 /// `sigma_max` at the peak, at DC and at seven frequencies of `grid` agrees
 /// with its double-double value ([`sigma_extended`]) to 1e-9. When it does
@@ -808,6 +824,25 @@ pub mod checks {
     /// `1/(s + 1) - 1/(s + a)`, `a = 1 + 1e-9`: the peak is at DC,
     /// `(a - 1)/a` exactly, which double precision gets to 7 digits; the
     /// double-double check notices and replaces it.
+    /// The user-facing norm of the cancelling pair is the exact DC value
+    /// `(a - 1)/a` (double precision alone misses it past 1e-10), with no
+    /// certificate; a well-conditioned system keeps its certificate.
+    pub fn the_confirmed_norm_is_exact_on_a_cancelling_pair() {
+        let (sys, exact) = crate::lti::accurate::cancelling_pair();
+        let h = hinf_norm_confirmed(&sys, 1e-9).unwrap();
+        assert!(
+            (h.peak - exact).abs() <= 1e-12 * exact,
+            "{} vs {exact}",
+            h.peak
+        );
+        assert_eq!(h.upper, f64::INFINITY);
+        let g = StateSpace::from_tf(&[1.0], &[1.0, 0.2, 1.0], None).unwrap();
+        let h = hinf_norm_confirmed(&g, 1e-9).unwrap();
+        // |G(jw)| peaks at 1/(2 zeta sqrt(1 - zeta^2)), zeta = 0.1.
+        let closed = 1.0 / (0.2 * (1.0f64 - 0.01).sqrt());
+        assert!((h.peak - closed).abs() <= 1e-12 * closed && h.upper.is_finite());
+    }
+
     pub fn confirm_extended_replaces_a_cancelled_peak() {
         let (sys, exact) = crate::lti::accurate::cancelling_pair();
         let mut h = hinf_norm(&sys, 1e-8).unwrap();

@@ -264,7 +264,7 @@ fn central(p: &Partition, gamma: f64) -> Result<AtGamma, SynthError> {
 
 /// The central controller from the Riccati pair at `gamma`, if the
 /// coupling condition (iv) holds: the explicit form, with the descriptor
-/// form beside it ([`central`]'s module doc says why both).
+/// form beside it (the `central` module's doc says why both).
 fn central_from(p: &Partition, gamma: f64, pair: RiccatiPair) -> Result<AtGamma, SynthError> {
     let g2 = gamma * gamma;
     // rho(XY) < g^2 (1 - 1e-10).
@@ -1037,7 +1037,7 @@ pub enum ControllerForm {
     /// SLICOT SB10DD's discrete central controller ([`super::dhinf`]).
     DiscreteCentral,
     /// The continuous central controller in descriptor form (built from the
-    /// Hamiltonians' stable subspaces; [`central`]), where the explicit
+    /// Hamiltonians' stable subspaces), where the explicit
     /// form misses its level.
     ContinuousDescriptor,
 }

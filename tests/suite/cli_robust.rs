@@ -495,3 +495,34 @@ fn ss_info_gives_the_hinf_peak_frequency_and_bound() {
         .success()
         .stdout(predicate::str::contains("Hz").and(predicate::str::contains("certified <=")));
 }
+
+/// `1/(s + 1) - 1/(s + a)`, `a = 1 + 1e-9`: the norm is the DC gain
+/// `(a - 1)/a`, the difference of two terms 1e9 times larger. `ss-info`
+/// prints it to 1e-12 (double precision alone is off past 1e-10) and, its
+/// double-precision certificate being unreliable there, no bound.
+#[test]
+fn ss_info_confirms_a_cancelled_peak_in_double_double() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = 1.0 + 1e-9;
+    let sys = write(
+        dir.path(),
+        "pair.json",
+        &format!(
+            r#"{{"format": "fts.ss/1", "a": [[-1.0, 0.0], [0.0, -{a:?}]], "b": [[1.0], [1.0]],
+                "c": [[1.0, -1.0]], "d": [[0.0]]}}"#
+        ),
+    );
+    let out = fts()
+        .args(["ss-info", "--json"])
+        .arg(&sys)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v = json_of(&out);
+    let exact = (a - 1.0) / a;
+    let norm = v["hinf_norm"].as_f64().unwrap();
+    assert!((norm / exact - 1.0).abs() < 1e-12, "{v}");
+    assert!(v["hinf_upper_bound"].is_null(), "{v}");
+}
