@@ -22,19 +22,10 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::super::genplant::{Partition, SynthError, chol_factor, inv_or};
+use super::blocks;
 use crate::lti::riccati::RiccatiSolution;
 use crate::lti::ss::{StateSpace, hcat, solve, sub, tr, vcat};
 use faer::Mat;
-
-fn blocks(m: &Mat<f64>, r: usize, c: usize) -> [Mat<f64>; 4] {
-    let (nr, nc) = (m.nrows(), m.ncols());
-    [
-        sub(m, 0, r, 0, c),
-        sub(m, 0, r, c, nc),
-        sub(m, r, nr, 0, c),
-        sub(m, r, nr, c, nc),
-    ]
-}
 
 /// The controller's feedthrough and the square factors of Thm 17.1:
 /// `D^11`, `D^12` (`D^12 D^12' = I - D1121 (g^2 I - D1111'D1111)^-1 D1121'`)
