@@ -510,13 +510,19 @@ pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
 /// precision was off.
 pub fn hinf_norm_confirmed(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
     let mut h = hinf_norm(sys, rtol)?;
-    let nyquist = sys.ts.map(|t| std::f64::consts::PI / t);
-    let grid: Vec<f64> = log_grid(&sys.poles()?, 400, 100.0)
-        .into_iter()
-        .filter(|w| nyquist.is_none_or(|n| *w <= n))
-        .collect();
+    let grid = log_grid_to_nyquist(&sys.poles()?, sys.ts, 400);
     confirm_extended(sys, &grid, &mut h);
     Ok(h)
+}
+
+/// [`log_grid`] with two decades of margin, without the points above the
+/// Nyquist frequency of a discrete system.
+pub(crate) fn log_grid_to_nyquist(poles: &[c64], ts: Option<f64>, count: usize) -> Vec<f64> {
+    let nyquist = ts.map(|t| std::f64::consts::PI / t);
+    log_grid(poles, count, 100.0)
+        .into_iter()
+        .filter(|w| nyquist.is_none_or(|n| *w <= n))
+        .collect()
 }
 
 /// Whether a norm computed in double precision on `sys` can be trusted:
@@ -819,9 +825,6 @@ pub mod checks {
         assert_eq!(h2_norm(&g), Err(NormError::Unstable));
     }
 
-    /// `1/(s + 1) - 1/(s + a)`, `a = 1 + 1e-9`: the peak is at DC,
-    /// `(a - 1)/a` exactly, which double precision gets to 7 digits; the
-    /// double-double check notices and replaces it.
     /// The user-facing norm of the cancelling pair is the exact DC value
     /// `(a - 1)/a` (double precision alone misses it past 1e-10), with no
     /// certificate; a well-conditioned system keeps its certificate.
@@ -841,6 +844,9 @@ pub mod checks {
         assert!((h.peak - closed).abs() <= 1e-12 * closed && h.upper.is_finite());
     }
 
+    /// `1/(s + 1) - 1/(s + a)`, `a = 1 + 1e-9`: the peak is at DC,
+    /// `(a - 1)/a` exactly, which double precision gets to 7 digits; the
+    /// double-double check notices and replaces it.
     pub fn confirm_extended_replaces_a_cancelled_peak() {
         let (sys, exact) = crate::lti::accurate::cancelling_pair();
         let mut h = hinf_norm(&sys, 1e-8).unwrap();

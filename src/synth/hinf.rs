@@ -192,28 +192,35 @@ struct RiccatiPair {
     coupling: f64,
 }
 
-/// Thm 17.1 conditions (ii)-(iii) at one gamma, and the value of (iv).
-fn riccati_pair(p: &Partition, gamma: f64) -> Result<RiccatiPair, SynthError> {
-    let (m1, p1) = (p.m1(), p.p1());
-    let g2 = gamma * gamma;
-    let infeasible = |why: String| SynthError::Infeasible(why);
-    // X: A'X + XA - (XB + C1'D1.) R^-1 (B'X + D1.'C1) + C1'C1 = 0,
-    // R = D1.'D1. - diag(g^2 I, 0).
-    let b = hcat(&p.b1, &p.b2);
+/// The indefinite weights of Thm 17.1's two Riccati equations:
+/// `R = D1.'D1. - diag(g^2 I, 0)` and `R~ = D.1 D.1' - diag(g^2 I, 0)`.
+fn indefinite_weights(p: &Partition, g2: f64) -> (Mat<f64>, Mat<f64>) {
     let d1 = hcat(&p.d11, &p.d12);
     let mut r = tr(&d1) * &d1;
-    for i in 0..m1 {
+    for i in 0..p.m1() {
         r[(i, i)] -= g2;
     }
-    let xs = care(&p.a, &b, &(tr(&p.c1) * &p.c1), &r, Some(&(tr(&p.c1) * &d1)))
-        .map_err(|e| infeasible(format!("X Riccati: {e}")))?;
-    // Y: the dual, R~ = D.1 D.1' - diag(g^2 I, 0).
-    let c = vcat(&p.c1, &p.c2);
     let dd1 = vcat(&p.d11, &p.d21);
     let mut rt = &dd1 * tr(&dd1);
-    for i in 0..p1 {
+    for i in 0..p.p1() {
         rt[(i, i)] -= g2;
     }
+    (r, rt)
+}
+
+/// Thm 17.1 conditions (ii)-(iii) at one gamma, and the value of (iv).
+fn riccati_pair(p: &Partition, gamma: f64) -> Result<RiccatiPair, SynthError> {
+    let g2 = gamma * gamma;
+    let infeasible = |why: String| SynthError::Infeasible(why);
+    let (r, rt) = indefinite_weights(p, g2);
+    // X: A'X + XA - (XB + C1'D1.) R^-1 (B'X + D1.'C1) + C1'C1 = 0.
+    let b = hcat(&p.b1, &p.b2);
+    let d1 = hcat(&p.d11, &p.d12);
+    let xs = care(&p.a, &b, &(tr(&p.c1) * &p.c1), &r, Some(&(tr(&p.c1) * &d1)))
+        .map_err(|e| infeasible(format!("X Riccati: {e}")))?;
+    // Y: the dual, with R~.
+    let c = vcat(&p.c1, &p.c2);
+    let dd1 = vcat(&p.d11, &p.d21);
     let ys = care(
         &tr(&p.a),
         &tr(&c),
@@ -817,8 +824,9 @@ impl Verify<'_> {
         if !built.stable {
             return Ok(None);
         }
+        let meets = self.meets(&built, gamma);
         let r = self.result(built, &at, gamma, gamma_opt);
-        if r.pole_margin_met != Some(false) && r.gamma <= gamma * (1.0 + VERIFY_RTOL) {
+        if meets {
             return Ok(Some(r));
         }
         scan.keep(r);
@@ -877,8 +885,11 @@ impl Verify<'_> {
     /// controller's descriptor form is built too, and the better kept.
     fn build(&self, at: &AtGamma, gamma: f64) -> Result<Built, SynthError> {
         let first = self.build_first(at, gamma)?;
-        let meets = |b: &Built| self.acceptable(b) && b.achieved <= gamma * (1.0 + VERIFY_RTOL);
-        let Some(alternative) = at.alternative.as_ref().filter(|_| !meets(&first)) else {
+        let Some(alternative) = at
+            .alternative
+            .as_ref()
+            .filter(|_| !self.meets(&first, gamma))
+        else {
             return Ok(first);
         };
         let form = ControllerForm::ContinuousDescriptor;
@@ -895,9 +906,12 @@ impl Verify<'_> {
     /// Stable and, for a discrete plant, no moved pole closer to the unit
     /// circle than the pole margin.
     fn acceptable(&self, b: &Built) -> bool {
-        b.stable
-            && (self.plant.ts.is_none()
-                || moved_pole_margin(&b.poles, &self.plant.a) >= self.opts.pole_margin)
+        b.stable && b.pole_margin.is_none_or(|m| m >= self.opts.pole_margin)
+    }
+
+    /// [`Verify::acceptable`], with its norm within [`VERIFY_RTOL`] of `gamma`.
+    fn meets(&self, b: &Built, gamma: f64) -> bool {
+        self.acceptable(b) && b.achieved <= gamma * (1.0 + VERIFY_RTOL)
     }
 
     fn build_first(&self, at: &AtGamma, gamma: f64) -> Result<Built, SynthError> {
@@ -921,13 +935,10 @@ impl Verify<'_> {
             achieved,
             norm: cl_norm,
             form,
+            pole_margin: margin,
             residuals,
         } = built;
         let (xres, yres, floor) = residuals.unwrap_or((at.xres, at.yres, at.floor));
-        let margin = self
-            .plant
-            .ts
-            .map(|_| moved_pole_margin(&poles, &self.plant.a));
         HinfResult {
             k,
             gamma: achieved,
@@ -1063,6 +1074,8 @@ struct Built {
     achieved: f64,
     norm: Option<HinfNorm>,
     form: ControllerForm,
+    /// Discrete plants: [`moved_pole_margin`] of the closed loop.
+    pole_margin: Option<f64>,
     /// The discrete central controller's X and Z residuals and floor.
     residuals: Option<(f64, f64, f64)>,
 }
@@ -1107,6 +1120,7 @@ fn close(plant: &StateSpace, k: StateSpace, form: ControllerForm) -> Result<Buil
         None
     };
     let achieved = norm.map_or(f64::INFINITY, |h| h.peak);
+    let pole_margin = plant.ts.map(|_| moved_pole_margin(&poles, &plant.a));
     Ok(Built {
         k,
         closed_loop,
@@ -1115,6 +1129,7 @@ fn close(plant: &StateSpace, k: StateSpace, form: ControllerForm) -> Result<Buil
         achieved,
         norm,
         form,
+        pole_margin,
         residuals: None,
     })
 }
@@ -1136,11 +1151,7 @@ pub fn closed_loop_hinf(cl: &StateSpace) -> Option<HinfNorm> {
     let bal = cl.balanced();
     let mut h = hinf_norm(&bal, 1e-8).ok()?;
     let poles = bal.poles().unwrap_or_default();
-    let nyquist = bal.ts.map(|t| std::f64::consts::PI / t);
-    let grid: Vec<f64> = crate::lti::norms::log_grid(&poles, 2000, 100.0)
-        .into_iter()
-        .filter(|w| nyquist.is_none_or(|n| *w <= n))
-        .collect();
+    let grid = crate::lti::norms::log_grid_to_nyquist(&poles, bal.ts, 2000);
     for (w, s) in sweep(&bal, &grid, h.peak) {
         if s > h.peak {
             (h.peak, h.omega) = (s, w);

@@ -22,7 +22,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::super::genplant::{Partition, SynthError, chol_factor, inv_or};
-use super::blocks;
+use super::{blocks, indefinite_weights};
 use crate::lti::riccati::RiccatiSolution;
 use crate::lti::ss::{StateSpace, hcat, solve, sub, tr, vcat};
 use faer::Mat;
@@ -61,19 +61,9 @@ fn feedthrough(p: &Partition, g2: f64) -> Result<Feedthrough, SynthError> {
     })
 }
 
-/// `R^-1` and `R~^-1` of the two Riccati equations:
-/// `R = D1.'D1. - diag(g^2 I, 0)`, `R~ = D.1 D.1' - diag(g^2 I, 0)`.
+/// `R^-1` and `R~^-1` of the two Riccati equations ([`indefinite_weights`]).
 fn weights_inverse(p: &Partition, g2: f64) -> Result<(Mat<f64>, Mat<f64>), SynthError> {
-    let d1 = hcat(&p.d11, &p.d12);
-    let mut r = tr(&d1) * &d1;
-    for i in 0..p.m1() {
-        r[(i, i)] -= g2;
-    }
-    let dd1 = vcat(&p.d11, &p.d21);
-    let mut rt = &dd1 * tr(&dd1);
-    for i in 0..p.p1() {
-        rt[(i, i)] -= g2;
-    }
+    let (r, rt) = indefinite_weights(p, g2);
     Ok((inv_or(&r, "R")?, inv_or(&rt, "R~")?))
 }
 
