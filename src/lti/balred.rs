@@ -158,8 +158,14 @@ fn truncate(sys: &StateSpace, order: usize) -> Result<(StateSpace, Vec<f64>, f64
 /// `None` when its eigenvectors are too ill-conditioned to change basis
 /// (a defective or nearly defective `A`).
 pub fn modal_form(sys: &StateSpace) -> Option<StateSpace> {
-    let n = sys.nx();
-    let eig = fts_kernels::dense::eigen(sys.a.as_ref()).ok()?;
+    sys.transform(&modal_basis(&sys.a)?).ok()
+}
+
+/// The basis of [`modal_form`]: `T` with `T^-1 A T` block-diagonal, or
+/// `None` when `cond(T) >= 1e8`.
+pub(crate) fn modal_basis(a: &Mat<f64>) -> Option<Mat<f64>> {
+    let n = a.nrows();
+    let eig = fts_kernels::dense::eigen(a.as_ref()).ok()?;
     let (v, lambda) = (eig.U(), eig.S().column_vector());
     let mut columns: Vec<Vec<f64>> = Vec::with_capacity(n);
     for k in 0..n {
@@ -181,10 +187,7 @@ pub fn modal_form(sys: &StateSpace) -> Option<StateSpace> {
     });
     let sv = fts_kernels::dense::singular_values(t.as_ref()).ok()?;
     let cond = sv.first()? / sv.last()?;
-    if !(cond.is_finite() && cond < 1e8) {
-        return None;
-    }
-    sys.transform(&t).ok()
+    (cond.is_finite() && cond < 1e8).then_some(t)
 }
 
 /// Frequencies (rad/s) that resolve every feature of `systems`: 0, every

@@ -150,9 +150,11 @@ struct AtGamma {
     /// The same controller in descriptor form (`None` where it could not
     /// be formed), tried where `k` misses its level or fails to stabilise.
     alternative: Option<StateSpace>,
-    xres: f64,
-    yres: f64,
-    floor: f64,
+    /// The Riccati solutions it was built from (for the extended-precision
+    /// form, [`central::explicit_extended`], built only where both others
+    /// miss their level).
+    xs: RiccatiSolution,
+    ys: RiccatiSolution,
 }
 
 fn blocks(m: &Mat<f64>, r: usize, c: usize) -> [Mat<f64>; 4] {
@@ -288,9 +290,8 @@ fn central_from(p: &Partition, gamma: f64, pair: RiccatiPair) -> Result<AtGamma,
     Ok(AtGamma {
         k,
         alternative,
-        xres: xs.residual,
-        yres: ys.residual,
-        floor: xs.residual_floor.max(ys.residual_floor),
+        xs,
+        ys,
     })
 }
 
@@ -341,16 +342,22 @@ fn probe(p: &Partition, pss: &StateSpace, gamma: f64) -> Probe {
     };
     let gap2 = |s: &RiccatiSolution| s.axis_gap.map_or(f64::INFINITY, |g| g * g);
     let margins = [pair.coupling, gap2(&pair.xs), gap2(&pair.ys)];
-    let outcome = central_from(p, gamma, pair).and_then(|r| stabilising(pss, r));
+    let outcome = central_from(p, gamma, pair).and_then(|r| stabilising(p, pss, gamma, r));
     Probe {
         margins: outcome.is_ok().then_some(margins),
         outcome,
     }
 }
 
-/// `r`, if its controller stabilises the normalised plant `pss`, or its
-/// descriptor form in its place if only that one does.
-fn stabilising(pss: &StateSpace, mut r: AtGamma) -> Result<AtGamma, SynthError> {
+/// `r`, if its controller stabilises the normalised plant `pss`, or, in
+/// its place, its descriptor form or its form in double-double
+/// ([`central::explicit_extended`]) if only that one does.
+fn stabilising(
+    p: &Partition,
+    pss: &StateSpace,
+    gamma: f64,
+    mut r: AtGamma,
+) -> Result<AtGamma, SynthError> {
     let stabilises = |k: &StateSpace| {
         pss.lft(k)
             .is_ok_and(|cl| matches!(cl.is_stable(), Ok(true)))
@@ -358,8 +365,12 @@ fn stabilising(pss: &StateSpace, mut r: AtGamma) -> Result<AtGamma, SynthError> 
     if stabilises(&r.k) {
         return Ok(r);
     }
-    match r.alternative.take() {
-        Some(k) if stabilises(&k) => {
+    if let Some(k) = r.alternative.take().filter(|k| stabilises(k)) {
+        r.k = k;
+        return Ok(r);
+    }
+    match central::explicit_extended(p, gamma, &r.xs, &r.ys) {
+        Ok(k) if stabilises(&k) => {
             r.k = k;
             Ok(r)
         }
@@ -882,25 +893,41 @@ impl Verify<'_> {
     /// discrete central controller at `gamma` when it exists, else (and for
     /// continuous plants) the continuous central controller, mapped back.
     /// When that controller misses its level, the continuous central
-    /// controller's descriptor form is built too, and the better kept.
+    /// controller's descriptor form is built too, and the better kept; when
+    /// that misses too, its form in double-double (the `central` module's
+    /// doc says when each helps).
     fn build(&self, at: &AtGamma, gamma: f64) -> Result<Built, SynthError> {
-        let first = self.build_first(at, gamma)?;
-        let Some(alternative) = at
-            .alternative
-            .as_ref()
-            .filter(|_| !self.meets(&first, gamma))
-        else {
-            return Ok(first);
+        let mut best = self.build_first(at, gamma)?;
+        if let Some(k) = &at.alternative
+            && !self.meets(&best, gamma)
+        {
+            best = self.better(best, k, ControllerForm::ContinuousDescriptor);
+        }
+        if !self.meets(&best, gamma)
+            && let Ok(k) = central::explicit_extended(&self.norm.p, gamma, &at.xs, &at.ys)
+        {
+            best = self.better(best, &k, ControllerForm::ContinuousExtended);
+        }
+        Ok(best)
+    }
+
+    /// `best`, or the continuous controller `k` (normalised) in its place
+    /// if that one is acceptable and `best` is not, or is as acceptable and
+    /// stable with a smaller norm (where no form meets the pole margin, as
+    /// when the optimal controller cancels a slow plant zero, the smaller
+    /// norm still wins). An alternative only ever replaces a controller;
+    /// its failure (a pole the Tustin map cannot take) leaves `best`.
+    fn better(&self, best: Built, k: &StateSpace, form: ControllerForm) -> Built {
+        let Ok(other) = finish(self.plant, self.norm, self.p0, k, form) else {
+            return best;
         };
-        let form = ControllerForm::ContinuousDescriptor;
-        // The alternative only ever replaces a controller; its failure (a
-        // pole the Tustin map cannot take) leaves the first one.
-        let Ok(second) = finish(self.plant, self.norm, self.p0, alternative, form) else {
-            return Ok(first);
+        let rank = |b: &Built| (self.acceptable(b), b.stable);
+        let better = match rank(&other).cmp(&rank(&best)) {
+            std::cmp::Ordering::Greater => true,
+            std::cmp::Ordering::Equal => other.stable && other.achieved < best.achieved,
+            std::cmp::Ordering::Less => false,
         };
-        let better = self.acceptable(&second)
-            && (!self.acceptable(&first) || second.achieved < first.achieved);
-        Ok(if better { second } else { first })
+        if better { other } else { best }
     }
 
     /// Stable and, for a discrete plant, no moved pole closer to the unit
@@ -938,7 +965,11 @@ impl Verify<'_> {
             pole_margin: margin,
             residuals,
         } = built;
-        let (xres, yres, floor) = residuals.unwrap_or((at.xres, at.yres, at.floor));
+        let (xres, yres, floor) = residuals.unwrap_or((
+            at.xs.residual,
+            at.ys.residual,
+            at.xs.residual_floor.max(at.ys.residual_floor),
+        ));
         HinfResult {
             k,
             gamma: achieved,
@@ -1051,6 +1082,10 @@ pub enum ControllerForm {
     /// Hamiltonians' stable subspaces), where the explicit
     /// form misses its level.
     ContinuousDescriptor,
+    /// The continuous central controller formed in double-double arithmetic
+    /// and returned in modal coordinates, where both other forms miss their
+    /// level (cheap control).
+    ContinuousExtended,
 }
 
 impl ControllerForm {
@@ -1060,6 +1095,9 @@ impl ControllerForm {
             ControllerForm::ContinuousCentral => "continuous central (Thm 17.1)",
             ControllerForm::DiscreteCentral => "discrete central (SB10DD)",
             ControllerForm::ContinuousDescriptor => "continuous central, descriptor form",
+            ControllerForm::ContinuousExtended => {
+                "continuous central, double-double, modal coordinates"
+            }
         }
     }
 }
