@@ -409,25 +409,58 @@ pub mod checks {
         .unwrap()
     }
 
+    /// Two controls and two measurements on an open-loop unstable third
+    /// order plant, with process noise on every state, sensor noise, and a
+    /// direct term `D11` (so that `R`, `R~` and the feedthrough factors
+    /// are not trivial): `z = [x; u] + D11 w`, `y = [x1; x2] + [0 I] w`.
+    fn plant_mimo() -> StateSpace {
+        let (n, nw, nu, nz, ny) = (3, 5, 2, 5, 2);
+        let a = Mat::from_fn(n, n, |i, j| {
+            [[0.5, 1.0, 0.0], [0.0, -1.0, 1.0], [1.0, -2.0, -3.0]][i][j]
+        });
+        let b = Mat::from_fn(n, nw + nu, |i, j| match j {
+            j if j < n => f64::from(u8::from(i == j)),
+            j if j < nw => 0.0,
+            j => f64::from(u8::from(i == j - nw + 1)),
+        });
+        let c = Mat::from_fn(nz + ny, n, |i, j| match i {
+            i if i < n => f64::from(u8::from(i == j)),
+            i if i < nz => 0.0,
+            i => f64::from(u8::from(i - nz == j)),
+        });
+        let d = Mat::from_fn(nz + ny, nw + nu, |i, j| match (i, j) {
+            (0, 0) => 0.3,
+            (1, 3) => -0.2,
+            (i, j) if i >= n && i < nz && j >= nw => f64::from(u8::from(i - n == j - nw)),
+            (i, j) if i >= nz && j >= n && j < nw => f64::from(u8::from(i - nz == j - n)),
+            _ => 0.0,
+        });
+        StateSpace::new(a, b, c, d, None).unwrap()
+    }
+
     type Form = fn(&Partition, f64, &RiccatiSolution, &RiccatiSolution) -> StateSpace;
 
     /// `form` and [`explicit`] are one controller: at levels well above
     /// the optimum, where both are well-conditioned, their frequency
-    /// responses agree to rounding.
+    /// responses agree to rounding, on the SISO and the MIMO plant.
     fn agrees_with_the_explicit_form(form: Form) {
-        let p = normalise(&Partition::new(&plant(), 1, 1).unwrap())
-            .unwrap()
-            .p;
-        for gamma in [5.0, 20.0] {
-            let pair = riccati_pair(&p, gamma).unwrap();
-            assert!(pair.xs.x.norm_l2() > 0.1 && pair.ys.x.norm_l2() > 0.1);
-            let k1 = explicit(&p, gamma, &pair.xs, &pair.ys).unwrap();
-            let k2 = form(&p, gamma, &pair.xs, &pair.ys);
-            for w in [0.0, 0.01, 0.3, 1.0, 7.0, 100.0] {
-                let (a, b) = (k1.freq_response(w).unwrap(), k2.freq_response(w).unwrap());
-                let d = (a[(0, 0)] - b[(0, 0)]).norm() / a[(0, 0)].norm();
-                let (a, b) = (a[(0, 0)], b[(0, 0)]);
-                assert!(d < 1e-10, "gamma {gamma}, w {w}: {a} vs {b}");
+        for (plant, io, levels) in [(plant(), 1, [5.0, 20.0]), (plant_mimo(), 2, [10.0, 50.0])] {
+            let p = normalise(&Partition::new(&plant, io, io).unwrap())
+                .unwrap()
+                .p;
+            for gamma in levels {
+                let pair = riccati_pair(&p, gamma).unwrap();
+                assert!(pair.xs.x.norm_l2() > 0.1 && pair.ys.x.norm_l2() > 0.1);
+                let k1 = explicit(&p, gamma, &pair.xs, &pair.ys).unwrap();
+                let k2 = form(&p, gamma, &pair.xs, &pair.ys);
+                for w in [0.0, 0.01, 0.3, 1.0, 7.0, 100.0] {
+                    let (a, b) = (k1.freq_response(w).unwrap(), k2.freq_response(w).unwrap());
+                    let d = (&a - &b).norm_l2() / a.norm_l2();
+                    assert!(
+                        d < 1e-10,
+                        "{io} x {io}, gamma {gamma}, w {w}: {a:?} vs {b:?}"
+                    );
+                }
             }
         }
     }
