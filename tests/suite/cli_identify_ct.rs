@@ -4,7 +4,7 @@
 //! frequency response with 5 % complex noise. The truth is in
 //! zaxis-truth.json; fts never saw it.
 
-use crate::common::cmd::{Command, fts, predicate};
+use crate::common::cmd::{fts, json_of, predicate};
 use fts::ident::ct::{CtModel, periodic_frf};
 use fts::lti::c64;
 use serde_json::Value;
@@ -35,11 +35,6 @@ fn truth() -> CtModel {
         den: v("den"),
         delay: 0.0,
     }
-}
-
-fn json_of(cmd: &mut Command) -> Value {
-    let out = cmd.assert().success().get_output().stdout.clone();
-    serde_json::from_slice(&out).expect("one JSON object on stdout")
 }
 
 fn model_of(v: &Value) -> CtModel {

@@ -2,7 +2,7 @@
 //! records, the \[Li21\] closed loop, and every bad input exiting with code 2,
 //! naming the problem and leaving no output file.
 
-use crate::common::cmd::{Command, fts, predicate};
+use crate::common::cmd::{fts, json_of, predicate};
 use fts::ident::excite::{SweepParams, SweepSpacing, sweep};
 use fts::ident::linear::filter_ab;
 use serde_json::Value;
@@ -19,11 +19,6 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p
-}
-
-fn json_of(cmd: &mut Command) -> Value {
-    let out = cmd.assert().success().get_output().stdout.clone();
-    serde_json::from_slice(&out).expect("exactly one JSON object on stdout")
 }
 
 fn floats(v: &Value) -> Vec<f64> {

@@ -2,13 +2,7 @@
 //! (0.55 um lost of 10 um), [Tang17]'s home Jacobian rows, the workspace
 //! plot, and bad input exiting 2 naming the flag.
 
-use crate::common::cmd::{Command, fts, predicate};
-use serde_json::Value;
-
-fn json_of(cmd: &mut Command) -> Value {
-    let out = cmd.assert().success().get_output().stdout.clone();
-    serde_json::from_slice(&out).expect("one JSON object on stdout")
-}
+use crate::common::cmd::{fts, json_of, predicate};
 
 #[test]
 fn flexure_loss_defaults_are_li21_and_lose_0_55_um() {

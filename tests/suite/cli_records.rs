@@ -3,7 +3,7 @@
 //! the same numbers gives byte-identical models, and every bad record exits 2
 //! with one line naming the file, line and field.
 
-use crate::common::cmd::{Command, fts};
+use crate::common::cmd::{Command, fts, json_of};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -12,11 +12,6 @@ fn repo(rel: &str) -> PathBuf {
 }
 
 const PIEZO: &str = "data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv";
-
-fn json_of(cmd: &mut Command) -> Value {
-    let out = cmd.assert().success().get_output().stdout.clone();
-    serde_json::from_slice(&out).expect("exactly one JSON object on stdout")
-}
 
 /// Runs `cmd`, expects exit 2 with exactly one stderr line containing every
 /// `needle`, and returns that line.

@@ -1,6 +1,6 @@
 //! `fts hinf | h2 | weight | mixsyn | c2d | ss-info` from the outside.
 
-use crate::common::cmd::{fts, predicate};
+use crate::common::cmd::{fts, json_of, predicate};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -13,27 +13,19 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 const PC_PLANT: &str =
     r#"{"format":"fts.ss/1","ts":null,"a":[[-1]],"b":[[1,1]],"c":[[1],[1]],"d":[[0,1],[1,0]]}"#;
 
-fn json_of(out: &[u8]) -> Value {
-    serde_json::from_slice(out).expect("one JSON object on stdout")
-}
-
 #[test]
 fn hinf_and_h2_json_and_controller_file() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "p.json", PC_PLANT);
     let k = dir.path().join("k.json");
     for cmd in ["hinf", "h2"] {
-        let out = fts()
-            .args([cmd, "--generalized"])
-            .arg(&p)
-            .args(["--nmeas", "1", "--ncon", "1", "--json", "-o"])
-            .arg(&k)
-            .assert()
-            .success()
-            .get_output()
-            .stdout
-            .clone();
-        let v = json_of(&out);
+        let v = json_of(
+            fts()
+                .args([cmd, "--generalized"])
+                .arg(&p)
+                .args(["--nmeas", "1", "--ncon", "1", "--json", "-o"])
+                .arg(&k),
+        );
         assert_eq!(v["stable"], Value::Bool(true));
         assert!(v["riccati_residuals"]["x"].as_f64().unwrap() < 1e-10);
         assert!(v["controller"]["a"].is_array());
@@ -76,53 +68,39 @@ fn weight_mixsyn_c2d_pipeline() {
         r#"{"format":"fts.ss/1","a":[],"b":[],"c":[[]],"d":[[1]]}"#,
     );
     let k = dir.path().join("k.json");
-    let out = fts()
-        .args(["mixsyn", "--plant"])
-        .arg(&g)
-        .arg("--ws")
-        .arg(&ws)
-        .arg("--wu")
-        .arg(&wu)
-        .args(["--json", "-o"])
-        .arg(&k)
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let v = json_of(&out);
+    let v = json_of(
+        fts()
+            .args(["mixsyn", "--plant"])
+            .arg(&g)
+            .arg("--ws")
+            .arg(&ws)
+            .arg("--wu")
+            .arg(&wu)
+            .args(["--json", "-o"])
+            .arg(&k),
+    );
     let gamma = v["gamma"].as_f64().unwrap();
     assert!((gamma - 1.37).abs() < 0.01, "{gamma}");
     let kd = dir.path().join("kd.json");
-    let out = fts()
-        .arg("c2d")
-        .arg(&k)
-        .args([
-            "--ts",
-            "1e-3",
-            "--method",
-            "tustin",
-            "--prewarp",
-            "10",
-            "--json",
-            "-o",
-        ])
-        .arg(&kd)
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    assert!(json_of(&out)["system"]["ts"].as_f64() == Some(1e-3));
-    let out = fts()
-        .args(["ss-info", "--json"])
-        .arg(&kd)
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    assert_eq!(json_of(&out)["ts"].as_f64(), Some(1e-3));
+    let v = json_of(
+        fts()
+            .arg("c2d")
+            .arg(&k)
+            .args([
+                "--ts",
+                "1e-3",
+                "--method",
+                "tustin",
+                "--prewarp",
+                "10",
+                "--json",
+                "-o",
+            ])
+            .arg(&kd),
+    );
+    assert!(v["system"]["ts"].as_f64() == Some(1e-3));
+    let v = json_of(fts().args(["ss-info", "--json"]).arg(&kd));
+    assert_eq!(v["ts"].as_f64(), Some(1e-3));
     // Balanced truncation of the controller to 3 states keeps the loop
     // stable but raises its norm from 1.36594 to 1.82348 (1.335 times): refused
     // (exit 1) unless allowed, and then stated.
@@ -146,7 +124,7 @@ fn weight_mixsyn_c2d_pipeline() {
         .get_output()
         .stdout
         .clone();
-    let v = json_of(&out);
+    let v: Value = serde_json::from_slice(&out).expect("one JSON object on stdout");
     assert_eq!(v["reduction"]["order"].as_u64(), Some(3));
     assert_eq!(v["stable"], Value::Bool(true));
     let full = v["reduction"]["full_order_gamma"].as_f64().unwrap();
@@ -154,27 +132,21 @@ fn weight_mixsyn_c2d_pipeline() {
     assert!((v["gamma"].as_f64().unwrap() / full - degradation).abs() < 1e-12);
     assert!(degradation > 1.1, "{degradation}");
     // makeweight as JSON
-    let out = fts()
-        .args([
-            "weight",
-            "--kind",
-            "makeweight",
-            "--dc",
-            "100",
-            "--freq-rad",
-            "10",
-            "--mag",
-            "1",
-            "--hf",
-            "0.1",
-            "--json",
-        ])
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    assert!((json_of(&out)["dc_gain"].as_f64().unwrap() - 100.0).abs() < 1e-9);
+    let v = json_of(fts().args([
+        "weight",
+        "--kind",
+        "makeweight",
+        "--dc",
+        "100",
+        "--freq-rad",
+        "10",
+        "--mag",
+        "1",
+        "--hf",
+        "0.1",
+        "--json",
+    ]));
+    assert!((v["dc_gain"].as_f64().unwrap() - 100.0).abs() < 1e-9);
 }
 
 fn expect_bad(args: &[&str], p: &Path, needle: &str) {
@@ -288,17 +260,14 @@ fn budget_closes_the_loop_and_matches_parseval() {
         r#"{"format":"fts.ss/1","a":[[-1]],"b":[[1]],"c":[[1]],"d":[[0]]}"#,
     );
     let csv = dir.path().join("b.csv");
-    let out = fts()
-        .arg("budget")
-        .arg(&g)
-        .args(["--fmax", "2000", "--points", "200001", "--json", "--csv"])
-        .arg(&csv)
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let rms = json_of(&out)["rms"].as_f64().unwrap();
+    let v = json_of(
+        fts()
+            .arg("budget")
+            .arg(&g)
+            .args(["--fmax", "2000", "--points", "200001", "--json", "--csv"])
+            .arg(&csv),
+    );
+    let rms = v["rms"].as_f64().unwrap();
     // 1e-3: the 2 kHz grid misses ~1e-4 of the 1/(s+1) tail power.
     assert!((rms / 0.5f64.sqrt() - 1.0).abs() < 1e-3, "{rms}");
     assert!(
@@ -345,15 +314,7 @@ fn ss_info_always_prints_the_zeros_and_the_normal_rank() {
             .assert()
             .success()
             .stdout(predicate::str::contains(text));
-        let out = fts()
-            .args(["ss-info", "--json"])
-            .arg(file)
-            .assert()
-            .success()
-            .get_output()
-            .stdout
-            .clone();
-        let v = json_of(&out);
+        let v = json_of(fts().args(["ss-info", "--json"]).arg(file));
         assert_eq!(v["zeros"].as_array().unwrap().len(), zeros);
         assert_eq!(v["normal_rank"].as_u64(), Some(rank));
     }
@@ -390,16 +351,12 @@ fn slicot_plant_json(name: &str) -> String {
 fn h2_and_hinf_accept_discrete_plants() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "ed.json", &slicot_plant_json("SB10ED"));
-    let out = fts()
-        .args(["h2", "--generalized"])
-        .arg(&p)
-        .args(["--nmeas", "2", "--ncon", "2", "--json"])
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let v = json_of(&out);
+    let v = json_of(
+        fts()
+            .args(["h2", "--generalized"])
+            .arg(&p)
+            .args(["--nmeas", "2", "--ncon", "2", "--json"]),
+    );
     let (h2, opt) = (
         v["h2_norm"].as_f64().unwrap(),
         v["h2_optimum"].as_f64().unwrap(),
@@ -419,16 +376,12 @@ fn h2_and_hinf_accept_discrete_plants() {
         .success()
         .stdout(predicate::str::contains("spectral radius 0.81"));
     let p = write(dir.path(), "dd.json", &slicot_plant_json("SB10DD"));
-    let out = fts()
-        .args(["hinf", "--generalized"])
-        .arg(&p)
-        .args(["--nmeas", "2", "--ncon", "2", "--json"])
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let v = json_of(&out);
+    let v = json_of(
+        fts()
+            .args(["hinf", "--generalized"])
+            .arg(&p)
+            .args(["--nmeas", "2", "--ncon", "2", "--json"]),
+    );
     assert!(v["gamma"].as_f64().unwrap() < 111.294 * (1.0 + 1e-4));
     assert_eq!(v["pole_margin"]["met"], Value::Bool(true));
     assert!(v["closed_loop_spectral_radius"].as_f64().unwrap() < 0.82);
@@ -472,14 +425,7 @@ fn ss_info_gives_the_hinf_peak_frequency_and_bound() {
     let zeta: f64 = 0.3;
     let peak = 1.0 / (2.0 * zeta * (1.0 - zeta * zeta).sqrt());
     let hz = 300.0 * (1.0 - 2.0 * zeta * zeta).sqrt();
-    let out = fts()
-        .args(["ss-info", "--json", plant])
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let v = json_of(&out);
+    let v = json_of(fts().args(["ss-info", "--json", plant]));
     let norm = v["hinf_norm"].as_f64().unwrap();
     let upper = v["hinf_upper_bound"].as_f64().unwrap();
     assert!((norm / peak - 1.0).abs() < 1e-12, "{v}");
@@ -512,15 +458,7 @@ fn ss_info_confirms_a_cancelled_peak_in_double_double() {
                 "c": [[1.0, -1.0]], "d": [[0.0]]}}"#
         ),
     );
-    let out = fts()
-        .args(["ss-info", "--json"])
-        .arg(&sys)
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let v = json_of(&out);
+    let v = json_of(fts().args(["ss-info", "--json"]).arg(&sys));
     let exact = (a - 1.0) / a;
     let norm = v["hinf_norm"].as_f64().unwrap();
     assert!((norm / exact - 1.0).abs() < 1e-12, "{v}");

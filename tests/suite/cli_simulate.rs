@@ -1,17 +1,12 @@
 //! `fts simulate` and `fts emit` end to end, and their bad inputs.
 
-use crate::common::cmd::{Command, fts, predicate};
+use crate::common::cmd::{fts, json_of, predicate};
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures")
         .join(name)
-}
-
-fn json_of(cmd: &mut Command) -> serde_json::Value {
-    let out = cmd.assert().success().get_output().stdout.clone();
-    serde_json::from_slice(&out).unwrap()
 }
 
 #[test]

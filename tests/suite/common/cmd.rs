@@ -18,6 +18,12 @@ pub fn fts() -> Command {
     Command::from_std(std::process::Command::new(fts_path()))
 }
 
+/// Runs `cmd`, asserts it succeeded, and parses its stdout as one JSON value.
+pub fn json_of(cmd: &mut Command) -> serde_json::Value {
+    let out = cmd.assert().success().get_output().stdout.clone();
+    serde_json::from_slice(&out).expect("one JSON object on stdout")
+}
+
 /// A command to run, with an optional time limit.
 pub struct Command {
     inner: std::process::Command,
