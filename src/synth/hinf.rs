@@ -147,6 +147,9 @@ pub fn fastest_pole(sys: &StateSpace) -> f64 {
 /// The central controller and residuals at one gamma, or why it is infeasible.
 struct AtGamma {
     k: StateSpace,
+    /// How `k` was formed: the explicit form, or another in its place where
+    /// only that one stabilised the plant during the search.
+    form: ControllerForm,
     /// The same controller in descriptor form (`None` where it could not
     /// be formed), tried where `k` misses its level or fails to stabilise.
     alternative: Option<StateSpace>,
@@ -289,6 +292,7 @@ fn central_from(p: &Partition, gamma: f64, pair: RiccatiPair) -> Result<AtGamma,
     let alternative = central::descriptor(p, gamma, &xs, &ys).unwrap_or(None);
     Ok(AtGamma {
         k,
+        form: ControllerForm::ContinuousCentral,
         alternative,
         xs,
         ys,
@@ -367,11 +371,13 @@ fn stabilising(
     }
     if let Some(k) = r.alternative.take().filter(|k| stabilises(k)) {
         r.k = k;
+        r.form = ControllerForm::ContinuousDescriptor;
         return Ok(r);
     }
     match central::explicit_extended(p, gamma, &r.xs, &r.ys) {
         Ok(k) if stabilises(&k) => {
             r.k = k;
+            r.form = ControllerForm::ContinuousExtended;
             Ok(r)
         }
         _ => Err(SynthError::Infeasible(
@@ -904,6 +910,7 @@ impl Verify<'_> {
             best = self.better(best, k, ControllerForm::ContinuousDescriptor);
         }
         if !self.meets(&best, gamma)
+            && at.form != ControllerForm::ContinuousExtended
             && let Ok(k) = central::explicit_extended(&self.norm.p, gamma, &at.xs, &at.ys)
         {
             best = self.better(best, &k, ControllerForm::ContinuousExtended);
@@ -949,8 +956,7 @@ impl Verify<'_> {
             built.residuals = Some((c.x_residual, c.z_residual, c.residual_floor));
             return Ok(built);
         }
-        let form = ControllerForm::ContinuousCentral;
-        finish(self.plant, self.norm, self.p0, &at.k, form)
+        finish(self.plant, self.norm, self.p0, &at.k, at.form)
     }
 
     fn result(&self, built: Built, at: &AtGamma, gamma: f64, gamma_opt: f64) -> HinfResult {
