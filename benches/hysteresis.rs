@@ -12,14 +12,73 @@
 //! * `rows_into_ident_ls` — for comparison, the same regression pushed row by
 //!   row into `ident::ls::StreamingLstsq` (the same kernel, rows buffered into
 //!   blocks), 250k samples only.
+//!
+//! Group `hysteresis_gd` (issue #30): gradient identification of the real
+//! piezo record (data/piezo-smarthysteresis, 33,715 samples from row 16286,
+//! PI and MPI-cbrt with ten lower play operators), beside its peer
+//! `benches/hysteresis_gd_scipy.py` (scipy's L-BFGS-B on the same data,
+//! operators, scaling and stopping rule; run it in the same session):
+//!
+//! * `lbfgs_{pi,mpi_cbrt}` — the solver alone (`gd_lstsq` on the factor of
+//!   `[Phi | y]`), against the script's `factor` rows;
+//! * `identify_gd_{pi,mpi_cbrt}` — the whole `identify()` with `Method::Gd`
+//!   (regressor, QR, L-BFGS, the fit's simulation), against its rows.
+//!
+//! Before timing, each model is checked to reach the least-squares cost to
+//! 1e-13, and the heap allocations of a whole solve are printed beside those
+//! of a solve capped at one iteration (equal: the iterations allocate nothing).
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use fts::ident::hysteresis::gd::{GdParams, Silent, TriangularLeastSquares, gd_lstsq};
 use fts::ident::hysteresis::identify::Regressor;
 use fts::ident::hysteresis::lsq::solve_from_r;
 use fts::ident::hysteresis::operators::uniform_thresholds;
-use fts::ident::hysteresis::{IdentifyParams, ModelKind, PlayOperator, identify};
+use fts::ident::hysteresis::{IdentifyParams, Method, ModelKind, PlayOperator, identify};
 use fts::ident::ls::{LstsqParams, StreamingLstsq};
+use std::alloc::{GlobalAlloc, Layout, System};
 use std::hint::black_box;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The system allocator, counting allocations (for the per-iteration figure).
+struct Counting;
+
+static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// The SmartHysteresis record as the README's `fts identify hysteresis`
+/// reads it: headerless, input = column 4 (V), output = column 3 (um), from
+/// row 16286.
+fn piezo_record() -> (Vec<f64>, Vec<f64>) {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv"
+    );
+    let text = std::fs::read_to_string(path).expect("the piezo record");
+    let field = |s: Option<&str>| {
+        s.and_then(|s| s.trim().parse::<f64>().ok())
+            .expect("a number")
+    };
+    text.lines()
+        .skip(16286)
+        .map(|line| {
+            let mut f = line.split(',').skip(2);
+            let y = field(f.next());
+            (field(f.next()), y)
+        })
+        .unzip()
+}
 
 /// A triangle of growing amplitude (many loops) through a static nonlinearity:
 /// every operator is excited.
@@ -103,5 +162,68 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+fn bench_gd(c: &mut Criterion) {
+    let (u, y) = piezo_record();
+    let max_abs = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut group = c.benchmark_group("hysteresis_gd");
+    group.sample_size(30);
+    for (name, kind) in [("pi", ModelKind::Pi), ("mpi_cbrt", ModelKind::MpiCbrt)] {
+        let regressor = Regressor {
+            offset: true,
+            cbrt: kind == ModelKind::MpiCbrt,
+            operator: PlayOperator::Lower,
+            thresholds: uniform_thresholds(10, max_abs),
+            rate: None,
+        };
+        let factor = regressor.qr(&u, &y);
+        let problem = TriangularLeastSquares::from_factor(factor.r(), u.len());
+        let ls = solve_from_r(factor.r(), regressor.cols() + 1, regressor.free(), None).unwrap();
+        let ls_cost = 0.5 * ls.residual_norm.powi(2) / u.len() as f64;
+        let solve = |max_iters| {
+            let params = GdParams {
+                max_iters,
+                ..Default::default()
+            };
+            let before = ALLOCATIONS.load(Ordering::Relaxed);
+            let (w, info) = gd_lstsq(&problem, &params, None, Silent).unwrap();
+            (w, info, ALLOCATIONS.load(Ordering::Relaxed) - before)
+        };
+        let (w, info, allocations) = solve(GdParams::default().max_iters);
+        let (_, _, allocations_at_one) = solve(1);
+        let largest = ls.x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let weight_error = w
+            .iter()
+            .zip(&ls.x)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            (info.cost - ls_cost).abs() <= 1e-13 * ls_cost,
+            "{name}: gd cost {} vs least squares {ls_cost}",
+            info.cost
+        );
+        eprintln!(
+            "{name}: {} iterations, cost {:.15e} (least squares {ls_cost:.15e}), \
+             max|w - w_ls| / max|w_ls| {:.1e}; {allocations} allocations per solve, \
+             {allocations_at_one} when capped at one iteration",
+            info.iterations,
+            info.cost,
+            weight_error / largest,
+        );
+        group.bench_function(format!("lbfgs_{name}/{}", u.len()), |b| {
+            b.iter(|| gd_lstsq(black_box(&problem), &GdParams::default(), None, Silent).unwrap())
+        });
+        let params = IdentifyParams {
+            kind,
+            operators: 10,
+            method: Method::Gd,
+            ..Default::default()
+        };
+        group.bench_function(format!("identify_gd_{name}/{}", u.len()), |b| {
+            b.iter(|| identify(black_box(&u), black_box(&y), &params).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench, bench_gd);
 criterion_main!(benches);

@@ -13,6 +13,7 @@ pub use crate::ident::ct::zoh::checks as ident_ct_zoh;
 pub use crate::ident::data::checks as ident_data;
 pub use crate::ident::excite::checks as ident_excite;
 pub use crate::ident::freq::checks as ident_freq;
+pub use crate::ident::hysteresis::gd::checks as ident_hysteresis_gd;
 pub use crate::ident::hysteresis::identify::checks as ident_hysteresis_identify;
 pub use crate::ident::hysteresis::inverse::checks as ident_hysteresis_inverse;
 pub use crate::ident::hysteresis::lsq::checks as ident_hysteresis_lsq;

@@ -1,9 +1,11 @@
-//! The per-sample filter, runtime and hysteresis-model steps must not
-//! allocate: a counting global allocator counts the allocations of the
+//! The per-sample filter, runtime and hysteresis-model steps, and the
+//! iterations of gradient identification, must not allocate: a counting global allocator counts the allocations of the
 //! current thread (the test harness runs tests on parallel threads, whose
 //! allocations must not count). Its own test binary, because the allocator
 //! is global.
 
+use fts::ident::hysteresis::gd::{GdParams, Silent, TriangularLeastSquares, gd_lstsq};
+use fts::ident::hysteresis::lsq::{ColMajor, qr_of};
 use fts::ident::hysteresis::operators::uniform_thresholds;
 use fts::ident::hysteresis::{DeadZoneStage, HysteresisModel, ModelKind, PlayOperator, RateStage};
 use fts::lti::{DiscreteTf, TdfFilter};
@@ -282,4 +284,45 @@ fn model_step_does_not_allocate() {
     let after = allocations();
     assert_eq!(after - before, 0, "the model step allocated");
     assert!(acc.is_finite());
+}
+
+/// A solve capped at 8 iterations allocates exactly as much as one capped
+/// at 2 (its buffers, once): the iterations themselves allocate nothing.
+#[test]
+fn gradient_identification_iterations_do_not_allocate() {
+    let (rows, p) = (2000, 24);
+    let mut seed = 5u64;
+    let mut next = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut a = ColMajor::zeros(rows, p);
+    for j in 0..p {
+        for v in a.col_mut(j) {
+            *v = next() * (1.0 + j as f64);
+        }
+    }
+    let y: Vec<f64> = (0..rows).map(|_| next()).collect();
+    let problem = TriangularLeastSquares::from_factor(qr_of(&a, &y).r(), rows);
+    let allocations_at = |cap: u64| {
+        let params = GdParams {
+            max_iters: cap,
+            ..Default::default()
+        };
+        let before = allocations();
+        let (_, info) = gd_lstsq(&problem, &params, None, Silent).unwrap();
+        let used = allocations() - before;
+        assert_eq!(info.iterations, cap, "{info:?}");
+        used
+    };
+    let (short, long) = (allocations_at(2), allocations_at(8));
+    assert!(short > 0, "the counter saw nothing");
+    assert_eq!(
+        long,
+        short,
+        "6 more iterations allocated {} times",
+        long - short
+    );
 }

@@ -122,8 +122,10 @@ struct ProgressObserver {
 impl Observe<GdState> for ProgressObserver {
     fn observe_iter(&mut self, state: &GdState, _kv: &KV) -> Result<(), ArgminError> {
         self.bar.inc(1);
-        self.bar
-            .set_message(format!("cost {:.6e}", state.get_best_cost()));
+        self.bar.set_message(format!(
+            "cost above the residual floor {:.3e}",
+            state.get_best_cost()
+        ));
         Ok(())
     }
 }

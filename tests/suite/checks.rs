@@ -46,6 +46,8 @@ run_checks! {
         linear_sweep_instantaneous_frequency, multisine_schroeder_peak_and_grid,
         five_leaf_matches_eq13, bad_parameters_name_the_field],
     ident_freq: [welch_recovers_known_response_with_unit_coherence, etfe_exact_for_periodic_input],
+    ident_hysteresis_gd: [factor_cost_and_gradient_are_the_residuals,
+        lbfgs_reaches_the_least_squares_solution],
     ident_hysteresis_identify: [regressor_columns_match_the_operators],
     ident_hysteresis_inverse: [two_operator_inverse_by_hand],
     ident_hysteresis_lsq: [streaming_qr_matches_known_solution, nnls_hand_example,

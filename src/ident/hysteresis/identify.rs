@@ -7,7 +7,7 @@
 //! or by L-BFGS on the same cost ([`super::gd`]). MPI-deadzone is bilinear in
 //! `(w, g)` and is identified by alternating least squares.
 
-use super::gd::{GdInfo, GdParams, GdState, gd_lstsq};
+use super::gd::{GdInfo, GdParams, GdState, TriangularLeastSquares, gd_lstsq};
 use super::lsq::{ColMajor, LsError, PartialSumConstraint, qr_of, solve_from_r};
 use super::model::{DeadZoneStage, HysteresisModel, ModelKind, RateStage};
 use super::operators::{
@@ -669,14 +669,13 @@ where
     O: Observe<GdState> + 'static,
 {
     let cols = regressor.cols();
-    // The QR is needed for the condition number even when GD solves.
+    // The QR gives the condition number, and it carries GD's cost.
     let acc = regressor.qr(u, y);
     let ls = solve_from_r(acc.r(), cols + 1, regressor.free(), constraint)?;
     let (x, iterations) = match params.method {
         Method::Ls => (ls.x.clone(), 0),
         Method::Gd => {
-            let phi = regressor.matrix(u);
-            let (w, info) = run_gd(&phi, y, &params.gd, None, observer)?;
+            let (w, info) = run_gd(acc.r(), u.len(), &params.gd, None, observer)?;
             (w, info.iterations)
         }
     };
@@ -693,9 +692,11 @@ where
     })
 }
 
+/// L-BFGS on the least-squares cost carried by `r_aug`, the factor of
+/// `[Phi | y]` over `rows` samples.
 fn run_gd<O>(
-    phi: &ColMajor,
-    y: &[f64],
+    r_aug: &[f64],
+    rows: usize,
     gd: &GdParams,
     start: Option<&[f64]>,
     observer: O,
@@ -703,7 +704,8 @@ fn run_gd<O>(
 where
     O: Observe<GdState> + 'static,
 {
-    gd_lstsq(phi, y, gd, start, observer).map_err(|e| IdentifyError::Solver(e.to_string()))
+    let problem = TriangularLeastSquares::from_factor(r_aug, rows);
+    gd_lstsq(&problem, gd, start, observer).map_err(|e| IdentifyError::Solver(e.to_string()))
 }
 
 /// Solves one linear stage `min ||A x - b||` (A materialised) by the chosen method.
@@ -725,7 +727,7 @@ where
     match params.method {
         Method::Ls => Ok((ls.x, ls.condition_number, 0, ls.constraint_active)),
         Method::Gd => {
-            let (x, info) = run_gd(a, b, &params.gd, start, observer)?;
+            let (x, info) = run_gd(acc.r(), a.rows(), &params.gd, start, observer)?;
             Ok((x, ls.condition_number, info.iterations, false))
         }
     }
