@@ -62,7 +62,7 @@ run_checks! {
         rate_model_solve_round_trips_on_triangles],
     ident_linear: [simulation_prediction_and_fit_distinction, initial_conditions_are_estimated,
         white_noise_passes_and_coloured_fails, criteria_formulas,
-        criteria_match_matlab_aic_documentation_example, filter_matches_difference_equation],
+        criteria_match_matlab_aic_documentation_example, filter_matches_difference_equation, lagged_sums_are_the_direct_sums],
     ident_ls: [line_fit_closed_form, streaming_equals_dense_across_blocks, errors,
         blocked_equals_direct_least_squares, rank_deficiency_is_detected, kernels_match_faer_qr,
         portable_and_dispatched_fold_agree, non_finite_block_is_reported],
