@@ -642,15 +642,19 @@ pub mod checks {
         assert!(f.simulation_zero_ic_percent < 90.0);
     }
 
-    pub fn white_noise_passes_and_coloured_fails() {
-        // Deterministic pseudo-random sequence (LCG) for white noise.
-        let mut s = 12345u64;
-        let mut rnd = || {
+    /// A deterministic white sequence on [-0.5, 0.5) (64-bit LCG).
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
             s = s
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        }
+    }
+
+    pub fn white_noise_passes_and_coloured_fails() {
+        let mut rnd = uniform(12345);
         let e: Vec<f64> = (0..4000).map(|_| rnd()).collect();
         let u: Vec<f64> = (0..4000).map(|_| rnd()).collect();
         let w = whiteness(&e, &u, 25);
@@ -667,13 +671,7 @@ pub mod checks {
     /// over lengths below, at and across the block size and lags beyond
     /// the record.
     pub fn lagged_sums_are_the_direct_sums() {
-        let mut s = 7u64;
-        let mut rnd = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut rnd = uniform(7);
         for n in [1usize, 5, 31, 4096, 4097, 9001] {
             let a: Vec<f64> = (0..n).map(|_| rnd()).collect();
             let b: Vec<f64> = (0..n).map(|_| rnd() + 0.3).collect();

@@ -331,6 +331,23 @@ impl ExactStepLbfgs {
     }
 }
 
+impl ExactStepLbfgs {
+    /// Runs `work` on the problem (counted as one gradient evaluation by
+    /// argmin) and hands argmin the new cost.
+    fn work_on(
+        &mut self,
+        problem: &mut Problem<&TriangularLeastSquares>,
+        state: GdState,
+        work: fn(&mut Self, &TriangularLeastSquares),
+    ) -> Result<(GdState, Option<KV>), ArgminError> {
+        problem.problem("gradient_count", |p| {
+            work(self, p);
+            Ok(())
+        })?;
+        Ok((state.cost(self.cost), None))
+    }
+}
+
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -351,11 +368,7 @@ impl Solver<&TriangularLeastSquares, GdState> for ExactStepLbfgs {
         problem: &mut Problem<&TriangularLeastSquares>,
         state: GdState,
     ) -> Result<(GdState, Option<KV>), ArgminError> {
-        problem.problem("gradient_count", |p| {
-            self.evaluate(p);
-            Ok(())
-        })?;
-        Ok((state.cost(self.cost), None))
+        self.work_on(problem, state, Self::evaluate)
     }
 
     fn next_iter(
@@ -363,11 +376,7 @@ impl Solver<&TriangularLeastSquares, GdState> for ExactStepLbfgs {
         problem: &mut Problem<&TriangularLeastSquares>,
         state: GdState,
     ) -> Result<(GdState, Option<KV>), ArgminError> {
-        problem.problem("gradient_count", |p| {
-            self.step(p);
-            Ok(())
-        })?;
-        Ok((state.cost(self.cost), None))
+        self.work_on(problem, state, Self::step)
     }
 
     fn terminate(&mut self, _state: &GdState) -> TerminationStatus {
