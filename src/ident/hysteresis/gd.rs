@@ -294,6 +294,9 @@ impl ExactStepLbfgs {
             self.rho[slot] = 1.0 / sy;
             self.newest = slot;
             self.held = (self.held + 1).min(self.memory);
+        } else if self.held == self.memory {
+            // The slot held the oldest pair, now overwritten: drop it.
+            self.held -= 1;
         }
     }
 
