@@ -9,6 +9,12 @@ left by 1 + sqrt(n) (seed 20261125 + n).
     python3 benches/hinf_scaling.py reference DIR   # tests/data/hinf_scaling/sb10ad.json
     python3 benches/hinf_scaling.py filter DIR/P<n>.json GAMMA...  # Y Hamiltonian's axis gap
     python3 benches/hinf_scaling.py achieved DIR/P<n>.json  # SB10AD's claim and what its K achieves
+    OPENBLAS_NUM_THREADS=1 python3 benches/hinf_scaling.py inprocess DIR [ORDER...]  # SB10AD alone, from gamma 10
+
+`inprocess` is the fair peer of `cargo bench --bench hinf_scaling`: slycot's
+sb10ad called directly (no python-control), its bisection started at
+gamma = 10 (above every optimum of these plants), one BLAS thread, only the
+call timed (median of 7 after one warm-up run), with its claimed gamma.
 
 `time` runs, order by order (8 to 160), on one thread each, `FTS hinf --generalized DIR/P<n>.json --nmeas 1
 --ncon 1` and the `slycot` command above side by side as whole processes
@@ -185,6 +191,25 @@ def time(folder, fts, runs_fts="5", runs_sb10ad="3"):
         last = (n, c_f_ratio)
 
 
+def inprocess(folder, *orders):
+    import time as clock
+
+    from slycot import sb10ad
+    for n in [int(o) for o in orders] or [8, 16, 32, 48]:
+        with open(os.path.join(folder, f"P{n}.json")) as f:
+            doc = json.load(f)
+        a, b, c, d = (np.array(doc[k], dtype=float) for k in "abcd")
+        call = lambda: sb10ad(a.shape[0], b.shape[1], c.shape[0], 1, 1, 10.0, a, b, c, d)
+        gamma = call()[0]
+        times = []
+        for _ in range(7):
+            t0 = clock.perf_counter()
+            call()
+            times.append(clock.perf_counter() - t0)
+        print(f"order {n}: SB10AD in process from gamma 10: median {statistics.median(times) * 1e3:.2f} ms "
+              f"(min {min(times) * 1e3:.2f}), claimed gamma {gamma:.6f}")
+
+
 if __name__ == "__main__":
     {"write": write, "slycot": slycot, "time": time, "reference": reference,
-     "filter": filter_hamiltonian, "achieved": achieved}[sys.argv[1]](*sys.argv[2:])
+     "filter": filter_hamiltonian, "achieved": achieved, "inprocess": inprocess}[sys.argv[1]](*sys.argv[2:])
