@@ -35,6 +35,7 @@ use fts::ident::hysteresis::lsq::solve_from_r;
 use fts::ident::hysteresis::operators::uniform_thresholds;
 use fts::ident::hysteresis::{IdentifyParams, Method, ModelKind, PlayOperator, identify};
 use fts::ident::ls::{LstsqParams, StreamingLstsq};
+use fts::io::timeseries::{ColumnRef, HeaderMode, IoColumns, Layout as RecordLayout, read_io};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::hint::black_box;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -58,26 +59,26 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 /// The SmartHysteresis record as the README's `fts identify hysteresis`
-/// reads it: headerless, input = column 4 (V), output = column 3 (um), from
-/// row 16286.
+/// reads it, through the same reader: headerless, input = column 4 (V),
+/// output = column 3 (um), from sample 16286.
 fn piezo_record() -> (Vec<f64>, Vec<f64>) {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../data/piezo-smarthysteresis/hysteresis_v_150_1hz.csv"
     );
-    let text = std::fs::read_to_string(path).expect("the piezo record");
-    let field = |s: Option<&str>| {
-        s.and_then(|s| s.trim().parse::<f64>().ok())
-            .expect("a number")
+    let file = std::fs::File::open(path).expect("the piezo record");
+    let columns = IoColumns {
+        input: Some(ColumnRef::Index(4)),
+        output: Some(ColumnRef::Index(3)),
+        layout: RecordLayout {
+            header: HeaderMode::Absent,
+            ..Default::default()
+        },
+        ..Default::default()
     };
-    text.lines()
-        .skip(16286)
-        .map(|line| {
-            let mut f = line.split(',').skip(2);
-            let y = field(f.next());
-            (field(f.next()), y)
-        })
-        .unzip()
+    let mut record = read_io(std::io::BufReader::new(file), path, &columns, 2).unwrap();
+    record.keep_rows(16286, None).unwrap();
+    (record.input, record.output)
 }
 
 /// A triangle of growing amplitude (many loops) through a static nonlinearity:

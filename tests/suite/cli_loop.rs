@@ -25,14 +25,7 @@ fn json_of(args: &[&str], files: &[&Path]) -> Value {
             cmd.arg(a);
         }
     }
-    let out = cmd
-        .arg("--json")
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    serde_json::from_slice(&out).expect("one JSON object on stdout")
+    crate::common::cmd::json_of(cmd.arg("--json"))
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! `fts response`, the conversion commands and `fts simulate --reference
 //! step` from the outside: results, files, bounds and exit codes.
 
-use crate::common::cmd::{Command, fts, predicate};
+use crate::common::cmd::{Command, fts, json_of, predicate};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -12,14 +12,7 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 }
 
 fn json_out(cmd: &mut Command) -> Value {
-    let out = cmd
-        .arg("--json")
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    serde_json::from_slice(&out).expect("one JSON object on stdout")
+    json_of(cmd.arg("--json"))
 }
 
 const SECOND_ORDER: &str = r#"{"format": "fts.tf/1", "var": "s", "num": [9], "den": [1, 1.8, 9]}"#;
