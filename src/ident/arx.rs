@@ -21,7 +21,7 @@
 //! `LossFcn = V (N - n0 - d) / N`, `V` the noise variance above).
 
 use super::linear::{Criteria, IdentError, PolyModel, check_excited, check_signals};
-use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize};
+use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, std_devs, triangularize_halves};
 
 /// Orders of a polynomial model: `na` poles, `nb` numerator coefficients,
 /// `nk` samples of input delay (MATLAB `[na nb nk]`).
@@ -174,7 +174,7 @@ pub fn arx(u: &[f64], y: &[f64], params: &ArxParams) -> Result<ArxEstimate, Iden
         });
     }
     let (na, nk) = (o.na, o.nk);
-    let tri = triangularize(d + 1, rows, params.block_rows, |j, s, out| {
+    let tri = triangularize_halves(d + 1, rows, params.block_rows, |j, s, out| {
         let k0 = start + s;
         let len = out.len();
         if j < na {

@@ -190,16 +190,33 @@ impl PolyModel {
     pub fn predict_arx(&self, u: &[f64], y: &[f64]) -> Vec<f64> {
         let n = y.len();
         let mut out = vec![0.0; n];
-        for (k, o) in out.iter_mut().enumerate() {
+        let (a, b, nk) = (&self.a[1..], &self.b[..], self.nk);
+        let warm = self.memory().min(n);
+        for (k, o) in out[..warm].iter_mut().enumerate() {
             let mut s = 0.0;
-            for (i, a) in self.a.iter().enumerate().skip(1) {
-                if k >= i {
-                    s -= a * y[k - i];
+            for (i, ai) in a.iter().enumerate() {
+                if k > i {
+                    s -= ai * y[k - 1 - i];
                 }
             }
-            for (i, b) in self.b.iter().enumerate() {
-                if k >= self.nk + i {
-                    s += b * u[k - self.nk - i];
+            for (i, bi) in b.iter().enumerate() {
+                if k >= nk + i {
+                    s += bi * u[k - nk - i];
+                }
+            }
+            *o = s;
+        }
+        // Past the warm-up every lag exists: no per-tap branch (the same
+        // sums in the same order).
+        for (k, o) in out.iter_mut().enumerate().skip(warm) {
+            let mut s = 0.0;
+            for (ai, yi) in a.iter().zip(y[k - a.len()..k].iter().rev()) {
+                s -= ai * yi;
+            }
+            if !b.is_empty() {
+                let past = &u[k + 1 - nk - b.len()..=k - nk];
+                for (bi, ui) in b.iter().zip(past.iter().rev()) {
+                    s += bi * ui;
                 }
             }
             *o = s;
@@ -214,38 +231,59 @@ impl PolyModel {
     /// least-squares fit of that basis to `y - y_sim`. An unstable `A` keeps
     /// zero initial conditions (its basis would blow up).
     pub fn simulate_fit_ic(&self, u: &[f64], y: &[f64]) -> Vec<f64> {
-        let ic = self.initial_conditions(u, y);
-        self.simulate_ic(u, &ic)
+        let mut sim = self.simulate(u);
+        self.add_fitted_free_response(&mut sim, y);
+        sim
     }
 
     /// The initial conditions of [`PolyModel::simulate_fit_ic`]: weights
     /// `c_j` of the free-response basis `h(k - j)`, `h` the impulse response
     /// of `1/A`, `j = 0 .. memory-1`. Empty when there is nothing to fit.
     pub fn initial_conditions(&self, u: &[f64], y: &[f64]) -> Vec<f64> {
+        self.free_response_fit(&self.simulate(u), y).0
+    }
+
+    /// Adds to `sim`, the simulation from rest, the free response fitted
+    /// to `y - sim`: `sum_j c_j h(k - j)`, the response to the initial
+    /// conditions of [`PolyModel::initial_conditions`].
+    fn add_fitted_free_response(&self, sim: &mut [f64], y: &[f64]) {
+        let (c, h) = self.free_response_fit(sim, y);
+        for (j, cj) in c.iter().enumerate() {
+            for (s, hk) in sim[j..].iter_mut().zip(&h) {
+                *s += cj * hk;
+            }
+        }
+    }
+
+    /// The weights `c` of [`PolyModel::initial_conditions`] fitted to
+    /// `y - sim`, and the impulse response `h` of `1/A` up to where it has
+    /// decayed to zero (both empty when nothing is fitted).
+    fn free_response_fit(&self, sim: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let n = self.memory().min(y.len() / 4);
         if n == 0 || !self.is_stable() {
-            return Vec::new();
+            return (Vec::new(), Vec::new());
         }
-        let len = y.len();
-        let mut imp = vec![0.0; len];
-        imp[0] = 1.0;
-        let h = filter_ab(&[1.0], &self.a, 0, &imp);
-        let ys = self.simulate(u);
-        let tri = triangularize(n + 1, len, DEFAULT_BLOCK_ROWS, |j, s, out| {
+        let h = decayed_impulse_response(&self.a, y.len());
+        // Below these rows every basis column is zero: they add to the
+        // residual, not to the fit, so the least squares skip them.
+        let rows = (h.len() + n - 1).min(y.len());
+        let tri = triangularize(n + 1, rows, DEFAULT_BLOCK_ROWS, |j, s, out| {
             for (r, o) in out.iter_mut().enumerate() {
                 let k = s + r;
                 *o = if j == n {
-                    y[k] - ys[k]
-                } else if k >= j {
-                    h[k - j]
+                    y[k] - sim[k]
                 } else {
-                    0.0
+                    k.checked_sub(j)
+                        .and_then(|i| h.get(i))
+                        .copied()
+                        .unwrap_or(0.0)
                 };
             }
         });
-        solve_triangle(&tri)
+        let c = solve_triangle(&tri)
             .map(|sol| sol.theta)
-            .unwrap_or_default()
+            .unwrap_or_default();
+        (c, h)
     }
 
     /// Simulation with initial conditions `ic` (weights of `h(k - j)`, see
@@ -340,6 +378,30 @@ pub fn filter_ab(b: &[f64], a: &[f64], nk: usize, u: &[f64]) -> Vec<f64> {
     y
 }
 
+/// The impulse response of `1/A` (as [`filter_ab`] gives it, flushed to
+/// zero below [`TINY`]), at most `len` samples, cut after its last nonzero
+/// sample: once `na` samples in a row are zero, so is every later one.
+fn decayed_impulse_response(a: &[f64], len: usize) -> Vec<f64> {
+    let an: Vec<f64> = a[1..].iter().map(|v| v / a[0]).collect();
+    let mut h: Vec<f64> = Vec::new();
+    let mut zeros = 0;
+    for k in 0..len {
+        let mut s = if k == 0 { 1.0 / a[0] } else { 0.0 };
+        for (ai, past) in an.iter().zip(h.iter().rev()) {
+            s -= ai * past;
+        }
+        let v = if s.abs() < TINY { 0.0 } else { s };
+        h.push(v);
+        zeros = if v == 0.0 { zeros + 1 } else { 0 };
+        if zeros >= an.len().max(1) {
+            break;
+        }
+    }
+    let nonzero = h.iter().rposition(|v| *v != 0.0).map_or(0, |i| i + 1);
+    h.truncate(nonzero);
+    h
+}
+
 /// Magnitude below which filter outputs are flushed to zero.
 const TINY: f64 = 1e-290;
 
@@ -371,27 +433,62 @@ pub enum NoiseModel {
 
 /// Simulation and prediction fits of `model` on `(u, y)`.
 pub fn fits(model: &PolyModel, noise: NoiseModel, u: &[f64], y: &[f64]) -> Fits {
-    let sim_ic = model.simulate_fit_ic(u, y);
-    let sim0 = model.simulate(u);
-    let start = model.memory().min(y.len());
-    let pred = match noise {
-        NoiseModel::Arx => model.predict_arx(u, y),
-        NoiseModel::OutputError => sim_ic.clone(),
+    fits_and_residuals(model, noise, u, y).fits
+}
+
+/// [`fits`], with the residuals the fits leave.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitResiduals {
+    /// The fit figures.
+    pub fits: Fits,
+    /// The one-step prediction errors `y - y_hat` of an ARX model from
+    /// sample [`PolyModel::memory`] on (where every regressor is known);
+    /// the simulation errors (initial conditions fitted) of an
+    /// output-error model, from sample 0.
+    pub residuals: Vec<f64>,
+    /// The sample of `residuals[0]`.
+    pub start: usize,
+}
+
+/// [`fits`] and the residuals behind them.
+pub fn fits_and_residuals(
+    model: &PolyModel,
+    noise: NoiseModel,
+    u: &[f64],
+    y: &[f64],
+) -> FitResiduals {
+    let simulations = || {
+        let sim0 = model.simulate(u);
+        let mut sim_ic = sim0.clone();
+        model.add_fitted_free_response(&mut sim_ic, y);
+        (sim0, sim_ic)
     };
-    let (yy, pp) = match noise {
-        NoiseModel::Arx => (&y[start..], &pred[start..]),
-        NoiseModel::OutputError => (y, &pred[..]),
+    let start = match noise {
+        NoiseModel::Arx => model.memory().min(y.len()),
+        NoiseModel::OutputError => 0,
     };
+    // The ARX predictor does not wait for the simulations.
+    let prediction =
+        || (noise == NoiseModel::Arx).then(|| model.predict_arx(u, y).split_off(start));
+    let ((sim0, sim_ic), pred) = super::fork::join(y.len(), simulations, prediction);
+    let pred = pred.unwrap_or_else(|| sim_ic.clone());
+    let yy = &y[start..];
+    let residuals: Vec<f64> = yy.iter().zip(&pred).map(|(a, b)| a - b).collect();
     let mse = if yy.is_empty() {
         f64::NAN
     } else {
-        yy.iter().zip(pp).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / yy.len() as f64
+        residuals.iter().map(|e| e * e).sum::<f64>() / yy.len() as f64
     };
-    Fits {
+    let fits = Fits {
         simulation_percent: nrmse_fit_percent(y, &sim_ic),
         simulation_zero_ic_percent: nrmse_fit_percent(y, &sim0),
-        prediction_percent: nrmse_fit_percent(yy, pp),
+        prediction_percent: nrmse_fit_percent(yy, &pred),
         prediction_mse: mse,
+    };
+    FitResiduals {
+        fits,
+        residuals,
+        start,
     }
 }
 
@@ -472,12 +569,12 @@ pub fn whiteness(e: &[f64], u: &[f64], lags: usize) -> Whiteness {
     let (me, mu) = (mean(e), mean(u));
     let e: Vec<f64> = e.iter().map(|v| v - me).collect();
     let u: Vec<f64> = u.iter().map(|v| v - mu).collect();
-    let r_ee = lagged_xcorr(&e, &e, lags);
-    let r_uu = lagged_xcorr(&u, &u, lags);
     // Residual at k against the input at k - tau: tau >= 0 from (e, u),
-    // tau < 0 (the input later) from (u, e).
-    let r_eu_past = lagged_xcorr(&e, &u, lags);
-    let r_eu_future = lagged_xcorr(&u, &e, lags);
+    // tau < 0 (the input later) from (u, e). On a long record the
+    // autocorrelations run on a second thread.
+    let auto = || (lagged_xcorr(&e, &e, lags), lagged_xcorr(&u, &u, lags));
+    let cross = || (lagged_xcorr(&e, &u, lags), lagged_xcorr(&u, &e, lags));
+    let ((r_ee, r_uu), (r_eu_past, r_eu_future)) = super::fork::join(n, auto, cross);
     let (ree0, ruu0) = (r_ee[0], r_uu[0]);
     let sqrt_n = (n.max(1) as f64).sqrt();
     let bound = Z99 / sqrt_n;
@@ -640,6 +737,60 @@ pub mod checks {
         let f = fits(&m, NoiseModel::OutputError, &u, &y);
         assert!((f.simulation_percent - 100.0).abs() < 1e-9, "{f:?}");
         assert!(f.simulation_zero_ic_percent < 90.0);
+    }
+
+    /// The fitted free response skips the rows where the impulse response
+    /// of `1/A` has decayed to zero: the same initial conditions and the
+    /// same simulation as filtering the whole record with them, and an
+    /// impulse response that is `filter_ab`'s up to its last nonzero sample.
+    pub fn fitted_free_response_is_the_filtered_one() {
+        let mut rnd = uniform(77);
+        let m = PolyModel {
+            a: vec![1.0, -1.2, 0.5],
+            b: vec![0.3, 0.2],
+            nk: 1,
+            ts: 1.0,
+        };
+        let n = 40_000;
+        let u: Vec<f64> = (0..n).map(|_| rnd()).collect();
+        let mut y = m.simulate(&u);
+        let free = filter_ab(&[1.0], &m.a, 0, &[2.0, -1.0]);
+        for (k, v) in y.iter_mut().enumerate() {
+            *v += free.get(k).copied().unwrap_or(0.0) + 1e-3 * rnd();
+        }
+        let mut impulse = vec![0.0; n];
+        impulse[0] = 1.0;
+        let full = filter_ab(&[1.0], &m.a, 0, &impulse);
+        let h = decayed_impulse_response(&m.a, n);
+        assert!(h.len() < n / 10 && h.len() > 100, "{}", h.len());
+        assert_eq!(&full[..h.len()], &h[..]);
+        assert!(full[h.len()..].iter().all(|v| *v == 0.0));
+        let ic = m.initial_conditions(&u, &y);
+        let via_filter = m.simulate_ic(&u, &ic);
+        let fitted = m.simulate_fit_ic(&u, &y);
+        let scale = y.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        for (a, b) in via_filter.iter().zip(&fitted) {
+            assert!((a - b).abs() < 1e-12 * scale, "{a} vs {b}");
+        }
+        // The initial conditions of the same fit over every row.
+        let sim = m.simulate(&u);
+        let rows_all =
+            crate::ident::ls::triangularize(ic.len() + 1, n, DEFAULT_BLOCK_ROWS, |j, s, out| {
+                for (r, o) in out.iter_mut().enumerate() {
+                    let k = s + r;
+                    *o = if j == ic.len() {
+                        y[k] - sim[k]
+                    } else if k >= j {
+                        full[k - j]
+                    } else {
+                        0.0
+                    };
+                }
+            });
+        let every_row = solve_triangle(&rows_all).unwrap().theta;
+        for (a, b) in ic.iter().zip(&every_row) {
+            assert!((a - b).abs() < 1e-10 * (1.0 + b.abs()), "{a} vs {b}");
+        }
     }
 
     /// A deterministic white sequence on [-0.5, 0.5) (64-bit LCG).

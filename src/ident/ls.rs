@@ -230,6 +230,31 @@ pub fn triangularize(
     qr.into_triangle()
 }
 
+/// [`triangularize`] of a long matrix (at least `PARALLEL_SAMPLES` rows)
+/// as two halves of rows, reduced on two threads where the machine has
+/// them, the second factor then folded into the first (`[R1; R2] = Q R`,
+/// the factor of the whole). The cut depends on the rows alone, not on the
+/// machine, and so does the factor. `fill` as in [`triangularize`].
+pub fn triangularize_halves(
+    ncols: usize,
+    rows: usize,
+    block_rows: usize,
+    fill: impl Fn(usize, usize, &mut [f64]) + Sync,
+) -> Triangle {
+    if rows < super::fork::PARALLEL_SAMPLES {
+        return triangularize(ncols, rows, block_rows, fill);
+    }
+    let block = block_rows.max(1).min(rows.max(1));
+    let reduce = |from: usize, count: usize| {
+        let mut qr = StreamingQr::with_block_rows(ncols, block);
+        qr.push_blocks(count, |j, start, out| fill(j, from + start, out));
+        qr
+    };
+    let half = rows / 2;
+    let (second, first) = super::fork::join(rows, || reduce(half, rows - half), || reduce(0, half));
+    first.absorb(second)
+}
+
 /// Streaming Householder QR of a tall matrix: keeps only the `p x p`
 /// triangular factor and one block of rows.
 #[derive(Debug, Clone)]
@@ -397,6 +422,28 @@ impl StreamingQr {
             rows: self.rows,
             first_non_finite: self.first_non_finite,
         }
+    }
+
+    /// The factor of this matrix with the rows of `other` below it: the
+    /// rows of `other`'s factor folded into this one.
+    pub fn absorb(mut self, other: StreamingQr) -> Triangle {
+        assert_eq!(self.cols, other.cols, "StreamingQr::absorb: columns");
+        let below = other.into_triangle();
+        let first_non_finite = self
+            .first_non_finite
+            .or(below.first_non_finite.map(|row| self.rows + row));
+        let rows = self.rows + below.rows;
+        let mut row = vec![0.0; self.cols];
+        for i in 0..self.cols {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = below.r[(i, j)];
+            }
+            self.push_row(&row);
+        }
+        let mut tri = self.into_triangle();
+        tri.rows = rows;
+        tri.first_non_finite = first_non_finite.or(tri.first_non_finite);
+        tri
     }
 
     /// Folds the first `len` rows of the block into the factor.
@@ -767,6 +814,63 @@ pub mod checks {
             assert!((a - b).abs() < 1e-12 * (1.0 + a.abs()), "{a} vs {b}");
         }
         assert!((dense.residual_norm - small.residual_norm).abs() < 1e-12 * dense.residual_norm);
+    }
+
+    /// The factor of two halves folded together is the factor of the
+    /// whole: `R^T R` (the Gram matrix, free of the rows' signs), the
+    /// solution and the residual norm agree with one pass to round-off, and
+    /// a NaN in the second half is placed in the block that held it.
+    pub fn halves_equal_one_pass() {
+        let (rows, cols) = (3 * super::super::fork::PARALLEL_SAMPLES / 2 + 17, 6);
+        let value =
+            |j: usize, k: usize| ((k * (j + 3) + j * j) as f64 * 0.37).sin() + 0.1 * j as f64;
+        let fill = |j: usize, start: usize, out: &mut [f64]| {
+            for (r, o) in out.iter_mut().enumerate() {
+                *o = value(j, start + r);
+            }
+        };
+        let whole = triangularize(cols, rows, DEFAULT_BLOCK_ROWS, fill);
+        let halves = triangularize_halves(cols, rows, DEFAULT_BLOCK_ROWS, fill);
+        assert_eq!(halves.rows, rows);
+        assert_eq!(halves.first_non_finite, None);
+        let gram = |r: &Mat<f64>| r.transpose() * r;
+        let (g1, g2) = (gram(&whole.r), gram(&halves.r));
+        let scale = (0..cols).map(|j| g1[(j, j)]).fold(0.0, f64::max);
+        for i in 0..cols {
+            for j in 0..cols {
+                let d = (g1[(i, j)] - g2[(i, j)]).abs();
+                assert!(
+                    d < 64.0 * f64::EPSILON * scale,
+                    "Gram ({i},{j}) differs by {d:e}"
+                );
+            }
+        }
+        let (a, b) = (
+            solve_triangle(&whole).unwrap(),
+            solve_triangle(&halves).unwrap(),
+        );
+        for (x, y) in a.theta.iter().zip(&b.theta) {
+            assert!((x - y).abs() < 1e-12 * (1.0 + x.abs()), "{x} vs {y}");
+        }
+        assert!((a.residual_norm - b.residual_norm).abs() < 1e-12 * a.residual_norm);
+        let nan_row = rows - 100;
+        let with_nan = triangularize_halves(cols, rows, DEFAULT_BLOCK_ROWS, |j, start, out| {
+            fill(j, start, out);
+            if (start..start + out.len()).contains(&nan_row) {
+                out[nan_row - start] = f64::NAN;
+            }
+        });
+        let row = with_nan.first_non_finite.expect("NaN found");
+        assert!(
+            row <= nan_row && nan_row < row + DEFAULT_BLOCK_ROWS,
+            "{row}"
+        );
+        // Below the threshold the factor is the one-pass factor itself.
+        let short = triangularize_halves(cols, 1000, DEFAULT_BLOCK_ROWS, fill);
+        assert_eq!(
+            short.r,
+            triangularize(cols, 1000, DEFAULT_BLOCK_ROWS, fill).r
+        );
     }
 
     pub fn errors() {

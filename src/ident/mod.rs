@@ -12,6 +12,7 @@ pub mod arx;
 pub mod ct;
 pub mod data;
 pub mod excite;
+mod fork;
 pub mod freq;
 pub mod hysteresis;
 pub mod iv;

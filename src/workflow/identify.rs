@@ -5,11 +5,12 @@
 //! `hysteresis` steps deserialise into.
 
 use super::{StepError, Validate, fmt_complex, some_whole_number, whole_number};
-use crate::ident::arx::{ArxParams, Orders, arx, arx_residuals};
+use crate::ident::arx::{ArxParams, Orders, arx};
 use crate::ident::data::{Detrend, detrend, split_point};
 use crate::ident::iv::{IvParams, iv};
 use crate::ident::linear::{
-    Criteria, Fits, IdentError, NoiseModel, PolyModel, Whiteness, fits, whiteness,
+    Criteria, Fits, IdentError, NoiseModel, PolyModel, Whiteness, fits, fits_and_residuals,
+    whiteness,
 };
 use crate::ident::oe::{OeParams, OeProgress, OeStart, oe, refine_arx};
 use crate::ident::structure::{
@@ -1156,37 +1157,27 @@ pub struct LinearReport {
     noise: NoiseModel,
 }
 
-fn residuals(model: &PolyModel, noise: NoiseModel, u: &[f64], y: &[f64]) -> Vec<f64> {
-    match noise {
-        NoiseModel::Arx => arx_residuals(model, u, y, model.memory()),
-        NoiseModel::OutputError => {
-            let s = model.simulate_fit_ic(u, y);
-            y.iter().zip(&s).map(|(a, b)| a - b).collect()
-        }
-    }
-}
-
 impl LinearReport {
     /// The diagnostics of an estimate on its records.
     fn new(p: Prepared, e: Estimate) -> Result<LinearReport, StepError> {
         let tf = e.model.tf().map_err(ident_err(&p.source))?;
         let (model, noise) = (&e.model, e.noise);
-        let est_fits = fits(model, noise, &p.est.u, &p.est.y);
-        let val_fits = p.val.as_ref().map(|v| fits(model, noise, &v.u, &v.y));
-        let white = whiteness(
-            &residuals(model, noise, &p.est.u, &p.est.y),
-            &p.est.u,
-            RESID_LAGS,
-        );
-        let validation = p
-            .val
-            .as_ref()
-            .zip(val_fits.as_ref())
-            .map(|(v, f)| ValidationDoc {
-                fits: f.into(),
-                data: v.label.clone(),
-                whiteness: whiteness(&residuals(model, noise, &v.u, &v.y), &v.u, RESID_LAGS),
-            });
+        // The residual tests pair each residual with the input of its sample.
+        let tested = |u: &[f64], y: &[f64]| {
+            let r = fits_and_residuals(model, noise, u, y);
+            (r.fits, whiteness(&r.residuals, &u[r.start..], RESID_LAGS))
+        };
+        let (est_fits, white) = tested(&p.est.u, &p.est.y);
+        let val = p.val.as_ref().map(|v| {
+            let (fits, white) = tested(&v.u, &v.y);
+            (v, fits, white)
+        });
+        let val_fits = val.as_ref().map(|(_, f, _)| *f);
+        let validation = val.map(|(v, f, whiteness)| ValidationDoc {
+            fits: (&f).into(),
+            data: v.label.clone(),
+            whiteness,
+        });
         let notes = match (noise, white.white) {
             (_, true) => vec![],
             (NoiseModel::Arx, false) => vec![

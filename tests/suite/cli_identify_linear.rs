@@ -263,6 +263,48 @@ fn output_noise_arx_flagged_oe_and_iv_summaries() {
         .stdout(predicate::str::contains("residuals: white"));
 }
 
+/// A model that misses the input's effect at lag 4 leaves it in the
+/// residuals; the cross-correlation test must name lag 4 (the residual at
+/// sample k against the input at k - 4), however many leading samples the
+/// predictor skips.
+#[test]
+fn residual_cross_correlation_names_the_missed_lag() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let mut uni = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let n = 20_000;
+    let u: Vec<f64> = (0..n).map(|_| uni()).collect();
+    let mut text = String::from("u,y\n");
+    for k in 0..n {
+        let late = if k >= 4 { 0.8 * u[k - 4] } else { 0.0 };
+        let y = if k >= 1 { 0.5 * u[k - 1] } else { 0.0 } + late + 0.01 * uni();
+        text.push_str(&format!("{},{}\n", u[k], y));
+    }
+    let data = write(dir.path(), "late.csv", &text);
+    // An FIR model of lags 1 and 2: memory nb + nk - 1 = 2, so the first
+    // residual is sample 2 (the residual tests had paired it with the
+    // input of sample 0 and reported lag 2).
+    let arx = json_of(
+        fts()
+            .args(["identify", "arx"])
+            .arg(&data)
+            .args(["--na", "0", "--nb", "2", "--nk", "1", "--ts", "1", "--json"]),
+    );
+    let outside: Vec<i64> = arx["whiteness"]["crosscorr_outside"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_i64().unwrap())
+        .collect();
+    assert_eq!(outside, [4], "{}", arx["whiteness"]);
+    assert_eq!(arx["whiteness"]["independent"], false);
+}
+
 #[test]
 fn auto_structure_and_validate_file() {
     let dir = tempfile::tempdir().unwrap();

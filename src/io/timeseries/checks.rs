@@ -228,6 +228,22 @@ pub fn line_map_counts_runs() {
     let got: Vec<usize> = (0..6).map(|r| m.line(r)).collect();
     assert_eq!(got, vec![2, 3, 4, 7, 8, 20]);
     assert_eq!(m.runs.len(), 3);
+    // A piece numbered from 0, appended 21 lines on: its first run goes on
+    // from line 20, its second starts anew; an empty piece changes nothing.
+    let mut piece = LineMap::default();
+    for line in [0, 1, 5] {
+        piece.push(line);
+    }
+    m.append(LineMap::default(), 100);
+    m.append(piece, 21);
+    let got: Vec<usize> = (0..9).map(|r| m.line(r)).collect();
+    assert_eq!(got, vec![2, 3, 4, 7, 8, 20, 21, 22, 26]);
+    assert_eq!(m.runs.len(), 4);
+    let mut empty = LineMap::default();
+    let mut piece = LineMap::default();
+    piece.push(3);
+    empty.append(piece, 10);
+    assert_eq!((empty.line(0), empty.runs.len()), (13, 1));
 }
 
 pub fn time_names() {
@@ -378,4 +394,90 @@ pub fn numbers_parse_as_rust_parses_them() {
     }
     assert_eq!(parse_number(b"1,5", Delimiter::Semicolon), Some(1.5));
     assert_eq!(parse_number(b"1,5,2", Delimiter::Semicolon), None);
+}
+
+/// The fast path takes a line only when the general path reads the same
+/// values from it; a line the general path skips, or refuses, or unquotes,
+/// it leaves alone.
+pub fn plain_lines_read_as_the_general_path_reads_them() {
+    let lines = [
+        "1,2,3\n",
+        "1,2,3",
+        "1,2,3\r\n",
+        "1,2,3,4\n",
+        "1,2,3,\"x\"\n",
+        "1,2,3,\"a,b\"\n",
+        "1,2\n",
+        "1,,3\n",
+        ",2,3\n",
+        "#1,2,3\n",
+        " 1,2,3\n",
+        "1 ,2,3\n",
+        "1, 2,3\n",
+        "\"1\",2,3\n",
+        "1,2,3 \n",
+        "inf,2,3\n",
+        "1,nan,3\n",
+        "1e5,2E-3,+4\n",
+        "1.,.5,3\n",
+        "1,2,3\r",
+        "\n",
+        ",,\n",
+        "1;2;3\n",
+        "1,5;2,5;3\n",
+        "1\t2\t3\n",
+        "1\t 2\t3\n",
+        "1e400,2,3\n",
+        "0x1,2,3\n",
+        "1,2,3#c\n",
+        "1,\"2\",3\n",
+        "-0,0.30000000000000004,9\n",
+        "1,2,3\n4,5,6\n",
+    ];
+    let layouts: [&[usize]; 4] = [&[0, 1, 2], &[2, 0], &[1], &[2, 1, 0]];
+    let delimiters = [Delimiter::Comma, Delimiter::Semicolon, Delimiter::Tab];
+    let mut taken = 0;
+    for delimiter in delimiters {
+        for fields in layouts {
+            let plain = plain::PlainLine::new(delimiter, fields).unwrap();
+            for line in lines {
+                let text = line.as_bytes();
+                let mut values = vec![0.0; fields.len()];
+                let Some(len) = plain.parse(text, &mut values) else {
+                    continue;
+                };
+                taken += 1;
+                let end = memchr::memchr(b'\n', text).map_or(text.len(), |i| i + 1);
+                assert_eq!(len, end, "{line:?}");
+                let general = general_values(&text[..end], delimiter, fields);
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    general.as_deref().map(bits),
+                    Some(bits(&values)),
+                    "{line:?} {delimiter:?} {fields:?}"
+                );
+            }
+        }
+    }
+    assert!(taken >= 20, "{taken}");
+    assert!(plain::PlainLine::new(Delimiter::Whitespace, &[0]).is_none());
+    assert!(plain::PlainLine::new(Delimiter::Comma, &[1, 1]).is_none());
+}
+
+/// What the general path reads from one line: the wanted fields' values,
+/// or `None` for a line it skips or refuses.
+fn general_values(line: &[u8], delimiter: Delimiter, wanted: &[usize]) -> Option<Vec<f64>> {
+    let mut split = rows::Split::new(delimiter);
+    let mut fields = rows::Fields::default();
+    let row = rows::strip_line_end(line);
+    if !split.split(row, &mut fields).ok()? {
+        return None;
+    }
+    wanted
+        .iter()
+        .map(|&i| {
+            let cell = fields.get(row, i).filter(|c| !c.is_empty())?;
+            parse_number(cell, delimiter).filter(|v| v.is_finite())
+        })
+        .collect()
 }

@@ -28,6 +28,7 @@
 //! timestamps), and the jitter is reported in [`Timing`]. Larger deviations
 //! (a gap, a glitch) and non-increasing time are refused with their line.
 
+mod plain;
 mod rows;
 mod time;
 
@@ -527,33 +528,24 @@ impl TextPlan {
     }
 }
 
-/// Where the rows of a text file were: a [`LineMap`] for the whole file,
-/// a plain list for a block parsed on its own thread.
-trait RowLines: Default {
-    fn push(&mut self, line: usize);
-}
-
-impl RowLines for LineMap {
-    fn push(&mut self, line: usize) {
-        LineMap::push(self, line);
-    }
-}
-
-impl RowLines for Vec<usize> {
-    fn push(&mut self, line: usize) {
-        Vec::push(self, line);
+impl TextPlan {
+    /// The 0-based fields read from each row: the columns in order, then
+    /// the time column if there is one.
+    fn fields(&self) -> Vec<usize> {
+        let columns = self.columns.iter().map(|(index, _)| *index);
+        columns.chain(self.time.as_ref().map(|t| t.index)).collect()
     }
 }
 
 /// The parsed rows of a text file (or of a block of it).
-struct Samples<L> {
+struct Samples {
     columns: Vec<Vec<f64>>,
     /// The time column in seconds.
     time: Option<Vec<f64>>,
-    lines: L,
+    lines: LineMap,
 }
 
-impl<L: RowLines> Samples<L> {
+impl Samples {
     fn new(plan: &TextPlan) -> Self {
         Self::with_capacity(plan, 0)
     }
@@ -562,8 +554,20 @@ impl<L: RowLines> Samples<L> {
         Self {
             columns: vec![Vec::with_capacity(rows); plan.columns.len()],
             time: plan.time.as_ref().map(|_| Vec::with_capacity(rows)),
-            lines: L::default(),
+            lines: LineMap::default(),
         }
+    }
+
+    /// Appends the rows of `part`, whose line numbers start `line_offset`
+    /// lines later than it says.
+    fn append(&mut self, part: Samples, line_offset: usize) {
+        for (all, more) in self.columns.iter_mut().zip(part.columns) {
+            all.extend_from_slice(&more);
+        }
+        if let (Some(all), Some(more)) = (self.time.as_mut(), part.time) {
+            all.extend_from_slice(&more);
+        }
+        self.lines.append(part.lines, line_offset);
     }
 
     /// Parses the planned fields of the row on `line`.
@@ -588,6 +592,18 @@ impl<L: RowLines> Samples<L> {
         self.lines.push(line);
         Ok(())
     }
+
+    /// Appends a row of values read by the fast path, in the slots of
+    /// [`TextPlan::fields`].
+    fn push_values(&mut self, plan: &TextPlan, values: &[f64], line: usize) {
+        for (column, &value) in self.columns.iter_mut().zip(values) {
+            column.push(value);
+        }
+        if let (Some(tc), Some(t)) = (&plan.time, self.time.as_mut()) {
+            t.push(values[self.columns.len()] * tc.unit.0.seconds());
+        }
+        self.lines.push(line);
+    }
 }
 
 /// Parses the planned columns of every row from the current one on: the
@@ -597,7 +613,7 @@ fn read_rows<R: BufRead>(
     have: bool,
     plan: &TextPlan,
     source: &str,
-) -> Result<Samples<LineMap>, InputError> {
+) -> Result<Samples, InputError> {
     let mut samples = Samples::new(plan);
     if !have {
         return Ok(samples);
@@ -643,135 +659,157 @@ struct LineParser<'a> {
     delimiter: Delimiter,
 }
 
-impl<R: BufRead> Blocks<'_, R> {
-    fn read_into(&mut self, samples: &mut Samples<LineMap>) -> Result<(), InputError> {
-        let source = self.parser.source;
-        let io_err = |e: std::io::Error| InputError::new(source, format!("cannot read: {e}"));
-        // One buffer for the whole file (grown only for a line longer than
-        // a block); the unfinished last line of a block moves to its front.
-        let mut buf = vec![0u8; BLOCK_BYTES];
-        let mut carried = 0;
-        let mut next_line = self.lines_read + 1;
-        loop {
-            if carried == buf.len() {
-                buf.resize(carried + BLOCK_BYTES, 0);
-            }
-            let mut filled = carried;
-            let eof = loop {
-                match std::io::Read::read(&mut self.reader, &mut buf[filled..]) {
-                    Ok(0) => break true,
-                    Ok(n) => filled += n,
-                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                    Err(e) => return Err(io_err(e)),
-                }
-                if filled == buf.len() {
-                    break false;
-                }
-            };
-            let whole = match memchr::memrchr(b'\n', &buf[..filled]) {
-                _ if eof => filled,
-                Some(i) => i + 1,
-                None if filled > MAX_LINE_BYTES => {
-                    return Err(InputError::new(
-                        source,
-                        format!("line {next_line} is longer than {MAX_LINE_BYTES} bytes"),
-                    ));
-                }
-                None => {
-                    carried = filled;
-                    continue;
-                }
-            };
-            next_line += self.parse(&buf[..whole], next_line, samples)?;
-            buf.copy_within(whole..filled, 0);
-            carried = filled - whole;
-            if eof {
-                return Ok(());
-            }
-        }
-    }
+/// A block of the file in a buffer: whole lines up to `whole`, then the
+/// start of a line that the next block finishes, up to `filled`.
+struct Block {
+    whole: usize,
+    filled: usize,
+    eof: bool,
+}
 
-    /// Parses the whole lines `text`, the first of them line `first`, into
-    /// `samples`; the number of lines.
-    fn parse(
-        &self,
-        text: &[u8],
-        first: usize,
-        samples: &mut Samples<LineMap>,
-    ) -> Result<usize, InputError> {
-        let parser = &self.parser;
-        let parts = cut_at_lines(text, self.workers, PARALLEL_BYTES);
-        let [head, tail @ ..] = &parts[..] else {
-            return Ok(0);
+impl<R: BufRead> Blocks<'_, R> {
+    /// Reads the file block by block. The worker threads parse each block
+    /// while this thread reads the next one into the other buffer and
+    /// appends the rows of the block before.
+    fn read_into(&mut self, samples: &mut Samples) -> Result<(), InputError> {
+        let Self {
+            parser,
+            reader,
+            lines_read,
+            workers,
+        } = self;
+        let (parser, workers) = (&*parser, *workers);
+        let mut bufs = [vec![0u8; BLOCK_BYTES], vec![0u8; BLOCK_BYTES]];
+        let mut next_line = *lines_read + 1;
+        let first = next_line;
+        let mut block = read_block(reader, &mut bufs[0], 0, parser.source, &|| first)?;
+        // Parsed pieces not yet appended, with the file line of their first.
+        let mut pending: Vec<(Samples, usize)> = Vec::new();
+        for turn in 0.. {
+            let [a, b] = &mut bufs;
+            let (buf, spare) = if turn % 2 == 0 { (a, b) } else { (b, a) };
+            let text = &buf[..block.whole];
+            let pieces = cut_at_lines(text, workers, PARALLEL_BYTES);
+            // At the end of the file this thread has nothing to read: it
+            // parses the first piece itself.
+            let (own, others) = match pieces.split_first() {
+                Some((first, rest)) if block.eof => (Some(*first), rest),
+                _ => (None, &pieces[..]),
+            };
+            let (parsed, next) = std::thread::scope(|scope| {
+                let handles: Vec<_> = others
+                    .iter()
+                    .map(|&piece| scope.spawn(move || parser.parse_piece(piece)))
+                    .collect();
+                let next = (!block.eof).then(|| {
+                    let carry = block.filled - block.whole;
+                    spare[..carry].copy_from_slice(&buf[block.whole..block.filled]);
+                    let line = || next_line + count_lines(text);
+                    read_block(reader, spare, carry, parser.source, &line)
+                });
+                for (part, line) in pending.drain(..) {
+                    samples.append(part, line);
+                }
+                let own = own.map(|piece| parser.parse_piece(piece));
+                let joined = handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)));
+                (own.into_iter().chain(joined).collect::<Vec<_>>(), next)
+            });
+            for piece in parsed {
+                let (part, lines) = piece.map_err(|mut e| {
+                    e.line = e.line.map(|l| l + next_line);
+                    e
+                })?;
+                pending.push((part, next_line));
+                next_line += lines;
+            }
+            match next {
+                Some(next) => block = next?,
+                None => break,
+            }
+        }
+        for (part, line) in pending {
+            samples.append(part, line);
+        }
+        Ok(())
+    }
+}
+
+/// Reads into `buf` after the `carried` bytes already at its front until
+/// it is full or the input ends; grows `buf` only for a line longer than
+/// it. `first_line` finds the line the block starts with (for the message).
+fn read_block<R: BufRead>(
+    reader: &mut rows::Input<R>,
+    buf: &mut Vec<u8>,
+    carried: usize,
+    source: &str,
+    first_line: &dyn Fn() -> usize,
+) -> Result<Block, InputError> {
+    let mut filled = carried;
+    loop {
+        if filled == buf.len() {
+            if filled > MAX_LINE_BYTES {
+                return Err(InputError::new(
+                    source,
+                    format!(
+                        "line {} is longer than {MAX_LINE_BYTES} bytes",
+                        first_line()
+                    ),
+                ));
+            }
+            buf.resize(filled + BLOCK_BYTES, 0);
+        }
+        let eof = loop {
+            match std::io::Read::read(reader, &mut buf[filled..]) {
+                Ok(0) => break true,
+                Ok(n) => filled += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(InputError::new(source, format!("cannot read: {e}"))),
+            }
+            if filled == buf.len() {
+                break false;
+            }
         };
-        if tail.is_empty() {
-            return parser.parse_part(text, first, samples);
-        }
-        // Each piece's first line, from the line counts of those before it.
-        let counts: Vec<usize> = parts.iter().map(|p| count_lines(p)).collect();
-        let firsts = counts.iter().scan(first, |next, &n| {
-            let line = *next;
-            *next += n;
-            Some(line)
-        });
-        // The first piece is parsed here, straight into `samples`; the
-        // others on threads of their own, into vectors sized for them.
-        let (own, others) = std::thread::scope(|scope| {
-            let handles: Vec<_> = tail
-                .iter()
-                .zip(firsts.skip(1))
-                .zip(&counts[1..])
-                .map(|((part, line), &rows)| {
-                    scope.spawn(move || {
-                        let mut out: Samples<Vec<usize>> =
-                            Samples::with_capacity(parser.plan, rows);
-                        parser.parse_part(part, line, &mut out).map(|_| out)
-                    })
-                })
-                .collect();
-            let own = parser.parse_part(head, first, samples);
-            let others: Vec<_> = handles
-                .into_iter()
-                .map(|h| {
-                    h.join()
-                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-                })
-                .collect();
-            (own, others)
-        });
-        own?;
-        for part in others {
-            let part = part?;
-            for (all, more) in samples.columns.iter_mut().zip(part.columns) {
-                all.extend_from_slice(&more);
-            }
-            if let (Some(all), Some(more)) = (samples.time.as_mut(), part.time) {
-                all.extend_from_slice(&more);
-            }
-            for line in part.lines {
-                samples.lines.push(line);
-            }
-        }
-        Ok(counts.iter().sum())
+        let whole = match memchr::memrchr(b'\n', &buf[..filled]) {
+            _ if eof => filled,
+            Some(i) => i + 1,
+            None => continue,
+        };
+        return Ok(Block { whole, filled, eof });
     }
 }
 
 impl LineParser<'_> {
-    /// Parses the lines of `text` (the first is line `first`) one by one;
-    /// the number of lines.
-    fn parse_part<L: RowLines>(
-        &self,
-        text: &[u8],
-        first: usize,
-        out: &mut Samples<L>,
-    ) -> Result<usize, InputError> {
+    /// Parses the lines of `piece`, numbered from 0; the rows and the
+    /// number of lines.
+    fn parse_piece(&self, piece: &[u8]) -> Result<(Samples, usize), InputError> {
+        let mut out = Samples::with_capacity(self.plan, estimate_lines(piece));
+        let lines = self.parse_lines(piece, &mut out)?;
+        Ok((out, lines))
+    }
+
+    /// Parses the lines of `text` one by one into `out`, numbering them
+    /// from 0; the number of lines.
+    fn parse_lines(&self, text: &[u8], out: &mut Samples) -> Result<usize, InputError> {
         // A splitter of its own: a clone of csv-core's reader does not
         // unquote (csv-core 0.1.13), so each piece builds one.
         let mut split = rows::Split::new(self.delimiter);
         let mut fields = rows::Fields::default();
+        let plain = plain::PlainLine::new(self.delimiter, &self.plan.fields());
+        let mut values = vec![0.0; self.plan.columns.len() + 1];
         let mut start = 0;
-        let mut line = first;
+        let mut line = 0;
         while start < text.len() {
+            let fast = plain
+                .as_ref()
+                .and_then(|p| p.parse(&text[start..], &mut values));
+            if let Some(len) = fast {
+                out.push_values(self.plan, &values, line);
+                start += len;
+                line += 1;
+                continue;
+            }
             let end = memchr::memchr(b'\n', &text[start..]).map_or(text.len(), |i| start + i + 1);
             let row = rows::strip_line_end(&text[start..end]);
             let kept = split
@@ -784,8 +822,16 @@ impl LineParser<'_> {
             start = end;
             line += 1;
         }
-        Ok(line - first)
+        Ok(line)
     }
+}
+
+/// About the number of lines in `text` (a few more), from the lines in
+/// its first 64 KiB: the vectors of a piece are sized once.
+fn estimate_lines(text: &[u8]) -> usize {
+    let sample = &text[..text.len().min(1 << 16)];
+    let lines = count_lines(sample).max(1);
+    (text.len() / sample.len().max(1) + 1) * lines * 21 / 20 + 16
 }
 
 /// Lines in `text`: its line ends, and one more for a last line without one.

@@ -103,6 +103,22 @@ impl LineMap {
         self.last_line = line;
     }
 
+    /// Appends the rows of `other`, whose lines are numbered
+    /// `line_offset` lower than they are in the file.
+    pub(super) fn append(&mut self, other: LineMap, line_offset: usize) {
+        for (row, line) in other.runs {
+            let line = line + line_offset;
+            // A run that goes on from this map's last line is no new run.
+            if !(row == 0 && self.rows > 0 && line == self.last_line + 1) {
+                self.runs.push((self.rows + row, line));
+            }
+        }
+        if other.rows > 0 {
+            self.rows += other.rows;
+            self.last_line = other.last_line + line_offset;
+        }
+    }
+
     pub(super) fn line(&self, row: usize) -> usize {
         let at = self.runs.partition_point(|&(r, _)| r <= row) - 1;
         let (start_row, start_line) = self.runs[at];
