@@ -12,7 +12,7 @@ median of several runs after one warm-up:
 * numpy `loadtxt`, in this process (read alone);
 * for each fts binary given, the whole process `fts identify arx RECORD
   --na 5 --nb 5 --nk 5` (read, ARX, fits, residual tests, report), wall
-  time, and its peak resident memory (from `wait4`).
+  time, and its peak resident memory (GNU time's `%M`).
 
 The fts rows are whole processes (start-up included), the Python rows are
 the read alone (interpreter and import excluded): the comparison favours
@@ -36,17 +36,19 @@ def median_time(run, runs):
 
 
 def process(argv, runs):
-    """Median wall time and the largest peak RSS (MiB) of a whole process."""
+    """Median wall time and the largest peak RSS (MiB) of a whole process,
+    the peak as GNU time reports it (a forked Python child would carry the
+    interpreter's own high-water mark into `wait4`'s figure)."""
+    timed = ["/usr/bin/time", "-f", "%M"] + argv
     subprocess.run(argv, stdout=subprocess.DEVNULL, check=True)
     walls, peaks = [], []
     for _ in range(runs):
         start = time.perf_counter()
-        child = subprocess.Popen(argv, stdout=subprocess.DEVNULL)
-        _, status, usage = os.wait4(child.pid, 0)
+        done = subprocess.run(timed, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         walls.append(time.perf_counter() - start)
-        peaks.append(usage.ru_maxrss / 1024)
-        if status != 0:
-            sys.exit(f"{argv[0]} failed with status {status}")
+        if done.returncode != 0:
+            sys.exit(f"{argv[0]} failed: {done.stderr.strip()}")
+        peaks.append(int(done.stderr.strip().splitlines()[-1]) / 1024)
     return statistics.median(walls), max(peaks)
 
 

@@ -1,7 +1,8 @@
 //! Reading a measured record: a 1e6-row, 3-column comma CSV (t, u, y with
 //! full-precision floats, about 60 MB), as `fts identify` reads it (open,
 //! stream, parse, check the time column), beside reading the same bytes
-//! without parsing (the floor any reader pays). Target: <= 0.3 s.
+//! without parsing (the floor any reader pays) and parsing its numbers
+//! alone on one thread. Target: <= 0.3 s.
 //! Whole-process figures (`fts identify arx` on the same file, numpy's
 //! `loadtxt`, `wc -l`) are in docs/benchmarks.md.
 
@@ -42,6 +43,25 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("read_bytes_only", |b| {
         b.iter(|| black_box(std::fs::read(&path).unwrap()))
+    });
+    // The numbers alone, one thread: the floor of parsing every digit
+    // (fast-float2, as the reader and polars parse them).
+    let text = std::fs::read(&path).unwrap();
+    let fields: Vec<&[u8]> = text
+        .split(|&b| b == b'\n')
+        .skip(1)
+        .flat_map(|line| line.split(|&b| b == b','))
+        .filter(|f| !f.is_empty())
+        .collect();
+    eprintln!("numbers: {}", fields.len());
+    g.bench_function("parse_numbers_only_one_thread", |b| {
+        b.iter(|| {
+            let mut sum = 0.0;
+            for f in &fields {
+                sum += fast_float2::parse::<f64, _>(f).unwrap();
+            }
+            black_box(sum)
+        })
     });
     g.finish();
 }
