@@ -41,6 +41,17 @@ fn assert_only(dir: &Path, expected: &[&str]) {
     assert_eq!(names, expected);
 }
 
+/// A deterministic white sequence on [0, 1) (64-bit LCG) from `seed`.
+fn unit_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// `t,u,y` CSV of the \[Li21\] closed loop driven by a 0-1 kHz sweep, with
 /// white measurement noise of standard deviation `noise` on `y`.
 fn li21_csv(n: usize, noise: f64) -> String {
@@ -56,13 +67,7 @@ fn li21_csv(n: usize, noise: f64) -> String {
     })
     .unwrap();
     let y = filter_ab(&LI21_B, &LI21_A, 5, &u);
-    let mut s = 0x1234_5678u64;
-    let mut uni = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut uni = unit_uniform(0x1234_5678);
     let mut out = String::from("t,u,y\n");
     for k in 0..u.len() {
         let e = (0..12).map(|_| uni()).sum::<f64>() - 6.0;
@@ -270,13 +275,8 @@ fn output_noise_arx_flagged_oe_and_iv_summaries() {
 #[test]
 fn residual_cross_correlation_names_the_missed_lag() {
     let dir = tempfile::tempdir().unwrap();
-    let mut s = 0x2545_f491_4f6c_dd1du64;
-    let mut uni = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut unit = unit_uniform(0x2545_f491);
+    let mut uni = move || unit() - 0.5;
     let n = 20_000;
     let u: Vec<f64> = (0..n).map(|_| uni()).collect();
     let mut text = String::from("u,y\n");
