@@ -108,6 +108,7 @@ run_checks! {
         keep_rows_cuts_both_signals_or_refuses,
         classic_mac_line_ends_and_quotes_within_a_line,
         records_read_in_blocks_and_pieces_keep_order_and_lines, pieces_are_whole_lines,
+        long_lines_grow_the_buffers,
         numbers_parse_as_rust_parses_them,
         plain_lines_read_as_the_general_path_reads_them],
     io_zpetc_json: [round_trip_is_exact, an_absurd_preview_is_refused, errors_name_their_path,

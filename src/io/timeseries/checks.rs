@@ -332,6 +332,52 @@ pub fn records_read_in_blocks_and_pieces_keep_order_and_lines() {
     );
 }
 
+/// Lines longer than a block grow the buffers, and the unfinished line at
+/// the end of a grown buffer moves whole into the other one, however much
+/// smaller that one is.
+pub fn long_lines_grow_the_buffers() {
+    const MIB: usize = 1 << 20;
+    let mut text = String::from("u,y,z\n");
+    // Short rows up to byte `until` of the file, and a long line of `bytes`.
+    let mut rows = 0;
+    let mut short = |text: &mut String, until: usize| {
+        while text.len() < until {
+            text.push_str(&format!("{rows},{},0\n", -(rows as f64)));
+            rows += 1;
+        }
+    };
+    let long = |text: &mut String, bytes: usize| {
+        text.push_str("7,8,");
+        text.push_str(&"x".repeat(bytes));
+        text.push('\n');
+    };
+    // The 20 MiB line grows one buffer to 24 MiB; that buffer's next turn
+    // ends 22 MiB into the 30 MiB line, more than the other buffer holds.
+    short(&mut text, MIB);
+    long(&mut text, 20 * MIB);
+    short(&mut text, 36 * MIB);
+    long(&mut text, 30 * MIB);
+    short(&mut text, 68 * MIB);
+    let d = io(&text, &IoColumns::default()).unwrap();
+    let values: Vec<(f64, f64)> = d
+        .input
+        .iter()
+        .copied()
+        .zip(d.output.iter().copied())
+        .collect();
+    let expected: Vec<(f64, f64)> = text
+        .lines()
+        .skip(1)
+        .map(|line| {
+            let mut f = line.split(',');
+            let u: f64 = f.next().unwrap().parse().unwrap();
+            (u, f.next().unwrap().parse().unwrap())
+        })
+        .collect();
+    assert_eq!(values.len(), expected.len());
+    assert!(values == expected);
+}
+
 pub fn pieces_are_whole_lines() {
     let text = b"a\nbb\nccc\ndddd\neeeee\n";
     for parts in 1..6 {

@@ -702,7 +702,11 @@ impl<R: BufRead> Blocks<'_, R> {
                     .map(|&piece| scope.spawn(move || parser.parse_piece(piece)))
                     .collect();
                 let next = (!block.eof).then(|| {
+                    // A long line may have grown `buf` past `spare`.
                     let carry = block.filled - block.whole;
+                    if spare.len() < carry {
+                        spare.resize(carry, 0);
+                    }
                     spare[..carry].copy_from_slice(&buf[block.whole..block.filled]);
                     let line = || next_line + count_lines(text);
                     read_block(reader, spare, carry, parser.source, &line)
