@@ -3,6 +3,7 @@
 //! naming the problem and leaving no output file.
 
 use crate::common::cmd::{fts, json_of, predicate};
+use crate::common::unit_uniform;
 use fts::ident::excite::{SweepParams, SweepSpacing, sweep};
 use fts::ident::linear::filter_ab;
 use serde_json::Value;
@@ -39,17 +40,6 @@ fn assert_only(dir: &Path, expected: &[&str]) {
     let mut expected: Vec<String> = expected.iter().map(|s| s.to_string()).collect();
     expected.sort();
     assert_eq!(names, expected);
-}
-
-/// A deterministic white sequence on [0, 1) (64-bit LCG) from `seed`.
-fn unit_uniform(seed: u64) -> impl FnMut() -> f64 {
-    let mut s = seed;
-    move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    }
 }
 
 /// `t,u,y` CSV of the \[Li21\] closed loop driven by a 0-1 kHz sweep, with

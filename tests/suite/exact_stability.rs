@@ -221,13 +221,7 @@ fn tf_info_certifies_high_degrees_and_says_when_it_cannot() {
     // Degree 60, poles of modulus 0.7-0.99 with full-mantissa
     // coefficients: beyond the exact test's budget, settled by the
     // certified inclusion discs.
-    let mut seed = 3u64;
-    let mut rnd = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rnd = crate::common::unit_uniform(3);
     let pairs: Vec<(f64, f64)> = (0..30)
         .map(|_| (0.7 + 0.29 * rnd(), std::f64::consts::PI * rnd()))
         .collect();

@@ -120,16 +120,11 @@ fn exact_recovery_for_each_model_and_operator() {
 fn gradient_descent_reaches_least_squares_cost() {
     let u = excitation();
     let truth = model(ModelKind::MpiCbrt, PlayOperator::Lower, &u, 10);
-    let mut seed = 11u64;
+    let mut uni = crate::common::unit_uniform(11);
     let y: Vec<f64> = truth
         .simulate(&u)
         .into_iter()
-        .map(|v| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            v + 0.05 * ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
-        })
+        .map(|v| v + 0.05 * (uni() - 0.5))
         .collect();
     for kind in [ModelKind::Pi, ModelKind::MpiCbrt] {
         let ls = identify(

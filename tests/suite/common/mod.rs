@@ -1,4 +1,5 @@
-//! Shared helpers: property-test configuration and the C compiler driver.
+//! Shared helpers: property-test configuration, a seeded uniform sequence
+//! and the C compiler driver.
 
 use proptest::prelude::ProptestConfig;
 use proptest::test_runner::RngSeed;
@@ -22,5 +23,18 @@ pub fn proptest_config(cases: u32) -> ProptestConfig {
         ..ProptestConfig::default()
     }
 }
+
+/// A deterministic white sequence on [0, 1) from `seed` (64-bit LCG, the
+/// top 53 bits of each new state).
+pub fn unit_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 pub mod cc;
 pub mod cmd;
