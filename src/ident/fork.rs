@@ -14,8 +14,10 @@ pub(crate) fn join<A: Send, B>(
     a: impl FnOnce() -> A + Send,
     b: impl FnOnce() -> B,
 ) -> (A, B) {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    if samples < PARALLEL_SAMPLES || cores < 2 {
+    // The core count is asked only for a long record (it reads the
+    // process's CPU limits).
+    let one_core = || std::thread::available_parallelism().map_or(true, |n| n.get() < 2);
+    if samples < PARALLEL_SAMPLES || one_core() {
         return (a(), b());
     }
     std::thread::scope(|scope| {

@@ -3,7 +3,7 @@
 //! estimated initial conditions (MATLAB `compare`), the simulation and
 //! one-step prediction fits, and the residual tests (MATLAB `resid`).
 
-use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, triangularize};
+use super::ls::{DEFAULT_BLOCK_ROWS, dot, solve_triangle, triangularize};
 use super::metrics::nrmse_fit_percent;
 use crate::lti::{DiscreteTf, TfError};
 
@@ -470,10 +470,10 @@ pub fn fits_and_residuals(
     // The ARX predictor does not wait for the simulations.
     let prediction =
         || (noise == NoiseModel::Arx).then(|| model.predict_arx(u, y).split_off(start));
-    let ((sim0, sim_ic), pred) = super::fork::join(y.len(), simulations, prediction);
-    let pred = pred.unwrap_or_else(|| sim_ic.clone());
+    let ((sim0, sim_ic), arx_pred) = super::fork::join(y.len(), simulations, prediction);
+    let pred = arx_pred.as_deref().unwrap_or(&sim_ic);
     let yy = &y[start..];
-    let residuals: Vec<f64> = yy.iter().zip(&pred).map(|(a, b)| a - b).collect();
+    let residuals: Vec<f64> = yy.iter().zip(pred).map(|(a, b)| a - b).collect();
     let mse = if yy.is_empty() {
         f64::NAN
     } else {
@@ -482,7 +482,7 @@ pub fn fits_and_residuals(
     let fits = Fits {
         simulation_percent: nrmse_fit_percent(y, &sim_ic),
         simulation_zero_ic_percent: nrmse_fit_percent(y, &sim0),
-        prediction_percent: nrmse_fit_percent(yy, &pred),
+        prediction_percent: nrmse_fit_percent(yy, pred),
         prediction_mse: mse,
     };
     FitResiduals {
@@ -527,7 +527,7 @@ pub const Z99: f64 = 2.575_829_303_548_901;
 /// `r(t) = sum_k a(k) b(k - t) / N` for `t = 0..=lags`.
 ///
 /// One pass over blocks of samples that stay in cache: each block adds its
-/// contribution to every lag through [`dot`], whose eight independent
+/// contribution to every lag through `ls::dot`, whose eight independent
 /// partial sums vectorise. Lag by lag, a sequential sum runs at one addition
 /// per add latency and reads the record once per lag.
 fn lagged_xcorr(a: &[f64], b: &[f64], lags: usize) -> Vec<f64> {
@@ -539,26 +539,12 @@ fn lagged_xcorr(a: &[f64], b: &[f64], lags: usize) -> Vec<f64> {
         for (t, sum) in sums.iter_mut().enumerate() {
             let lo = start.max(t);
             if lo < end {
-                *sum += dot(&a[lo..end], &b[lo - t..end - t]);
+                *sum += dot::<false>(&a[lo..end], &b[lo - t..end - t]);
             }
         }
     }
     let scale = 1.0 / n.max(1) as f64;
     sums.iter().map(|s| s * scale).collect()
-}
-
-/// `a . b` with eight partial sums (equal lengths).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let (a8, a_rest) = a.as_chunks::<8>();
-    let (b8, b_rest) = b.as_chunks::<8>();
-    let mut acc = [0.0; 8];
-    for (x, y) in a8.iter().zip(b8) {
-        for i in 0..8 {
-            acc[i] += x[i] * y[i];
-        }
-    }
-    let rest: f64 = a_rest.iter().zip(b_rest).map(|(x, y)| x * y).sum();
-    acc.iter().sum::<f64>() + rest
 }
 
 /// The residual tests of [`Whiteness`] for residuals `e` and input `u`.

@@ -738,9 +738,11 @@ fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
 }
 
 /// Dot product with eight accumulators so the compiler can vectorise it
-/// without reassociating a single sum.
+/// without reassociating a single sum (`FMA`: fused multiply-adds, only
+/// where the CPU has them). Shared by the QR fold, the residual tests'
+/// correlations and the gradient identification.
 #[inline(always)]
-fn dot<const FMA: bool>(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn dot<const FMA: bool>(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
     let mut acc = [0.0f64; 8];

@@ -23,6 +23,7 @@
 //! Hessian's diagonal one, which the play-operator regressors (columns of very
 //! different size, e.g. an offset column of ones next to volts) badly need.
 
+use crate::ident::ls::dot;
 use argmin::core::observers::{Observe, ObserverMode};
 use argmin::core::{
     Error as ArgminError, Executor, IterState, KV, Problem, Solver, State, TerminationReason,
@@ -256,18 +257,18 @@ impl ExactStepLbfgs {
         d.copy_from_slice(&self.g);
         for k in 0..self.held {
             let slot = (self.newest + m - k) % m;
-            let a = self.rho[slot] * dot(&self.s[row(slot)], d);
+            let a = self.rho[slot] * dot::<false>(&self.s[row(slot)], d);
             axpy(-a, &self.y[row(slot)], d);
             self.alpha[slot] = a;
         }
         if self.held > 0 {
             let (s, y) = (&self.s[row(self.newest)], &self.y[row(self.newest)]);
-            let gamma = dot(s, y) / dot(y, y);
+            let gamma = dot::<false>(s, y) / dot::<false>(y, y);
             d.iter_mut().for_each(|v| *v *= gamma);
         }
         for k in (0..self.held).rev() {
             let slot = (self.newest + m - k) % m;
-            let b = self.rho[slot] * dot(&self.y[row(slot)], d);
+            let b = self.rho[slot] * dot::<false>(&self.y[row(slot)], d);
             axpy(self.alpha[slot] - b, &self.s[row(slot)], d);
         }
         d.iter_mut().for_each(|v| *v = -*v);
@@ -289,7 +290,7 @@ impl ExactStepLbfgs {
             *si = alpha * di;
         }
         problem.apply_transpose(&self.rd_d, alpha * problem.inv_rows, y);
-        let sy = dot(s, y);
+        let sy = dot::<false>(s, y);
         if sy > 0.0 && sy.is_finite() {
             self.rho[slot] = 1.0 / sy;
             self.newest = slot;
@@ -305,15 +306,15 @@ impl ExactStepLbfgs {
     /// exact step length along it.
     fn step(&mut self, problem: &TriangularLeastSquares) {
         self.direction();
-        let mut slope = dot(&self.g, &self.d);
+        let mut slope = dot::<false>(&self.g, &self.d);
         let descends = slope < 0.0;
         if !descends {
             self.held = 0;
             self.d.iter_mut().zip(&self.g).for_each(|(d, g)| *d = -g);
-            slope = -dot(&self.g, &self.g);
+            slope = -dot::<false>(&self.g, &self.g);
         }
         problem.apply(&self.d, &mut self.rd_d);
-        let curvature = dot(&self.rd_d, &self.rd_d) * problem.inv_rows;
+        let curvature = dot::<false>(&self.rd_d, &self.rd_d) * problem.inv_rows;
         if curvature > 0.0 && curvature.is_finite() && slope < 0.0 {
             let alpha = -slope / curvature;
             axpy(alpha, &self.d, &mut self.x);
@@ -326,7 +327,7 @@ impl ExactStepLbfgs {
         let cost = problem.evaluate(&self.x, &mut self.e, &mut self.g);
         self.cost_change = (self.cost - cost).abs();
         self.cost = cost;
-        self.grad_norm = dot(&self.g, &self.g).sqrt();
+        self.grad_norm = dot::<false>(&self.g, &self.g).sqrt();
         if cost < self.best_cost {
             self.best_cost = cost;
             self.best.copy_from_slice(&self.x);
@@ -349,10 +350,6 @@ impl ExactStepLbfgs {
         })?;
         Ok((state.cost(self.cost), None))
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
@@ -413,7 +410,7 @@ where
     let p = problem.unknowns();
     let zeros = vec![0.0; p];
     let (cost0, g0) = problem.cost_and_gradient(&zeros);
-    let g0_norm = dot(&g0, &g0).sqrt();
+    let g0_norm = dot::<false>(&g0, &g0).sqrt();
     // x = w / D in the scaled unknowns.
     let x0 = match start {
         Some(w) if w.len() == p => w.iter().zip(&problem.scale).map(|(w, d)| w / d).collect(),
