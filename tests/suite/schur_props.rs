@@ -299,3 +299,39 @@ mod fixed {
         assert!((r[(0, 0)].norm() - 1.0).abs() < 1e-14);
     }
 }
+
+/// From `MULTISHIFT_FROM` (64) on the Schur form comes from the multishift
+/// QR algorithm with aggressive early deflation (faer's, vendored), which
+/// works in the lower triangle and switches to its blocked sweep at 75:
+/// the same checks on dense random matrices and on Hamiltonians
+/// `[A, -B B'; -C' C, -A']` (eigenvalues in pairs `+-lambda`, the stable
+/// half selected, as the Riccati solvers use it) across those sizes.
+#[test]
+fn multishift_sizes_factor_and_order_correctly() {
+    assert_eq!(fts::lti::schur::MULTISHIFT_FROM, 64);
+    let mut uniform = common::unit_uniform(20261129);
+    let mut next = move || 2.0 * uniform() - 1.0;
+    for n in [63, 64, 74, 75, 76, 100, 160] {
+        let a = Mat::from_fn(n, n, |_, _| next() / (n as f64).sqrt());
+        for (name, sel) in selectors() {
+            let s = ordered_real_schur(&a, &sel).unwrap_or_else(|e| panic!("n {n} {name}: {e}"));
+            check(&a, &s, &sel).unwrap_or_else(|e| panic!("n {n} {name}: {e}"));
+        }
+    }
+    for half in [32, 38, 50, 80] {
+        let a = Mat::from_fn(half, half, |_, _| next() / (half as f64).sqrt());
+        let b = Mat::from_fn(half, 2, |_, _| next());
+        let c = Mat::from_fn(2, half, |_, _| next());
+        let (g, q) = (&b * b.transpose(), c.transpose() * &c);
+        let h = Mat::from_fn(2 * half, 2 * half, |i, j| match (i < half, j < half) {
+            (true, true) => a[(i, j)],
+            (true, false) => -g[(i, j - half)],
+            (false, true) => -q[(i - half, j)],
+            (false, false) => -a[(j - half, i - half)],
+        });
+        let stable = |l: c64| l.re < 0.0;
+        let s = ordered_real_schur(&h, stable).unwrap_or_else(|e| panic!("H {half}: {e}"));
+        check(&h, &s, &stable).unwrap_or_else(|e| panic!("H {half}: {e}"));
+        assert_eq!(s.n_selected, half, "H {half}: half the spectrum is stable");
+    }
+}

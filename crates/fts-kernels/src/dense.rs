@@ -75,3 +75,15 @@ impl ColPivQrSolver {
         self.qr.solve(rhs)
     }
 }
+
+/// The LU factors (partial pivoting) of a complex matrix, for
+/// [`lu_c64_solve`]: one factorisation, many right-hand sides.
+pub fn lu_c64(m: MatRef<'_, c64>) -> faer::linalg::solvers::PartialPivLu<c64> {
+    m.partial_piv_lu()
+}
+
+/// `M^-1 B` from [`lu_c64`]'s factors of `M`.
+pub fn lu_c64_solve(lu: &faer::linalg::solvers::PartialPivLu<c64>, b: MatRef<'_, c64>) -> Mat<c64> {
+    use faer::linalg::solvers::Solve;
+    lu.solve(b)
+}
