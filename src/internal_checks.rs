@@ -85,3 +85,16 @@ pub use crate::workflow::identify_ct::checks as workflow_identify_ct;
 pub use crate::workflow::puu3::checks as workflow_puu3;
 pub use crate::workflow::simulate::checks as workflow_simulate;
 pub use crate::workflow::zpetc::checks as workflow_zpetc;
+
+/// A deterministic white sequence on [0, 1) from `seed` (64-bit LCG, the
+/// top 53 bits of each new state), for the library's checks and the
+/// integration suite alike.
+pub fn unit_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    }
+}

@@ -240,17 +240,25 @@ pub(crate) fn response_extended(
             x[i][c] = acc / w[i][i];
         }
     }
-    let out = Mat::from_fn(sys.c.nrows(), m, |i, j| {
+    output_extended(sys, |k, j| x[k][j])
+}
+
+/// `C x + D` in double-double from the state response `x(k, j)` (state
+/// `k`, input `j`), rounded; `None` unless finite.
+fn output_extended(
+    sys: &crate::lti::StateSpace,
+    x: impl Fn(usize, usize) -> num_complex::Complex<faer::fx128>,
+) -> Option<Mat<crate::lti::c64>> {
+    type Cx = num_complex::Complex<faer::fx128>;
+    let cx = |re: f64, im: f64| Cx::new(re.into(), im.into());
+    let out = Mat::from_fn(sys.c.nrows(), sys.b.ncols(), |i, j| {
         let mut acc = cx(sys.d[(i, j)], 0.0);
-        for (k, row) in x.iter().enumerate() {
-            acc += cx(sys.c[(i, k)], 0.0) * row[j];
+        for k in 0..sys.a.nrows() {
+            acc += cx(sys.c[(i, k)], 0.0) * x(k, j);
         }
         crate::lti::c64::new(acc.re.0 + acc.re.1, acc.im.0 + acc.im.1)
     });
-    let finite = out
-        .col_iter()
-        .all(|c| c.iter().all(|z| z.re.is_finite() && z.im.is_finite()));
-    finite.then_some(out)
+    out.is_all_finite().then_some(out)
 }
 
 /// [`response_extended`] by mixed-precision iterative refinement: `s I - A`
@@ -272,13 +280,7 @@ pub(crate) fn response_refined(
     let cx = |z: c64| Cx::new(z.re.into(), z.im.into());
     let round = |z: Cx| c64::new(z.re.0 + z.re.1, z.im.0 + z.im.1);
     let (n, m) = (sys.a.nrows(), sys.b.ncols());
-    let shifted = Mat::from_fn(n, n, |i, j| {
-        c64::new(
-            if i == j { s.re } else { 0.0 } - sys.a[(i, j)],
-            if i == j { s.im } else { 0.0 },
-        )
-    });
-    let lu = fts_kernels::dense::lu_c64(shifted.as_ref());
+    let lu = fts_kernels::dense::lu_c64(sys.shifted(s).as_ref());
     let b = Mat::from_fn(n, m, |i, j| c64::new(sys.b[(i, j)], 0.0));
     let first = fts_kernels::dense::lu_c64_solve(&lu, b.as_ref());
     let mut x: Vec<Cx> = (0..n * m).map(|k| cx(first[(k % n, k / n)])).collect();
@@ -294,29 +296,18 @@ pub(crate) fn response_refined(
         });
         let d = fts_kernels::dense::lu_c64_solve(&lu, residual.as_ref());
         let size = |z: c64| z.re.abs() + z.im.abs();
-        let dn = d
-            .col_iter()
-            .flat_map(|c| c.iter().map(|&z| size(z)).collect::<Vec<_>>())
-            .fold(0.0, f64::max);
+        let mut dn: f64 = 0.0;
         for (k, xk) in x.iter_mut().enumerate() {
-            *xk += cx(d[(k % n, k / n)]);
+            let dk = d[(k % n, k / n)];
+            dn = dn.max(size(dk));
+            *xk += cx(dk);
         }
         let xn = x.iter().map(|&z| size(round(z))).fold(0.0, f64::max);
         if !(dn.is_finite() && xn.is_finite()) || dn > 0.5 * previous {
             return None;
         }
         if dn <= 2f64.powi(-100) * xn {
-            let out = Mat::from_fn(sys.c.nrows(), m, |i, c| {
-                let mut acc = cx(c64::new(sys.d[(i, c)], 0.0));
-                for (k, xk) in x[c * n..(c + 1) * n].iter().enumerate() {
-                    acc += *xk * faer::fx128::from(sys.c[(i, k)]);
-                }
-                round(acc)
-            });
-            let finite = out
-                .col_iter()
-                .all(|c| c.iter().all(|z| z.re.is_finite() && z.im.is_finite()));
-            return finite.then_some(out);
+            return output_extended(sys, |k, j| x[j * n + k]);
         }
         previous = dn;
     }

@@ -7,7 +7,7 @@
 //! `O(n^2)` per column instead of the `O(n^3)` of a dense LU.
 
 use super::c64;
-use super::ss::{StateSpace, sigma_max_c, tr};
+use super::ss::{StateSpace, frequency_point, sigma_max_c, tr};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::hessenberg;
 use faer::linalg::householder;
@@ -98,11 +98,8 @@ impl HessenbergResponse {
     /// `sigma_max(G(j omega))` (`z = e^{j omega ts}` when discrete);
     /// infinite where `G` is not defined, as [`StateSpace::sigma_at`].
     pub fn sigma_at(&self, omega: f64) -> f64 {
-        let s = match self.ts {
-            None => c64::new(0.0, omega),
-            Some(t) => c64::from_polar(1.0, omega * t),
-        };
-        self.eval(s).map_or(f64::INFINITY, |g| sigma_max_c(&g))
+        self.eval(frequency_point(self.ts, omega))
+            .map_or(f64::INFINITY, |g| sigma_max_c(&g))
     }
 }
 
@@ -206,11 +203,7 @@ pub mod checks {
             for w in [0.0, 0.37, 3.0, 41.0, 900.0] {
                 let (dense, hess) = (
                     sys.freq_response(w).unwrap(),
-                    fast.eval(match ts {
-                        None => c64::new(0.0, w),
-                        Some(t) => c64::from_polar(1.0, w * t),
-                    })
-                    .unwrap(),
+                    fast.eval(frequency_point(ts, w)).unwrap(),
                 );
                 let err = (&dense - &hess).norm_l2() / dense.norm_l2();
                 assert!(err < 1e-12, "n {n}, w {w}: relative difference {err:e}");

@@ -23,7 +23,7 @@
 use super::c64;
 use super::lyapunov::{MatEqError, dlyap, lyap};
 use super::schur::gen_schur;
-use super::ss::{SsError, StateSpace, block2, eigvals, fro, inv, sigma_max, tr};
+use super::ss::{SsError, StateSpace, block2, eigvals, frequency_point, fro, inv, sigma_max, tr};
 use faer::Mat;
 use thiserror::Error;
 
@@ -495,11 +495,7 @@ fn enclosing(ws: &[f64], w: f64, top: f64) -> (f64, f64) {
 /// double-double arithmetic (`lti::accurate::response_extended`);
 /// infinite where `s I - A` is singular.
 pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
-    let p = match sys.ts {
-        None => c64::new(0.0, omega),
-        Some(t) => c64::from_polar(1.0, omega * t),
-    };
-    crate::lti::accurate::response_extended(sys, p)
+    crate::lti::accurate::response_extended(sys, frequency_point(sys.ts, omega))
         .map_or(f64::INFINITY, |g| crate::lti::ss::sigma_max_c(&g))
 }
 
@@ -509,11 +505,7 @@ pub fn sigma_extended(sys: &StateSpace, omega: f64) -> f64 {
 /// 1e-9 that [`confirm_extended`]'s probes decide on, in `O(n^3)` double
 /// and `O(n^2)` double-double work instead of `O(n^3)` double-double.
 fn sigma_refined(sys: &StateSpace, omega: f64) -> f64 {
-    let p = match sys.ts {
-        None => c64::new(0.0, omega),
-        Some(t) => c64::from_polar(1.0, omega * t),
-    };
-    crate::lti::accurate::response_refined(sys, p)
+    crate::lti::accurate::response_refined(sys, frequency_point(sys.ts, omega))
         .map(|g| crate::lti::ss::sigma_max_c(&g))
         .unwrap_or_else(|| sigma_extended(sys, omega))
 }

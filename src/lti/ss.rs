@@ -198,6 +198,15 @@ pub fn eigvals(m: &Mat<f64>) -> Result<Vec<c64>, SsError> {
     fts_kernels::dense::eigenvalues(m.as_ref()).map_err(|_| SsError::NoConvergence)
 }
 
+/// Where the frequency `omega` rad/s lies for a system sampled every `ts`
+/// seconds: `s = j omega`, or `z = e^{j omega ts}` when discrete.
+pub fn frequency_point(ts: Option<f64>, omega: f64) -> c64 {
+    match ts {
+        None => c64::new(0.0, omega),
+        Some(t) => c64::from_polar(1.0, omega * t),
+    }
+}
+
 /// Largest singular value of a complex matrix.
 pub fn sigma_max_c(m: &Mat<c64>) -> f64 {
     if m.nrows() == 0 || m.ncols() == 0 {
@@ -639,10 +648,7 @@ impl StateSpace {
         if n == 0 {
             return Ok(d);
         }
-        let m = Mat::from_fn(n, n, |i, j| {
-            let v = c64::new(-self.a[(i, j)], 0.0);
-            if i == j { v + s } else { v }
-        });
+        let m = self.shifted(s);
         let b = Mat::from_fn(n, self.nu(), |i, j| c64::new(self.b[(i, j)], 0.0));
         let x = fts_kernels::dense::lu_solve_c64(m.as_ref(), b.as_ref());
         if !x.is_all_finite() {
@@ -652,13 +658,17 @@ impl StateSpace {
         Ok(&c * &x + &d)
     }
 
+    /// `s I - A` in complex arithmetic.
+    pub(crate) fn shifted(&self, s: c64) -> Mat<c64> {
+        Mat::from_fn(self.nx(), self.nx(), |i, j| {
+            let v = c64::new(-self.a[(i, j)], 0.0);
+            if i == j { v + s } else { v }
+        })
+    }
+
     /// Frequency response at `omega` rad/s (`z = e^{j omega ts}` when discrete).
     pub fn freq_response(&self, omega: f64) -> Result<Mat<c64>, SsError> {
-        let p = match self.ts {
-            None => c64::new(0.0, omega),
-            Some(t) => c64::from_polar(1.0, omega * t),
-        };
-        self.eval(p)
+        self.eval(frequency_point(self.ts, omega))
     }
 
     /// Largest singular value of the frequency response at `omega` rad/s.

@@ -482,6 +482,7 @@ pub fn hurwitz_certified(descending: &[f64]) -> Option<bool> {
 #[doc(hidden)]
 pub mod checks {
     use super::*;
+    use crate::internal_checks::unit_uniform;
 
     /// Descending coefficients of `prod (x - r)`.
     fn expand(roots: &[f64]) -> Vec<f64> {
@@ -613,17 +614,6 @@ pub mod checks {
         }
     }
 
-    /// A small deterministic generator for the tests below.
-    fn lcg(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed;
-        move || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
-
     /// Descending coefficients of a real polynomial with the given real
     /// roots and complex pairs `r e^{±j theta}`.
     fn expand_pairs(real: &[f64], pairs: &[(f64, f64)]) -> Vec<f64> {
@@ -645,7 +635,7 @@ pub mod checks {
         // Random degrees 1..12, roots anywhere including near the circle
         // and clustered: wherever both decide they agree, and the certified
         // test decides the separated ones.
-        let mut rnd = lcg(11);
+        let mut rnd = unit_uniform(11);
         let (mut both, mut undecided) = (0, 0);
         for case in 0..2000 {
             let n = 1 + (rnd() * 12.0) as usize;
@@ -692,7 +682,7 @@ pub mod checks {
         // another seed, those of degree 60-80 were decided and most of
         // degree 100-160 were not. The argument principle decides those:
         // `winding_decides_degrees_100_to_160`.)
-        let mut rnd = lcg(5);
+        let mut rnd = unit_uniform(5);
         for n in [40usize, 60, 80] {
             let pairs: Vec<(f64, f64)> = (0..n / 2)
                 .map(|_| (0.7 + 0.29 * rnd(), std::f64::consts::PI * rnd()))
@@ -714,7 +704,7 @@ pub mod checks {
         // ten, up to |z| = 1.19, in 120-digit arithmetic), so the reference
         // is the companion matrix's eigenvalues, an independent method,
         // wherever they keep 1e-3 away from the circle.
-        let mut rnd = lcg(11);
+        let mut rnd = unit_uniform(11);
         let mut decided_by_winding = 0;
         for n in [100usize, 120, 140, 160] {
             let pairs: Vec<(f64, f64)> = (0..n / 2)

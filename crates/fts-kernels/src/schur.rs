@@ -499,21 +499,21 @@ pub fn schur(a: &Mat<f64>) -> Result<(Mat<c64>, Mat<c64>), SchurError> {
     let from_real = || -> Result<_, SchurError> {
         Ok(triangular_part(a, real_to_complex_schur(real_schur(a)?)))
     };
-    let (first, second): (&dyn Fn() -> _, &dyn Fn() -> _) = if n >= MULTISHIFT_FROM {
-        (&from_real, &from_qz)
+    let candidates: [&dyn Fn() -> _; 2] = if n >= MULTISHIFT_FROM {
+        [&from_real, &from_qz]
     } else {
-        (&from_qz, &from_real)
+        [&from_qz, &from_real]
     };
-    let (u, r) = first()?;
-    if r.1 <= schur_tolerance(a) {
-        return Ok((u, r.0));
-    }
-    let (u, r) = second()?;
-    if r.1 <= schur_tolerance(a) {
-        return Ok((u, r.0));
+    let mut dropped = 0.0;
+    for candidate in candidates {
+        let (u, (r, below)) = candidate()?;
+        if below <= schur_tolerance(a) {
+            return Ok((u, r));
+        }
+        dropped = below;
     }
     Err(SchurError::Inaccurate(
-        r.1 / fro_c(&cplx(a)).max(f64::MIN_POSITIVE),
+        dropped / fro_c(&cplx(a)).max(f64::MIN_POSITIVE),
     ))
 }
 
@@ -1007,7 +1007,7 @@ pub const MULTISHIFT_FROM: usize = 64;
 /// faer's own, after faer's blocked Hessenberg reduction), and verified:
 /// `||A Q - Q T||_F` must be rounding (at most `64 n eps ||A||_F`) and the
 /// algorithm must report convergence. Below that size, and for a form that
-/// fails either test, the double-shift QZ of `(A, I)` ([`real_schur_qz`]);
+/// fails either test, the double-shift QZ of `(A, I)` (`real_schur_qz`);
 /// never silently used.
 pub fn real_schur(a: &Mat<f64>) -> Result<RealSchur, SchurError> {
     let n = a.nrows();
@@ -1121,8 +1121,7 @@ fn standardised(mut rs: RealSchur) -> RealSchur {
 /// diagonal, so `Q^T A Q` is quasi-triangular; it is recomputed from `A` and
 /// the round-off below the block structure dropped. Three times the work of
 /// [`real_schur`]'s QR algorithm; the fallback when that one fails.
-#[doc(hidden)]
-pub fn real_schur_qz(a: &Mat<f64>) -> Result<RealSchur, SchurError> {
+fn real_schur_qz(a: &Mat<f64>) -> Result<RealSchur, SchurError> {
     let n = a.nrows();
     // (A, I): T is already triangular.
     let mut f = QzFactors {

@@ -24,17 +24,8 @@ pub fn proptest_config(cases: u32) -> ProptestConfig {
     }
 }
 
-/// A deterministic white sequence on [0, 1) from `seed` (64-bit LCG, the
-/// top 53 bits of each new state).
-pub fn unit_uniform(seed: u64) -> impl FnMut() -> f64 {
-    let mut s = seed;
-    move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+/// The library's deterministic white sequence on [0, 1) (64-bit LCG).
+pub use fts::internal_checks::unit_uniform;
 
 pub mod cc;
 pub mod cmd;
