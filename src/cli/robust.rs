@@ -13,9 +13,9 @@ use super::common::{
     write_atomic,
 };
 use crate::io::ss_json;
-use crate::lti::norms::{HinfNorm, NormError, h2_norm, hinf_norm_confirmed};
+use crate::lti::info::{SystemInfo, system_info};
+use crate::lti::norms::HinfNorm;
 use crate::lti::ss::StateSpace;
-use crate::lti::zeros::invariant_zeros;
 use crate::workflow::robust::poles_summary;
 use crate::workflow::{
     C2d, C2dMethodChoice, H2, Hinf, Mixsyn, MixsynInputs, Named, Validate, Weight, WeightShape,
@@ -349,15 +349,14 @@ pub fn run_ss_info(args: SsInfoArgs) -> anyhow::Result<()> {
         "ss-info",
     )
     .map_err(step_error)?;
-    let poles = sys.poles()?;
-    let stable = sys.is_stable()?;
-    let norm = |r: Result<f64, NormError>| match r {
-        Ok(x) if x.is_finite() => json!(x),
-        _ => Value::Null,
-    };
-    let h2 = norm(h2_norm(&sys));
-    let hinf = hinf_norm_confirmed(&sys, 1e-9).ok();
-    let zeros = invariant_zeros(&sys, None)?;
+    let SystemInfo {
+        poles,
+        stable,
+        zeros,
+        h2_norm,
+        hinf_norm: hinf,
+    } = system_info(&sys)?;
+    let h2 = h2_norm.map_or(Value::Null, |x| json!(x));
     if args.json {
         print_json(&json!({
             "states": sys.nx(), "inputs": sys.nu(), "outputs": sys.ny(), "ts": sys.ts,

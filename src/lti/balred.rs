@@ -14,9 +14,9 @@
 //! they are accurate), and if that fails too the reduction is marked
 //! untrusted with the error found.
 
-use super::lyapunov::lyap;
+use super::lyapunov::lyap_factor;
 use super::ss::{SsError, StateSpace, sigma_max_c, tr};
-use faer::{Mat, Side};
+use faer::Mat;
 
 /// A reduced model, the Hankel singular values and the error bound.
 #[derive(Debug, Clone)]
@@ -37,13 +37,21 @@ pub struct Reduced {
     pub trusted: bool,
 }
 
-fn sqrt_factor(p: &Mat<f64>) -> Result<Mat<f64>, SsError> {
-    let n = p.nrows();
-    let e = fts_kernels::dense::self_adjoint_eigen(p.as_ref(), Side::Lower)
-        .map_err(|_| SsError::NoConvergence)?;
-    let u = e.U();
-    let s = e.S().column_vector();
-    Ok(Mat::from_fn(n, n, |i, j| u[(i, j)] * s[j].max(0.0).sqrt()))
+/// A real factor `R` (`n x 2n`) of the Gramian `X = R R'` of
+/// `A X + X A' + B B' = 0`, from Hammarling's complex factor `L`
+/// (`X = Re(L L^H) = [Re L, Im L] [Re L, Im L]'`). Factored directly, the
+/// Gramian keeps its small directions (the square-root method's point);
+/// the eigenvalues of a computed `X` lose everything below `eps ||X||`.
+fn gramian_root(a: &Mat<f64>, b: &Mat<f64>) -> Result<Mat<f64>, SsError> {
+    let l = lyap_factor(a, b).map_err(|_| SsError::NoConvergence)?.l;
+    let n = l.nrows();
+    Ok(Mat::from_fn(n, 2 * n, |i, j| {
+        if j < n {
+            l[(i, j)].re
+        } else {
+            l[(i, j - n)].im
+        }
+    }))
 }
 
 /// Balanced truncation to `order` states (continuous, stable systems).
@@ -121,26 +129,25 @@ pub fn within_bound(error: f64, bound: f64, gain: f64) -> bool {
 /// the reduced system, the Hankel singular values and the bound.
 fn truncate(sys: &StateSpace, order: usize) -> Result<(StateSpace, Vec<f64>, f64), SsError> {
     let n = sys.nx();
-    let err = |_| SsError::NoConvergence;
-    let p = lyap(&sys.a, &(&sys.b * tr(&sys.b))).map_err(err)?.x;
-    let q = lyap(&tr(&sys.a), &(tr(&sys.c) * &sys.c)).map_err(err)?.x;
-    let lc = sqrt_factor(&p)?;
-    let lo = sqrt_factor(&q)?;
+    let lc = gramian_root(&sys.a, &sys.b)?;
+    let lo = gramian_root(&tr(&sys.a), &tr(&sys.c))?;
     let h = tr(&lo) * &lc;
     let svd = fts_kernels::dense::svd(h.as_ref()).map_err(|_| SsError::NoConvergence)?;
-    let s: Vec<f64> = (0..n).map(|i| svd.S().column_vector()[i]).collect();
-    let mut idx: Vec<usize> = (0..n).collect();
+    let s: Vec<f64> = (0..h.nrows()).map(|i| svd.S().column_vector()[i]).collect();
+    // `2n` singular values, of which the `n` largest are the Hankel ones.
+    let mut idx: Vec<usize> = (0..s.len()).collect();
     idx.sort_by(|&i, &j| s[j].total_cmp(&s[i]));
+    idx.truncate(n);
     let hsv: Vec<f64> = idx.iter().map(|&i| s[i]).collect();
     let r = order.min(hsv.iter().filter(|&&x| x > 1e-300).count());
     let (u, w) = (svd.U(), svd.V());
     let t = Mat::from_fn(n, r, |i, k| {
         let c = idx[k];
-        (0..n).map(|l| lc[(i, l)] * w[(l, c)]).sum::<f64>() / s[c].sqrt()
+        (0..lc.ncols()).map(|l| lc[(i, l)] * w[(l, c)]).sum::<f64>() / s[c].sqrt()
     });
     let ti = Mat::from_fn(r, n, |k, j| {
         let c = idx[k];
-        (0..n).map(|l| u[(l, c)] * lo[(j, l)]).sum::<f64>() / s[c].sqrt()
+        (0..lo.ncols()).map(|l| u[(l, c)] * lo[(j, l)]).sum::<f64>() / s[c].sqrt()
     });
     let red = StateSpace::new(
         &ti * &sys.a * &t,

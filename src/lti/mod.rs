@@ -8,6 +8,7 @@ pub mod convert;
 pub mod exact_response;
 pub mod filter;
 pub mod freqresp;
+pub mod info;
 pub mod lyapunov;
 pub mod margins;
 pub mod model_check;

@@ -21,8 +21,9 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::c64;
-use super::lyapunov::{MatEqError, dlyap, lyap};
-use super::schur::gen_schur;
+use super::freqresp::HessenbergResponse;
+use super::lyapunov::{MatEqError, dlyap_factor, lyap_factor};
+use super::schur::{cplx, gen_schur};
 use super::ss::{SsError, StateSpace, block2, eigvals, frequency_point, fro, inv, sigma_max, tr};
 use faer::Mat;
 use thiserror::Error;
@@ -52,47 +53,47 @@ pub enum NormError {
 /// Gramians with a worse relative residual are not trusted for a norm.
 const MAX_GRAMIAN_RESIDUAL: f64 = 1e-8;
 
-/// H2 norm (infinite for a continuous system with `D != 0`), from the
-/// controllability Gramian of the balanced realisation (the exact
-/// power-of-two state scaling leaves the norm unchanged and brings stiff
-/// closed loops, with poles from 1e-3 to 1e8 rad/s, within reach of the
-/// Lyapunov solver). A Gramian whose residual exceeds 1e-8, or a negative
-/// squared norm beyond rounding, is an error, never a silently wrong norm.
+/// H2 norm (infinite for a continuous system with `D != 0`), as
+/// `||C L||_F` with `L` the Cholesky factor of the controllability Gramian
+/// (Hammarling's method, [`lyap_factor`]), of the balanced realisation (the
+/// exact power-of-two state scaling leaves the norm unchanged and brings
+/// stiff closed loops, with poles from 1e-3 to 1e8 rad/s, within reach of
+/// the Lyapunov solver). Through the factor a norm that is zero by
+/// cancellation comes out at rounding (`trace(C X C')` would leave the
+/// square root of rounding). A Gramian whose residual exceeds 1e-8 is an
+/// error, never a silently wrong norm.
 pub fn h2_norm(sys: &StateSpace) -> Result<f64, NormError> {
     if !sys.is_stable()? {
         return Err(NormError::Unstable);
     }
+    h2_norm_of_stable(sys)
+}
+
+/// [`h2_norm`] of a system already known to be stable.
+pub(crate) fn h2_norm_of_stable(sys: &StateSpace) -> Result<f64, NormError> {
     let sys = &sys.balanced();
-    let bbt = &sys.b * tr(&sys.b);
     let (gramian, extra) = match sys.ts {
         None => {
             if fro(&sys.d) > 0.0 {
                 return Ok(f64::INFINITY);
             }
-            (lyap(&sys.a, &bbt)?, 0.0)
+            (lyap_factor(&sys.a, &sys.b)?, 0.0)
         }
-        Some(_) => (dlyap(&sys.a, &bbt)?, trace(&(&sys.d * tr(&sys.d)))),
+        Some(_) => (dlyap_factor(&sys.a, &sys.b)?, fro(&sys.d).powi(2)),
     };
     if !(gramian.residual <= MAX_GRAMIAN_RESIDUAL) {
         return Err(NormError::Inaccurate {
             residual: gramian.residual,
         });
     }
-    let cpc = &sys.c * &gramian.x * tr(&sys.c);
-    let val = trace(&cpc) + extra;
-    // The trace of a PSD matrix: a negative value is rounding only when it is
-    // tiny against the magnitudes summed.
-    let magnitude: f64 = (0..cpc.nrows()).map(|i| cpc[(i, i)].abs()).sum::<f64>() + extra;
-    if val < -1e-10 * magnitude {
-        return Err(NormError::Inaccurate {
-            residual: gramian.residual,
-        });
+    let cl = cplx(&sys.c) * &gramian.l;
+    let mut val = extra;
+    for j in 0..cl.ncols() {
+        for i in 0..cl.nrows() {
+            val += cl[(i, j)].norm_sqr();
+        }
     }
-    Ok(val.max(0.0).sqrt())
-}
-
-fn trace(m: &Mat<f64>) -> f64 {
-    (0..m.nrows()).map(|i| m[(i, i)]).sum()
+    Ok(val.sqrt())
 }
 
 /// Continuous equivalent of a discrete system under `z = (a+s)/(a-s)`,
@@ -157,7 +158,12 @@ impl HinfNorm {
 /// ([`HinfNorm`]), natively in continuous (Hamiltonian) and discrete
 /// (symplectic pencil) time. Errors for unstable systems.
 pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
-    if !sys.is_stable()? {
+    hinf_norm_with_poles(sys, rtol, &sys.poles()?)
+}
+
+/// [`hinf_norm`] with the poles of `sys` already computed.
+fn hinf_norm_with_poles(sys: &StateSpace, rtol: f64, poles: &[c64]) -> Result<HinfNorm, NormError> {
+    if !sys.poles_are_stable(poles) {
         return Err(NormError::Unstable);
     }
     let rtol = rtol.clamp(1e-12, 1e-1);
@@ -165,11 +171,15 @@ pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
     // similarity): a companion-form realisation of a resonance at 300 Hz has
     // ||H|| ~ 1e13, whose absolute eigenvalue tolerance swallowed the axis
     // distance of every eigenvalue, so no level was ever certified.
-    let found = bruinsma_steinbuch(&sys.balanced(), rtol)?;
+    let balanced = sys.balanced();
+    let fast = FastSigma::new(&balanced);
+    let found = bruinsma_steinbuch(&balanced, &fast, poles, rtol)?;
     let (lo, hi) = found.bracket;
     let (mut peak, mut omega) = (sigma_at_or_d(sys, found.omega), found.omega);
     if hi.is_finite() && hi > lo {
-        let (w, s) = golden_max(|w| sys.sigma_at(w), lo, hi);
+        // Searched on the Hessenberg form, reported as evaluated on `sys`.
+        let (w, _) = golden_max(|w| fast.at(w), lo, hi);
+        let s = sys.sigma_at(w);
         if s > peak {
             (peak, omega) = (s, w);
         }
@@ -189,6 +199,32 @@ pub fn hinf_norm(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
         omega,
         upper: found.upper.max(peak),
     })
+}
+
+/// `sigma_max(G(j w))` for the searches, by the Hessenberg form (Laub
+/// 1981; `O(n^2)` a frequency where a dense solve is `O(n^3)`: the start
+/// alone evaluates `2n + 66` frequencies), and `sigma_max(D)` for
+/// `w = INFINITY`. What is reported is evaluated on the system as given.
+struct FastSigma {
+    response: HessenbergResponse,
+    at_infinity: f64,
+}
+
+impl FastSigma {
+    fn new(sys: &StateSpace) -> Self {
+        Self {
+            response: HessenbergResponse::new(sys),
+            at_infinity: sigma_max(&sys.d),
+        }
+    }
+
+    fn at(&self, w: f64) -> f64 {
+        if w.is_finite() {
+            self.response.sigma_at(w)
+        } else {
+            self.at_infinity
+        }
+    }
 }
 
 /// `sigma_max(G(j w))`, and `sigma_max(D)` for `w = INFINITY`.
@@ -269,10 +305,10 @@ fn top_frequency(sys: &StateSpace) -> f64 {
 
 /// The best of the sorted `candidates` (frequencies, rad/s) by
 /// `sigma_max`, if above `floor`, with its neighbours as bracket.
-fn best_of(sys: &StateSpace, candidates: &[f64], floor: (f64, f64)) -> (f64, f64, (f64, f64)) {
+fn best_of(sigma: &FastSigma, candidates: &[f64], floor: (f64, f64)) -> (f64, f64, (f64, f64)) {
     let (mut glb, mut wpk, mut bracket) = (floor.0, floor.1, (floor.1, floor.1));
     for (i, &w) in candidates.iter().enumerate() {
-        let s = sigma_at_or_d(sys, w);
+        let s = sigma.at(w);
         if s > glb {
             let lo = if i > 0 { candidates[i - 1] } else { w };
             let hi = candidates.get(i + 1).copied().unwrap_or(w);
@@ -288,10 +324,11 @@ fn best_of(sys: &StateSpace, candidates: &[f64], floor: (f64, f64)) -> (f64, f64
 /// alone puts gamma within 2 rtol of `sigma_max(D)` when the peak is
 /// elsewhere, where `R = D'D - gamma^2 I` is nearly singular and the
 /// crossings are lost; the grid's best point keeps the test well posed.
-fn seed(sys: &StateSpace) -> Result<Vec<f64>, NormError> {
+fn seed(sys: &StateSpace, poles: &[c64]) -> Vec<f64> {
     let top = top_frequency(sys);
-    let poles: Vec<c64> = eigvals(&sys.a)?
-        .into_iter()
+    let poles: Vec<c64> = poles
+        .iter()
+        .copied()
         .filter(|p| p.norm() > 0.0)
         .map(|p| sys.ts.map_or(p, |t| p.ln() / t))
         .collect();
@@ -303,7 +340,7 @@ fn seed(sys: &StateSpace) -> Result<Vec<f64>, NormError> {
     cands.retain(|w| *w <= top);
     cands.sort_by(f64::total_cmp);
     cands.dedup();
-    Ok(cands)
+    cands
 }
 
 /// Non-negative frequencies where some singular value of the continuous
@@ -419,7 +456,12 @@ fn crossings(sys: &StateSpace, gamma: f64) -> Result<Option<Vec<f64>>, NormError
 /// lower bound to the best of the midpoints of the crossing frequencies at
 /// `gamma = (1 + margin) glb` until there is no crossing, which certifies
 /// `gamma` as an upper bound.
-fn bruinsma_steinbuch(sys: &StateSpace, rtol: f64) -> Result<Found, NormError> {
+fn bruinsma_steinbuch(
+    sys: &StateSpace,
+    sigma: &FastSigma,
+    poles: &[c64],
+    rtol: f64,
+) -> Result<Found, NormError> {
     let top = top_frequency(sys);
     if sys.nx() == 0 {
         let upper = sigma_max(&sys.d);
@@ -429,7 +471,7 @@ fn bruinsma_steinbuch(sys: &StateSpace, rtol: f64) -> Result<Found, NormError> {
             bracket: (top, top),
         });
     }
-    let (mut glb, mut wpk, mut bracket) = best_of(sys, &seed(sys)?, (0.0, 0.0));
+    let (mut glb, mut wpk, mut bracket) = best_of(sigma, &seed(sys, poles), (0.0, 0.0));
     if glb == 0.0 {
         return Ok(Found {
             omega: 0.0,
@@ -458,7 +500,7 @@ fn bruinsma_steinbuch(sys: &StateSpace, rtol: f64) -> Result<Found, NormError> {
         cands.extend([0.0, top]);
         cands.sort_by(f64::total_cmp);
         let old = glb;
-        let best = best_of(sys, &cands, (glb, wpk));
+        let best = best_of(sigma, &cands, (glb, wpk));
         if best.0 > glb {
             (glb, wpk) = (best.0, best.1);
             bracket = enclosing(&ws, wpk, top);
@@ -516,8 +558,17 @@ fn sigma_refined(sys: &StateSpace, omega: f64) -> f64 {
 /// double-double value, and its certificate is withdrawn when double
 /// precision was off.
 pub fn hinf_norm_confirmed(sys: &StateSpace, rtol: f64) -> Result<HinfNorm, NormError> {
-    let mut h = hinf_norm(sys, rtol)?;
-    let grid = log_grid_to_nyquist(&sys.poles()?, sys.ts, 400);
+    hinf_norm_confirmed_with_poles(sys, rtol, &sys.poles()?)
+}
+
+/// [`hinf_norm_confirmed`] with the poles of `sys` already computed.
+pub(crate) fn hinf_norm_confirmed_with_poles(
+    sys: &StateSpace,
+    rtol: f64,
+    poles: &[c64],
+) -> Result<HinfNorm, NormError> {
+    let mut h = hinf_norm_with_poles(sys, rtol, poles)?;
+    let grid = log_grid_to_nyquist(poles, sys.ts, 400);
     confirm_extended(sys, &grid, &mut h);
     Ok(h)
 }

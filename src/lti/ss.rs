@@ -626,11 +626,15 @@ impl StateSpace {
     /// Asymptotic stability: all poles in the open left half plane
     /// (continuous) or the open unit disc (discrete), with margin `tol`.
     pub fn is_stable(&self) -> Result<bool, SsError> {
-        let p = self.poles()?;
-        Ok(match self.ts {
-            None => p.iter().all(|z| z.re < 0.0),
-            Some(_) => p.iter().all(|z| z.norm() < 1.0),
-        })
+        Ok(self.poles_are_stable(&self.poles()?))
+    }
+
+    /// [`is_stable`](Self::is_stable) of poles already computed.
+    pub fn poles_are_stable(&self, poles: &[c64]) -> bool {
+        match self.ts {
+            None => poles.iter().all(|z| z.re < 0.0),
+            Some(_) => poles.iter().all(|z| z.norm() < 1.0),
+        }
     }
 
     /// Finite invariant zeros of any system, square or not: the values where

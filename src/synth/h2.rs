@@ -31,7 +31,7 @@
 
 use super::genplant::{Partition, SynthError, inv_or};
 use crate::lti::c64;
-use crate::lti::norms::h2_norm;
+use crate::lti::norms::h2_norm_of_stable;
 use crate::lti::riccati::{RiccatiSolution, care, dare};
 use crate::lti::ss::{StateSpace, fro, tr};
 use faer::Mat;
@@ -167,9 +167,9 @@ fn close_loop(
         .lft(k)
         .map_err(|e| SynthError::Numerical(format!("closed loop: {e}")))?;
     let poles = closed_loop.poles().map_err(num)?;
-    let stable = closed_loop.is_stable().map_err(num)?;
+    let stable = closed_loop.poles_are_stable(&poles);
     let h2 = if stable {
-        h2_norm(&closed_loop).map_err(|e| SynthError::Numerical(e.to_string()))?
+        h2_norm_of_stable(&closed_loop).map_err(|e| SynthError::Numerical(e.to_string()))?
     } else {
         f64::INFINITY
     };

@@ -535,7 +535,7 @@ impl Balred {
         let red = convert::balred_any(&sys, order).map_err(ss_err(source))?;
         if !red.trusted && !self.allow_degradation {
             return Err(StepError::computation(format!(
-                "{source}: the reduction to {order} states cannot be trusted: its error reaches {:.6e} on a frequency grid, beyond the bound 2 sum(discarded Hankel singular values) = {:.6e} (the Gramians of this badly conditioned system are inaccurate); set `allow_degradation` to accept it",
+                "{source}: the reduction to {order} states cannot be trusted: its error reaches {:.6e} on a frequency grid, beyond the bound 2 sum(discarded Hankel singular values) = {:.6e} (on this badly conditioned system the Hankel singular values or the projection lose accuracy); set `allow_degradation` to accept it",
                 red.grid_error, red.bound
             )));
         }

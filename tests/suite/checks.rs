@@ -129,7 +129,11 @@ run_checks! {
     lti_filter: [runtime_zpetc_block_matches_tdf_filter_bit_for_bit,
         impulse_response_matches_difference_equation, step_response_settles_to_dc_gain],
     lti_freqresp: [the_hessenberg_response_is_the_dense_one, a_pole_on_the_axis_is_infinite],
-    lti_lyapunov: [lyapunov_scalar_and_matrix, sylvester_general_and_singular],
+    lti_lyapunov: [
+        lyapunov_scalar_and_matrix,
+        sylvester_general_and_singular,
+        real_blocks_and_factors_agree
+    ],
     lti_margins: [integrator_with_lag, a_bandwidth_below_the_analysed_range_is_found_not_clamped,
         mismatched_sample_times_are_refused],
     lti_model_check: [a_pair_at_one_is_found_and_a_distant_one_is_not,
