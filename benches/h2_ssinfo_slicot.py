@@ -32,6 +32,9 @@ import time as clock
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from hinf_scaling import plant as hinf_plant  # noqa: E402
+
 ORDERS = [10, 50, 100, 200]
 
 
@@ -40,14 +43,8 @@ def stable_a(rng, n):
 
 
 def h2_plant(n):
-    rng = np.random.default_rng(20261130 + n)
-    a = stable_a(rng, n)
-    b = rng.uniform(-1, 1, (n, 3))
-    c = rng.uniform(-1, 1, (3, n))
-    d = np.zeros((3, 3))
-    d[1, 2] = 1.0
-    d[2, 1] = 1.0
-    return a, b, c, d
+    # The H-inf scaling table's plant (benches/hinf_scaling.py), another seed.
+    return hinf_plant(n, seed=20261130)
 
 
 def analysed_system(n):

@@ -41,8 +41,8 @@ ORDERS = [8, 16, 32, 48, 64, 100, 128, 160]
 SB10AD_LIMIT_S = 300  # one SB10AD run is stopped after this long
 
 
-def plant(n):
-    rng = np.random.default_rng(20261125 + n)
+def plant(n, seed=20261125):
+    rng = np.random.default_rng(seed + n)
     a = rng.uniform(-1, 1, (n, n)) - (1 + np.sqrt(n)) * np.eye(n)
     b = rng.uniform(-1, 1, (n, 3))
     c = rng.uniform(-1, 1, (3, n))

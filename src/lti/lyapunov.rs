@@ -12,7 +12,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::c64;
-use super::schur::{SchurError, cplx, real_schur, real_to_complex_schur};
+use super::schur::{SchurError, cplx, real_schur, schur_by_real_form};
 use super::ss::{fro, tr};
 use faer::Mat;
 use thiserror::Error;
@@ -387,8 +387,7 @@ fn symmetrise(x: &Mat<f64>) -> Mat<f64> {
 pub fn lyap(a: &Mat<f64>, q: &Mat<f64>) -> Result<MatEqSolution, MatEqError> {
     let at = tr(a);
     let x = symmetrise(&lyapunov(a, &at, q, false)?);
-    let (ax, xat) = (a * &x, &x * &at);
-    let residual = rel(&(&(&ax + &xat) + q), &[fro(&ax), fro(&xat), fro(q)]);
+    let residual = lyapunov_residual(a, &at, &x, q, false);
     Ok(MatEqSolution { x, residual })
 }
 
@@ -396,9 +395,26 @@ pub fn lyap(a: &Mat<f64>, q: &Mat<f64>) -> Result<MatEqSolution, MatEqError> {
 pub fn dlyap(a: &Mat<f64>, q: &Mat<f64>) -> Result<MatEqSolution, MatEqError> {
     let at = tr(a);
     let x = symmetrise(&lyapunov(a, &at, q, true)?);
-    let axa = a * &x * &at;
-    let residual = rel(&(&(&axa - &x) + q), &[fro(&axa), fro(&x), fro(q)]);
+    let residual = lyapunov_residual(a, &at, &x, q, true);
     Ok(MatEqSolution { x, residual })
+}
+
+/// Relative residual of `A X + X A' + Q = 0`, or of `A X A' - X + Q = 0`
+/// (`discrete`), at `X` (`at` is `A'`).
+fn lyapunov_residual(
+    a: &Mat<f64>,
+    at: &Mat<f64>,
+    x: &Mat<f64>,
+    q: &Mat<f64>,
+    discrete: bool,
+) -> f64 {
+    if discrete {
+        let axa = a * x * at;
+        rel(&(&(&axa - x) + q), &[fro(&axa), fro(x), fro(q)])
+    } else {
+        let (ax, xat) = (a * x, x * at);
+        rel(&(&(&ax + &xat) + q), &[fro(&ax), fro(&xat), fro(q)])
+    }
 }
 
 /// A Gramian in factored form, `X = L L^H` (`L` complex, `X` real), from
@@ -435,22 +451,12 @@ fn gramian_factor(a: &Mat<f64>, b: &Mat<f64>, discrete: bool) -> Result<GramianF
             b.nrows()
         )));
     }
-    // The real Schur form made complex (MATLAB's rsf2csf): LAPACK's
-    // speed at every size; Hammarling's recursion needs no 1x1 exactness.
-    let q = real_to_complex_schur(real_schur(a)?);
-    let s = q.adjoint() * cplx(a) * &q;
+    let (q, s) = schur_by_real_form(a)?;
     let qb = q.adjoint() * cplx(b);
     let l = &q * hammarling(&s, qb, discrete)?;
     let llh = &l * l.adjoint();
     let x = Mat::from_fn(n, n, |i, j| llh[(i, j)].re);
-    let bbt = b * tr(b);
-    let residual = if discrete {
-        let axa = a * &x * tr(a);
-        rel(&(&(&axa - &x) + &bbt), &[fro(&axa), fro(&x), fro(&bbt)])
-    } else {
-        let (ax, xat) = (a * &x, &x * tr(a));
-        rel(&(&(&ax + &xat) + &bbt), &[fro(&ax), fro(&xat), fro(&bbt)])
-    };
+    let residual = lyapunov_residual(a, &tr(a), &x, &(b * tr(b)), discrete);
     Ok(GramianFactor { l, residual })
 }
 

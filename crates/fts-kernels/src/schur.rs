@@ -496,9 +496,7 @@ pub fn schur(a: &Mat<f64>) -> Result<(Mat<c64>, Mat<c64>), SchurError> {
         // diagonal: A = Q (S T^H) Q^H. Recompute R = Q^H A Q directly.
         Ok(triangular_part(a, gs.q))
     };
-    let from_real = || -> Result<_, SchurError> {
-        Ok(triangular_part(a, real_to_complex_schur(real_schur(a)?)))
-    };
+    let from_real = || real_form_candidate(a);
     let candidates: [&dyn Fn() -> _; 2] = if n >= MULTISHIFT_FROM {
         [&from_real, &from_qz]
     } else {
@@ -515,6 +513,30 @@ pub fn schur(a: &Mat<f64>) -> Result<(Mat<c64>, Mat<c64>), SchurError> {
     Err(SchurError::Inaccurate(
         dropped / fro_c(&cplx(a)).max(f64::MIN_POSITIVE),
     ))
+}
+
+/// The complex Schur form from the real one ([`real_schur`], each 2x2
+/// block made triangular as MATLAB's `rsf2csf` does), verified as
+/// [`schur`] verifies its candidates: LAPACK's speed at every size, for a
+/// caller that needs no 1x1 exactness below [`MULTISHIFT_FROM`] (the
+/// Hammarling factor of a Gramian).
+pub fn schur_by_real_form(a: &Mat<f64>) -> Result<(Mat<c64>, Mat<c64>), SchurError> {
+    let (u, (r, below)) = real_form_candidate(a)?;
+    if below <= schur_tolerance(a) {
+        Ok((u, r))
+    } else {
+        Err(SchurError::Inaccurate(
+            below / fro_c(&cplx(a)).max(f64::MIN_POSITIVE),
+        ))
+    }
+}
+
+/// A candidate complex Schur form: `U` and `(R, dropped)` as [`triangular_part`].
+type Candidate = (Mat<c64>, (Mat<c64>, f64));
+
+/// The real form made complex, as a candidate.
+fn real_form_candidate(a: &Mat<f64>) -> Result<Candidate, SchurError> {
+    Ok(triangular_part(a, real_to_complex_schur(real_schur(a)?)))
 }
 
 /// What `schur` accepts as dropped rounding.
