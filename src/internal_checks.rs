@@ -8,6 +8,7 @@ pub use crate::cli::loop_analysis::checks as cli_loop_analysis;
 pub use crate::cli::manual::checks as cli_manual;
 pub use crate::cli::names::checks as cli_names;
 pub use crate::ident::arx::checks as ident_arx;
+pub use crate::ident::correlation::checks as ident_correlation;
 pub use crate::ident::ct::checks as ident_ct;
 pub use crate::ident::ct::zoh::checks as ident_ct_zoh;
 pub use crate::ident::data::checks as ident_data;

@@ -3,8 +3,9 @@
 //! estimated initial conditions (MATLAB `compare`), the simulation and
 //! one-step prediction fits, and the residual tests (MATLAB `resid`).
 
-use super::ls::{DEFAULT_BLOCK_ROWS, dot, solve_triangle, triangularize};
-use super::metrics::nrmse_fit_percent;
+use super::correlation::{ResidualCorrelations, residual_correlations};
+use super::ls::{DEFAULT_BLOCK_ROWS, solve_triangle, triangularize};
+use super::metrics::{nrmse_fit_percent, sum_pairs};
 use crate::lti::{DiscreteTf, TfError};
 
 /// Why a linear identification failed. All of these are about the data or
@@ -206,20 +207,26 @@ impl PolyModel {
             }
             *o = s;
         }
-        // Past the warm-up every lag exists: no per-tap branch (the same
-        // sums in the same order).
-        for (k, o) in out.iter_mut().enumerate().skip(warm) {
-            let mut s = 0.0;
-            for (ai, yi) in a.iter().zip(y[k - a.len()..k].iter().rev()) {
-                s -= ai * yi;
-            }
-            if !b.is_empty() {
-                let past = &u[k + 1 - nk - b.len()..=k - nk];
-                for (bi, ui) in b.iter().zip(past.iter().rev()) {
-                    s += bi * ui;
+        // Past the warm-up every lag exists: each tap is added to a whole
+        // run of samples at once (vectorised), taps in the same order as
+        // above, so every sample gets the same sums in the same order.
+        let mut k0 = warm;
+        while k0 < n {
+            let run = &mut out[k0..(k0 + PREDICT_RUN).min(n)];
+            let len = run.len();
+            for (i, ai) in a.iter().enumerate() {
+                let past = &y[k0 - 1 - i..k0 - 1 - i + len];
+                for (o, yi) in run.iter_mut().zip(past) {
+                    *o -= ai * yi;
                 }
             }
-            *o = s;
+            for (i, bi) in b.iter().enumerate() {
+                let past = &u[k0 - nk - i..k0 - nk - i + len];
+                for (o, ui) in run.iter_mut().zip(past) {
+                    *o += bi * ui;
+                }
+            }
+            k0 += len;
         }
         out
     }
@@ -457,32 +464,44 @@ pub fn fits_and_residuals(
     u: &[f64],
     y: &[f64],
 ) -> FitResiduals {
-    let simulations = || {
-        let sim0 = model.simulate(u);
-        let mut sim_ic = sim0.clone();
-        model.add_fitted_free_response(&mut sim_ic, y);
-        (sim0, sim_ic)
+    let n = y.len();
+    // The fit from rest is taken before the fitted free response is added
+    // in place (no second copy of a long record).
+    let simulation = || {
+        let mut sim = model.simulate(u);
+        let zero_ic_percent = nrmse_fit_percent(y, &sim);
+        model.add_fitted_free_response(&mut sim, y);
+        (sim, zero_ic_percent)
     };
     let start = match noise {
-        NoiseModel::Arx => model.memory().min(y.len()),
+        NoiseModel::Arx => model.memory().min(n),
         NoiseModel::OutputError => 0,
     };
-    // The ARX predictor does not wait for the simulations.
-    let prediction =
-        || (noise == NoiseModel::Arx).then(|| model.predict_arx(u, y).split_off(start));
-    let ((sim0, sim_ic), arx_pred) = super::fork::join(y.len(), simulations, prediction);
-    let pred = arx_pred.as_deref().unwrap_or(&sim_ic);
-    let yy = &y[start..];
-    let residuals: Vec<f64> = yy.iter().zip(pred).map(|(a, b)| a - b).collect();
-    let mse = if yy.is_empty() {
+    // The ARX predictor does not wait for the simulation.
+    let prediction = || (noise == NoiseModel::Arx).then(|| model.predict_arx(u, y));
+    let ((sim, zero_ic_percent), arx_pred) = super::fork::join(n, simulation, prediction);
+    let simulation_percent = nrmse_fit_percent(y, &sim);
+    // The residuals overwrite the prediction they come from.
+    let (mut residuals, prediction_percent) = match arx_pred {
+        Some(pred) => {
+            let percent = nrmse_fit_percent(&y[start..], &pred[start..]);
+            (pred, percent)
+        }
+        None => (sim, simulation_percent),
+    };
+    for (r, yk) in residuals.iter_mut().zip(y) {
+        *r = yk - *r;
+    }
+    residuals.drain(..start);
+    let mse = if residuals.is_empty() {
         f64::NAN
     } else {
-        residuals.iter().map(|e| e * e).sum::<f64>() / yy.len() as f64
+        sum_pairs(&residuals, &residuals, |e, _| e * e) / residuals.len() as f64
     };
     let fits = Fits {
-        simulation_percent: nrmse_fit_percent(y, &sim_ic),
-        simulation_zero_ic_percent: nrmse_fit_percent(y, &sim0),
-        prediction_percent: nrmse_fit_percent(yy, pred),
+        simulation_percent,
+        simulation_zero_ic_percent: zero_ic_percent,
+        prediction_percent,
         prediction_mse: mse,
     };
     FitResiduals {
@@ -521,46 +540,25 @@ pub struct Whiteness {
     pub independent: bool,
 }
 
+/// Samples of a run of [`PolyModel::predict_arx`] (in cache while each tap
+/// is added).
+const PREDICT_RUN: usize = 2048;
+
 /// 99 % two-sided quantile of the standard normal distribution.
 pub const Z99: f64 = 2.575_829_303_548_901;
-
-/// `r(t) = sum_k a(k) b(k - t) / N` for `t = 0..=lags`.
-///
-/// One pass over blocks of samples that stay in cache: each block adds its
-/// contribution to every lag through `ls::dot`, whose eight independent
-/// partial sums vectorise. Lag by lag, a sequential sum runs at one addition
-/// per add latency and reads the record once per lag.
-fn lagged_xcorr(a: &[f64], b: &[f64], lags: usize) -> Vec<f64> {
-    const BLOCK: usize = 4096;
-    let n = a.len().min(b.len());
-    let mut sums = vec![0.0; lags + 1];
-    for start in (0..n).step_by(BLOCK) {
-        let end = (start + BLOCK).min(n);
-        for (t, sum) in sums.iter_mut().enumerate() {
-            let lo = start.max(t);
-            if lo < end {
-                *sum += dot::<false>(&a[lo..end], &b[lo - t..end - t]);
-            }
-        }
-    }
-    let scale = 1.0 / n.max(1) as f64;
-    sums.iter().map(|s| s * scale).collect()
-}
 
 /// The residual tests of [`Whiteness`] for residuals `e` and input `u`.
 pub fn whiteness(e: &[f64], u: &[f64], lags: usize) -> Whiteness {
     let n = e.len();
     let lags = lags.min(n.saturating_sub(1));
-    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
-    let (me, mu) = (mean(e), mean(u));
-    let e: Vec<f64> = e.iter().map(|v| v - me).collect();
-    let u: Vec<f64> = u.iter().map(|v| v - mu).collect();
-    // Residual at k against the input at k - tau: tau >= 0 from (e, u),
-    // tau < 0 (the input later) from (u, e). On a long record the
-    // autocorrelations run on a second thread.
-    let auto = || (lagged_xcorr(&e, &e, lags), lagged_xcorr(&u, &u, lags));
-    let cross = || (lagged_xcorr(&e, &u, lags), lagged_xcorr(&u, &e, lags));
-    let ((r_ee, r_uu), (r_eu_past, r_eu_future)) = super::fork::join(n, auto, cross);
+    // Residual at k against the input at k - tau: tau >= 0 from r_eu,
+    // tau < 0 (the input later) from r_ue.
+    let ResidualCorrelations {
+        ee: r_ee,
+        uu: r_uu,
+        eu: r_eu_past,
+        ue: r_eu_future,
+    } = residual_correlations(e, u, lags);
     let (ree0, ruu0) = (r_ee[0], r_uu[0]);
     let sqrt_n = (n.max(1) as f64).sqrt();
     let bound = Z99 / sqrt_n;
@@ -802,27 +800,6 @@ pub mod checks {
         // Residual that still contains the input: not independent.
         let leak: Vec<f64> = e.iter().zip(&u).map(|(a, b)| a + 0.5 * b).collect();
         assert!(!whiteness(&leak, &u, 25).independent);
-    }
-
-    /// The blocked lagged sums are the direct sums `sum_k a(k) b(k - t) / N`,
-    /// over lengths below, at and across the block size and lags beyond
-    /// the record.
-    pub fn lagged_sums_are_the_direct_sums() {
-        let mut rnd = uniform(7);
-        for n in [1usize, 5, 31, 4096, 4097, 9001] {
-            let a: Vec<f64> = (0..n).map(|_| rnd()).collect();
-            let b: Vec<f64> = (0..n).map(|_| rnd() + 0.3).collect();
-            let lags = 40;
-            let got = lagged_xcorr(&a, &b, lags);
-            for (t, g) in got.iter().enumerate() {
-                let direct: f64 = (t..n).map(|k| a[k] * b[k - t]).sum::<f64>() / n as f64;
-                let size: f64 = (t..n).map(|k| (a[k] * b[k - t]).abs()).sum::<f64>() / n as f64;
-                assert!(
-                    (g - direct).abs() <= 1e-14 * size.max(1e-300),
-                    "n {n} t {t}: {g} vs {direct}"
-                );
-            }
-        }
     }
 
     pub fn criteria_formulas() {

@@ -569,14 +569,14 @@ pub fn std_devs(r_inv: &Mat<f64>, lambda: f64) -> Vec<f64> {
 /// Which build of [`fold_kernel`] runs: the AVX2+FMA one when the CPU has it
 /// (chosen at run time, so the binary stays portable), else the portable one.
 #[derive(Debug, Clone, Copy)]
-enum Kernel {
+pub(crate) enum Kernel {
     Portable,
     #[cfg(target_arch = "x86_64")]
     Avx2Fma,
 }
 
 impl Kernel {
-    fn detect() -> Self {
+    pub(crate) fn detect() -> Self {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2")
@@ -733,7 +733,7 @@ fn axpy2<const FMA: bool>(alpha: f64, a: &[f64], beta: f64, b: &[f64], c: &mut [
 }
 
 #[inline(always)]
-fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
+pub(crate) fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
     if FMA { a.mul_add(b, c) } else { a * b + c }
 }
 

@@ -5,21 +5,65 @@
 /// no better than the mean, and it is negative when worse than the mean.
 /// Returns `NaN` when `y` is constant or the lengths differ or are zero.
 pub fn nrmse_fit_percent(y: &[f64], y_hat: &[f64]) -> f64 {
-    if y.is_empty() || y.len() != y_hat.len() {
+    let n = y.len();
+    if n == 0 || n != y_hat.len() {
         return f64::NAN;
     }
-    let mean = y.iter().sum::<f64>() / y.len() as f64;
-    let err: f64 = y
-        .iter()
-        .zip(y_hat)
-        .map(|(a, b)| (a - b).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let dev: f64 = y.iter().map(|a| (a - mean).powi(2)).sum::<f64>().sqrt();
+    let mean = sum_pairs(y, y, |a, _| a) / n as f64;
+    // The error and the deviation in one pass over the record.
+    let (err, dev) = sum_pairs2(y, y_hat, |a, b| {
+        ((a - b) * (a - b), (a - mean) * (a - mean))
+    });
+    let (err, dev) = (err.sqrt(), dev.sqrt());
     if dev == 0.0 {
         return f64::NAN;
     }
     100.0 * (1.0 - err / dev)
+}
+
+/// `sum_i term(a[i], b[i])` over the shorter of `a` and `b`, in eight
+/// interleaved partial sums: vectorised, and no less accurate than one
+/// running sum (which on a record of 1e7 samples is a chain of 1e7
+/// dependent additions).
+#[inline]
+pub(crate) fn sum_pairs(a: &[f64], b: &[f64], term: impl Fn(f64, f64) -> f64) -> f64 {
+    let mut acc = [0.0f64; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| term(*x, *y))
+        .sum();
+    for (x, y) in ca.zip(cb) {
+        for l in 0..8 {
+            acc[l] += term(x[l], y[l]);
+        }
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+}
+
+/// Two sums of [`sum_pairs`] in one pass: `term` gives both terms.
+#[inline]
+fn sum_pairs2(a: &[f64], b: &[f64], term: impl Fn(f64, f64) -> (f64, f64)) -> (f64, f64) {
+    let (mut first, mut second) = ([0.0f64; 8], [0.0f64; 8]);
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let mut tail = (0.0, 0.0);
+    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+        let (p, q) = term(*x, *y);
+        tail = (tail.0 + p, tail.1 + q);
+    }
+    for (x, y) in ca.zip(cb) {
+        for l in 0..8 {
+            let (p, q) = term(x[l], y[l]);
+            first[l] += p;
+            second[l] += q;
+        }
+    }
+    let total = |acc: [f64; 8], tail: f64| {
+        ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+    };
+    (total(first, tail.0), total(second, tail.1))
 }
 
 /// Root mean square of a signal.

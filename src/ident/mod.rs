@@ -9,6 +9,7 @@
 //! (detrending, splits).
 
 pub mod arx;
+pub(crate) mod correlation;
 pub mod ct;
 pub mod data;
 pub mod excite;

@@ -142,14 +142,20 @@ fn trial(e: &SrivcEstimate) -> SvfTrial {
     }
 }
 
-/// Stable before unstable, then the better fit.
+/// Stable before unstable, then the better fit. Starts that converge to
+/// the same model fit alike up to rounding: a fit better by less than
+/// [`FIT_TIE_PERCENT`] does not displace the start tried first, so the
+/// choice does not hang on the last bits of the fit's sums.
 fn better(a: &SrivcEstimate, b: &SrivcEstimate) -> bool {
     let (sa, sb) = (a.model.is_stable(), b.model.is_stable());
     if sa != sb {
         return sa;
     }
-    a.fit_percent > b.fit_percent || b.fit_percent.is_nan()
+    a.fit_percent > b.fit_percent + FIT_TIE_PERCENT || b.fit_percent.is_nan()
 }
+
+/// Fits (in percent) closer than this are one fit to [`better`].
+const FIT_TIE_PERCENT: f64 = 1e-6;
 
 /// SVF least squares then SRIVC, in time scaled by `w = 2 pi fc`.
 fn run_from(u: &[f64], y: &[f64], p: &SrivcParams, fc: f64) -> Result<SrivcEstimate, CtError> {

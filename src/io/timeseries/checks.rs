@@ -322,8 +322,14 @@ pub fn records_read_in_blocks_and_pieces_keep_order_and_lines() {
     assert!((d.ts.unwrap() - 0.1).abs() < 1e-12);
     // A bad cell deep in the file: its line is the file's (header, data
     // rows and one comment line per 1000 rows before it).
+    // A second bad cell 60,000 rows on, in another piece of the same block
+    // (which another thread may parse first), is not the one reported.
     let bad = 800_123;
-    let e = io(&long_record(rows, Some(bad)), &IoColumns::default()).unwrap_err();
+    let later = "\n86012.2,430061,-860122\n";
+    let text = long_record(rows, Some(bad));
+    assert!(text.contains(later));
+    let text = text.replacen(later, "\n86012.2,oops,-860122\n", 1);
+    let e = io(&text, &IoColumns::default()).unwrap_err();
     let line = 1 + bad + (bad - 1) / 1000;
     let text = e.to_string();
     assert!(

@@ -547,27 +547,35 @@ struct Samples {
 
 impl Samples {
     fn new(plan: &TextPlan) -> Self {
-        Self::with_capacity(plan, 0)
+        Self {
+            columns: vec![Vec::new(); plan.columns.len()],
+            time: plan.time.as_ref().map(|_| Vec::new()),
+            lines: LineMap::default(),
+        }
     }
 
-    fn with_capacity(plan: &TextPlan, rows: usize) -> Self {
-        Self {
-            columns: vec![Vec::with_capacity(rows); plan.columns.len()],
-            time: plan.time.as_ref().map(|_| Vec::with_capacity(rows)),
-            lines: LineMap::default(),
+    /// Room for `rows` more rows.
+    fn reserve(&mut self, rows: usize) {
+        for column in self.columns.iter_mut().chain(self.time.as_mut()) {
+            column.reserve(rows);
         }
     }
 
     /// Appends the rows of `part`, whose line numbers start `line_offset`
     /// lines later than it says.
-    fn append(&mut self, part: Samples, line_offset: usize) {
-        for (all, more) in self.columns.iter_mut().zip(part.columns) {
-            all.extend_from_slice(&more);
+    /// `part` comes back emptied, its memory kept.
+    fn append(&mut self, mut part: Samples, line_offset: usize) -> Samples {
+        for (all, more) in self.columns.iter_mut().zip(&mut part.columns) {
+            all.extend_from_slice(more);
+            more.clear();
         }
-        if let (Some(all), Some(more)) = (self.time.as_mut(), part.time) {
-            all.extend_from_slice(&more);
+        if let (Some(all), Some(more)) = (self.time.as_mut(), part.time.as_mut()) {
+            all.extend_from_slice(more);
+            more.clear();
         }
-        self.lines.append(part.lines, line_offset);
+        self.lines
+            .append(std::mem::take(&mut part.lines), line_offset);
+        part
     }
 
     /// Parses the planned fields of the row on `line`.
@@ -668,9 +676,11 @@ struct Block {
 }
 
 impl<R: BufRead> Blocks<'_, R> {
-    /// Reads the file block by block. The worker threads parse each block
-    /// while this thread reads the next one into the other buffer and
-    /// appends the rows of the block before.
+    /// Reads the file block by block. Each block is cut into pieces of
+    /// whole lines that the threads take in turn; this thread first reads
+    /// the next block into the other buffer and appends the rows of the
+    /// block before, then takes pieces too (so no core waits on another's
+    /// share).
     fn read_into(&mut self, samples: &mut Samples) -> Result<(), InputError> {
         let Self {
             parser,
@@ -683,23 +693,20 @@ impl<R: BufRead> Blocks<'_, R> {
         let mut next_line = *lines_read + 1;
         let first = next_line;
         let mut block = read_block(reader, &mut bufs[0], 0, parser.source, &|| first)?;
-        // Parsed pieces not yet appended, with the file line of their first.
+        // Parsed pieces not yet appended, with the file line of their first;
+        // appended pieces, emptied, keep their memory for later pieces.
         let mut pending: Vec<(Samples, usize)> = Vec::new();
+        let spent = std::sync::Mutex::new(Vec::new());
         for turn in 0.. {
             let [a, b] = &mut bufs;
             let (buf, spare) = if turn % 2 == 0 { (a, b) } else { (b, a) };
             let text = &buf[..block.whole];
-            let pieces = cut_at_lines(text, workers, PARALLEL_BYTES);
-            // At the end of the file this thread has nothing to read: it
-            // parses the first piece itself.
-            let (own, others) = match pieces.split_first() {
-                Some((first, rest)) if block.eof => (Some(*first), rest),
-                _ => (None, &pieces[..]),
-            };
+            let queue = PieceQueue::new(cut_at_lines(text, workers * 4, PARALLEL_BYTES));
+            let helpers = workers.min(queue.pieces.len()).saturating_sub(1);
             let (parsed, next) = std::thread::scope(|scope| {
-                let handles: Vec<_> = others
-                    .iter()
-                    .map(|&piece| scope.spawn(move || parser.parse_piece(piece)))
+                let (queue, spent) = (&queue, &spent);
+                let handles: Vec<_> = (0..helpers)
+                    .map(|_| scope.spawn(move || queue.parse(parser, spent)))
                     .collect();
                 let next = (!block.eof).then(|| {
                     // A long line may have grown `buf` past `spare`.
@@ -712,15 +719,17 @@ impl<R: BufRead> Blocks<'_, R> {
                     read_block(reader, spare, carry, parser.source, &line)
                 });
                 for (part, line) in pending.drain(..) {
-                    samples.append(part, line);
+                    let part = samples.append(part, line);
+                    spent.lock().unwrap_or_else(|p| p.into_inner()).push(part);
                 }
-                let own = own.map(|piece| parser.parse_piece(piece));
-                let joined = handles
-                    .into_iter()
-                    .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)));
-                (own.into_iter().chain(joined).collect::<Vec<_>>(), next)
+                let mut parsed = queue.parse(parser, spent);
+                for h in handles {
+                    parsed.extend(h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)));
+                }
+                parsed.sort_unstable_by_key(|(index, _)| *index);
+                (parsed, next)
             });
-            for piece in parsed {
+            for (_, piece) in parsed {
                 let (part, lines) = piece.map_err(|mut e| {
                     e.line = e.line.map(|l| l + next_line);
                     e
@@ -737,6 +746,45 @@ impl<R: BufRead> Blocks<'_, R> {
             samples.append(part, line);
         }
         Ok(())
+    }
+}
+
+/// The pieces of a block, taken by the threads one at a time.
+struct PieceQueue<'t> {
+    pieces: Vec<&'t [u8]>,
+    taken: std::sync::atomic::AtomicUsize,
+}
+
+/// A parsed piece: its rows and its number of lines, or why it failed.
+type Parsed = Result<(Samples, usize), InputError>;
+
+impl<'t> PieceQueue<'t> {
+    fn new(pieces: Vec<&'t [u8]>) -> Self {
+        Self {
+            pieces,
+            taken: std::sync::atomic::AtomicUsize::new(0),
+        }
+    }
+
+    /// Parses pieces until none is left: each with its index. The rows go
+    /// into emptied `spent` pieces where there are any.
+    fn parse(
+        &self,
+        parser: &LineParser<'_>,
+        spent: &std::sync::Mutex<Vec<Samples>>,
+    ) -> Vec<(usize, Parsed)> {
+        let mut parsed = Vec::new();
+        loop {
+            let index = self
+                .taken
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let Some(piece) = self.pieces.get(index) else {
+                return parsed;
+            };
+            let out = spent.lock().unwrap_or_else(|p| p.into_inner()).pop();
+            let out = out.unwrap_or_else(|| Samples::new(parser.plan));
+            parsed.push((index, parser.parse_piece(piece, out)));
+        }
     }
 }
 
@@ -787,8 +835,8 @@ fn read_block<R: BufRead>(
 impl LineParser<'_> {
     /// Parses the lines of `piece`, numbered from 0; the rows and the
     /// number of lines.
-    fn parse_piece(&self, piece: &[u8]) -> Result<(Samples, usize), InputError> {
-        let mut out = Samples::with_capacity(self.plan, estimate_lines(piece));
+    fn parse_piece(&self, piece: &[u8], mut out: Samples) -> Result<(Samples, usize), InputError> {
+        out.reserve(estimate_lines(piece));
         let lines = self.parse_lines(piece, &mut out)?;
         Ok((out, lines))
     }
