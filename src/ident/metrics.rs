@@ -27,25 +27,17 @@ pub fn nrmse_fit_percent(y: &[f64], y_hat: &[f64]) -> f64 {
 /// dependent additions).
 #[inline]
 pub(crate) fn sum_pairs(a: &[f64], b: &[f64], term: impl Fn(f64, f64) -> f64) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| term(*x, *y))
-        .sum();
-    for (x, y) in ca.zip(cb) {
-        for l in 0..8 {
-            acc[l] += term(x[l], y[l]);
-        }
-    }
-    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+    // The second sum is never used, so the compiler drops it.
+    sum_pairs2(a, b, |x, y| (term(x, y), 0.0)).0
 }
 
 /// Two sums of [`sum_pairs`] in one pass: `term` gives both terms.
 #[inline]
-fn sum_pairs2(a: &[f64], b: &[f64], term: impl Fn(f64, f64) -> (f64, f64)) -> (f64, f64) {
+pub(crate) fn sum_pairs2(
+    a: &[f64],
+    b: &[f64],
+    term: impl Fn(f64, f64) -> (f64, f64),
+) -> (f64, f64) {
     let (mut first, mut second) = ([0.0f64; 8], [0.0f64; 8]);
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
     let mut tail = (0.0, 0.0);
