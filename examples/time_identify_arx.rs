@@ -30,13 +30,12 @@ fn main() {
         nk: Some(5),
         ..Default::default()
     };
+    let bytes = std::fs::metadata(&path).map_or(0, |m| m.len());
     let (mut reads, mut fits) = (Vec::new(), Vec::new());
-    let mut bytes = 0;
     for _ in 0..5 {
         let start = Instant::now();
         let data = read(&path);
         reads.push(start.elapsed().as_secs_f64());
-        bytes = std::fs::metadata(&path).map_or(0, |m| m.len());
         let inputs = LinearInputs {
             data,
             source: path.clone(),

@@ -13,6 +13,7 @@
 
 use super::fork;
 use super::ls::{Kernel, dot, madd};
+use super::metrics::sum_pairs;
 
 /// Samples per block (the scratch of a block fits in the L1 cache).
 const BLOCK: usize = 1024;
@@ -36,51 +37,30 @@ pub(crate) struct ResidualCorrelations {
 pub(crate) fn residual_correlations(e: &[f64], u: &[f64], lags: usize) -> ResidualCorrelations {
     let n = e.len().min(u.len());
     let (e, u) = (&e[..n], &u[..n]);
+    let mean = |x: &[f64]| sum_pairs(x, x, |v, _| v) / n.max(1) as f64;
     let means = (mean(e), mean(u));
     let mid = n / 2;
     let (first, second) = fork::join(
         n,
-        || Sums::over(e, u, means, lags, 0..mid),
-        || Sums::over(e, u, means, lags, mid..n),
+        || ResidualCorrelations::summed(e, u, means, lags, 0..mid),
+        || ResidualCorrelations::summed(e, u, means, lags, mid..n),
     );
     let scale = 1.0 / n.max(1) as f64;
-    let total = |a: &[f64], b: &[f64]| -> Vec<f64> {
+    let total = |a: Vec<f64>, b: &[f64]| -> Vec<f64> {
         a.iter().zip(b).map(|(x, y)| (x + y) * scale).collect()
     };
     ResidualCorrelations {
-        ee: total(&first.ee, &second.ee),
-        uu: total(&first.uu, &second.uu),
-        eu: total(&first.eu, &second.eu),
-        ue: total(&first.ue, &second.ue),
+        ee: total(first.ee, &second.ee),
+        uu: total(first.uu, &second.uu),
+        eu: total(first.eu, &second.eu),
+        ue: total(first.ue, &second.ue),
     }
 }
 
-/// The mean, summed with eight independent partial sums.
-fn mean(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let chunks = x.chunks_exact(8);
-    let tail: f64 = chunks.remainder().iter().sum();
-    for c in chunks {
-        for (a, v) in acc.iter_mut().zip(c) {
-            *a += v;
-        }
-    }
-    let sum = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
-    (sum + tail) / x.len().max(1) as f64
-}
-
-/// Unscaled lagged sums over one range of samples.
-struct Sums {
-    ee: Vec<f64>,
-    uu: Vec<f64>,
-    eu: Vec<f64>,
-    ue: Vec<f64>,
-}
-
-impl Sums {
-    /// The sums over the samples `k` in `range` (their lagged partners may
-    /// lie before it).
-    fn over(
+impl ResidualCorrelations {
+    /// The unscaled sums over the samples `k` in `range` (their lagged
+    /// partners may lie before it).
+    fn summed(
         e: &[f64],
         u: &[f64],
         (me, mu): (f64, f64),
@@ -248,6 +228,7 @@ pub mod checks {
             let u: Vec<f64> = (0..n).map(|_| 3.0 * rnd() + 0.3).collect();
             let lags = 40;
             let got = residual_correlations(&e, &u, lags);
+            let mean = |x: &[f64]| sum_pairs(x, x, |v, _| v) / n as f64;
             let (me, mu) = (mean(&e), mean(&u));
             let direct = |a: &[f64], ma: f64, b: &[f64], mb: f64, t: usize| {
                 let terms = (t..n).map(|k| (a[k] - ma) * (b[k - t] - mb));
